@@ -1,0 +1,60 @@
+# hri_sync: one-command setup, test and demo on Debian 12 (bookworm).
+SHELL := /bin/bash
+ROOT := $(abspath .)
+WS := $(ROOT)/.ws
+VENV := $(ROOT)/.venv
+ROS_PY := /usr/bin/python3
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+APT_PACKAGES := $(shell grep -v '^\#' $(ROOT)/scripts/apt-packages.txt)
+PIP_PACKAGES := rosbags
+SOURCE := source $(WS)/devel/setup.bash
+
+.PHONY: setup apt venv build test unit rostest demo bench clean
+
+setup: apt venv build
+
+apt:
+	@missing=$$(dpkg-query -W -f='$${Package} $${Status}\n' $(APT_PACKAGES) 2>/dev/null \
+	  | awk '$$4 == "installed" {print $$1}' | sort | comm -13 - <(tr ' ' '\n' <<< "$(APT_PACKAGES)" | sort)); \
+	if [ -n "$$missing" ]; then \
+	  echo "apt-get install:" $$missing; \
+	  $(SUDO) apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+
+venv: $(VENV)/.done
+
+$(VENV)/.done:
+	$(ROS_PY) -m venv --system-site-packages $(VENV)
+	$(VENV)/bin/pip install -q $(PIP_PACKAGES)
+	touch $@
+
+build:
+	@mkdir -p $(WS)/src $(WS)/devel/lib/python3/dist-packages
+	@[ -e $(WS)/src/hri_sync ] || ln -s $(ROOT) $(WS)/src/hri_sync
+	cd $(WS) && source /usr/share/catkin/setup.bash 2>/dev/null; \
+	  catkin_make -DPYTHON_EXECUTABLE=$(ROS_PY) -DCMAKE_BUILD_TYPE=Release \
+	  -DCATKIN_ENABLE_TESTING=ON > $(WS)/build.log 2>&1 \
+	  || { tail -40 $(WS)/build.log; exit 1; }
+	@echo "built: source $(WS)/devel/setup.bash"
+
+unit: setup
+	cd $(ROOT) && PYTHONPATH=$(ROOT)/src:$$PYTHONPATH $(VENV)/bin/python -m pytest -q test/unit
+
+rostest: setup
+	@$(SOURCE) && $(ROS_PY) $(ROOT)/scripts/run_rostests.py $(ROOT)/test
+
+test: setup
+	@status=0; \
+	$(MAKE) --no-print-directory unit || status=1; \
+	$(MAKE) --no-print-directory rostest || status=1; \
+	exit $$status
+
+demo: setup
+	@$(SOURCE) && $(ROS_PY) $(ROOT)/scripts/demo.py
+
+bench: setup
+	@$(SOURCE) && $(ROS_PY) $(ROOT)/bench/sync_skew.py --clients 2 --rounds 20
+
+clean:
+	rm -rf $(WS) $(VENV)
