@@ -1,0 +1,133 @@
+"""A Kobuki (Turtlebot 2) base model: differential drive, pure Python.
+
+It does what the base does with ``/mobile_base/commands/velocity``: it
+keeps the last command for ``timeout`` s (0.6 s on the Kobuki) then stops,
+clamps the command to the velocity limits, reaches it no faster than the
+acceleration limits allow, and integrates the wheels' motion into a pose.
+``nodes/kobuki_sim`` steps it at 50 Hz and publishes the odometry.
+
+It also counts how often a command was NOT followed exactly (clamped to a
+velocity limit, or slewed by the acceleration limit beyond a small
+tolerance: more than twice one step's change, since a commander that
+publishes at the same rate with some jitter may land two of its own
+steps in one of ours), so a test can tell a compliant commander from a
+base that merely hides a bad one.
+"""
+import math
+from dataclasses import dataclass
+
+from hri_sync.choreography import Limits, Twist
+
+WHEELBASE = 0.23        # m, Kobuki wheel separation
+WHEEL_RADIUS = 0.035    # m
+RATE = 50.0             # Hz, the simulator's update rate
+TIMEOUT = 0.6           # s, the Kobuki keeps the last command this long
+
+
+@dataclass
+class BaseState:
+    """Pose in the odom frame, body velocity, wheel angles, at ``stamp``."""
+
+    stamp: float
+    x: float = 0.0
+    y: float = 0.0
+    theta: float = 0.0
+    linear: float = 0.0
+    angular: float = 0.0
+    left_wheel: float = 0.0      # rad
+    right_wheel: float = 0.0     # rad
+
+
+class KobukiBase:
+    """Differential-drive base with velocity/acceleration limits and the
+    command timeout.  Times are seconds on any one monotonic clock."""
+
+    def __init__(self, start, limits=Limits(), wheelbase=WHEELBASE,
+                 wheel_radius=WHEEL_RADIUS, timeout=TIMEOUT, rate=RATE,
+                 accel_tolerance=0.05):
+        if not (wheelbase > 0 and wheel_radius > 0 and timeout > 0
+                and rate > 0):
+            raise ValueError('wheelbase, wheel radius, timeout and rate '
+                             'must be positive')
+        self.limits = limits
+        self.wheelbase = wheelbase
+        self.wheel_radius = wheel_radius
+        self.timeout = timeout
+        self.max_step = 1.0 / rate
+        self.accel_tolerance = accel_tolerance
+        self.state = BaseState(stamp=start)
+        self.command_value = Twist()
+        self.command_stamp = None
+        self.timed_out = True        # no command yet: standing still
+        self.velocity_clamped = 0    # commands beyond the velocity limits
+        self.accel_limited = 0       # steps the acceleration limit slewed
+        self.timeouts = 0            # nonzero commands the timeout ended
+
+    def command(self, linear, angular, stamp):
+        """Take a velocity command received at ``stamp``.
+
+        Raises ValueError for a non-finite value (the command is ignored
+        and the previous one keeps ageing toward the timeout)."""
+        if not (math.isfinite(linear) and math.isfinite(angular)):
+            raise ValueError('non-finite velocity command (%r, %r)'
+                             % (linear, angular))
+        if (abs(linear) > self.limits.linear + 1e-9
+                or abs(angular) > self.limits.angular + 1e-9):
+            self.velocity_clamped += 1
+        self.command_value = Twist(
+            max(-self.limits.linear, min(self.limits.linear, linear)),
+            max(-self.limits.angular, min(self.limits.angular, angular)))
+        self.command_stamp = stamp
+        self.timed_out = False
+
+    def target(self, now):
+        """The velocity the base heads for at ``now`` (zero after timeout)."""
+        if self.command_stamp is None:
+            return Twist()
+        if now - self.command_stamp > self.timeout + 1e-9:
+            if not self.timed_out and self.command_value != Twist():
+                self.timeouts += 1       # it stopped a moving base
+            self.timed_out = True
+            return Twist()
+        return self.command_value
+
+    def step(self, now):
+        """Advance the model to ``now`` (in sub-steps of at most 1/rate)."""
+        while self.state.stamp < now - 1e-12:
+            dt = min(self.max_step, now - self.state.stamp)
+            self._substep(dt)
+        return self.state
+
+    def _substep(self, dt):
+        s = self.state
+        goal = self.target(s.stamp + dt)
+        lin = self._slew(s.linear, goal.linear, self.limits.linear_accel * dt)
+        ang = self._slew(s.angular, goal.angular,
+                         self.limits.angular_accel * dt)
+        # Wheel surface speeds, averaged over the step (trapezoid).
+        half = self.wheelbase / 2.0
+        v = (s.linear + lin) / 2.0
+        w = (s.angular + ang) / 2.0
+        left, right = v - w * half, v + w * half
+        ds = (left + right) / 2.0 * dt
+        dth = (right - left) / self.wheelbase * dt
+        if abs(dth) < 1e-9:
+            dx = ds * math.cos(s.theta + dth / 2.0)
+            dy = ds * math.sin(s.theta + dth / 2.0)
+        else:
+            r = ds / dth
+            dx = r * (math.sin(s.theta + dth) - math.sin(s.theta))
+            dy = -r * (math.cos(s.theta + dth) - math.cos(s.theta))
+        s.x += dx
+        s.y += dy
+        s.theta = (s.theta + dth + math.pi) % (2.0 * math.pi) - math.pi
+        s.left_wheel += left * dt / self.wheel_radius
+        s.right_wheel += right * dt / self.wheel_radius
+        s.linear, s.angular = lin, ang
+        s.stamp += dt
+
+    def _slew(self, current, goal, max_change):
+        change = goal - current
+        if abs(change) > 2.0 * max_change * (1.0 + self.accel_tolerance):
+            self.accel_limited += 1
+        return current + max(-max_change, min(max_change, change))
