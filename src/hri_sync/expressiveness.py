@@ -22,6 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hri_sync.joints import NUM_JOINTS
+from hri_sync.processors import Processor, ProcessResult
+
 DEFAULT_MIN_CONFIDENCE = 0.5
 
 
@@ -97,3 +100,57 @@ def expressiveness(stamps, positions, confidence=None, duration=None,
                           nonfinite_joints=nonfinite,
                           low_confidence_joints=low_conf,
                           terms=int(np.sum(pair)), duration=duration)
+
+
+def _seconds(stamp):
+    """A rospy.Time/Duration-like or a number, in seconds."""
+    return stamp.to_sec() if hasattr(stamp, 'to_sec') else float(stamp)
+
+
+class SkeletonExpressiveness(Processor):
+    """DPM processor: expressiveness of a ``hri_sync/Skeleton`` stream.
+
+    ``~processor_params``: ``min_confidence`` (default 0.5). T is the window
+    (end - start), stamps are the frames' global stamps. A message without
+    15 positions and 15 confidences is rejected as malformed.
+    """
+
+    msg_type = 'hri_sync/Skeleton'
+
+    def __init__(self, min_confidence=DEFAULT_MIN_CONFIDENCE):
+        super().__init__()
+        self.min_confidence = float(min_confidence)
+
+    def device_stamp(self, msg):
+        return _seconds(msg.device_stamp)
+
+    def process(self, frames, start, end):
+        stamps, positions, confidence = [], [], []
+        malformed = 0
+        for frame in frames:
+            try:
+                pos = [(p.x, p.y, p.z) for p in frame.msg.positions]
+                conf = [float(c) for c in frame.msg.confidence]
+            except (AttributeError, TypeError, ValueError):
+                malformed += 1
+                continue
+            if len(pos) != NUM_JOINTS or len(conf) != NUM_JOINTS:
+                malformed += 1
+                continue
+            stamps.append(frame.stamp)
+            positions.append(pos)
+            confidence.append(conf)
+        res = expressiveness(
+            np.asarray(stamps, dtype=float),
+            np.asarray(positions, dtype=float).reshape(-1, NUM_JOINTS, 3),
+            np.asarray(confidence, dtype=float).reshape(-1, NUM_JOINTS),
+            duration=end - start, min_confidence=self.min_confidence)
+        return ProcessResult(
+            value=res.value, frames_used=res.frames_used,
+            frames_rejected=res.frames_rejected + malformed,
+            diagnostics={'nonfinite_joints': res.nonfinite_joints,
+                         'low_confidence_joints': res.low_confidence_joints,
+                         'malformed_frames': malformed,
+                         'terms': res.terms,
+                         'min_confidence': self.min_confidence,
+                         'T': res.duration})

@@ -22,7 +22,8 @@ A BVH clip is turned into that frame by:
 Orientations are each joint's global rotation relative to the BVH rest
 pose, expressed in the sensor frame, as quaternions (x, y, z, w). The
 ``.track`` format holds positions only; a Motion read from it has identity
-orientations.
+orientations. Converted ``.npz`` files store positions to 0.1 mm and
+quaternion components to 1/32767.
 """
 
 import os
@@ -38,6 +39,8 @@ SENSOR_HEIGHT = 1.0         # m above the floor
 SUBJECT_DISTANCE = 2.5      # m, mean torso z
 HEIGHT_PERCENTILE = 90.0
 MODES = ('clamp', 'loop', 'pingpong')
+NPZ_POSITION_UNIT = 1e-4    # m: converted files store 0.1 mm steps
+NPZ_QUATERNION_SCALE = 32767.0
 
 
 @dataclass
@@ -124,11 +127,13 @@ class Motion:
                       self.orientations_at(times, 'clamp'), self.name)
 
     def save_npz(self, path):
-        """Compact file: float32 arrays, compressed."""
+        """Compact file: positions in 0.1 mm (int32), orientations int16."""
         np.savez_compressed(
-            path, times=self.times.astype(np.float32),
-            positions=self.positions.astype(np.float32),
-            orientations=self.orientations.astype(np.float32),
+            path, times=self.times,
+            positions=np.round(self.positions / NPZ_POSITION_UNIT).astype(
+                np.int32),
+            orientations=np.round(self.orientations * NPZ_QUATERNION_SCALE
+                                  ).astype(np.int16),
             joints=np.array(JOINTS), name=np.array(self.name))
 
     def save_track(self, path, comment=''):
@@ -164,8 +169,11 @@ def load_motion(path, height=STANDING_HEIGHT):
                 if joints != JOINTS:
                     raise ValueError('%s: joint order %s differs from '
                                      'hri_sync.joints' % (path, joints))
-                return Motion(data['times'], data['positions'],
-                              data['orientations'], name)
+                quat = data['orientations'] / NPZ_QUATERNION_SCALE
+                return Motion(data['times'],
+                              data['positions'] * NPZ_POSITION_UNIT,
+                              quat / np.linalg.norm(quat, axis=-1,
+                                                    keepdims=True), name)
         except (OSError, KeyError) as exc:
             raise ValueError('%s: not a converted motion file (%s)'
                              % (path, exc))

@@ -1,0 +1,79 @@
+"""A free-running 15-joint skeleton sensor replaying motion (no ROS).
+
+The core of ``nodes/skeleton_sensor``. A sensor ticks at ``rate`` Hz on its
+host clock with its own ``phase`` (s, within one period), so two sensors'
+frames do not line up. The motion's timeline starts at a ``start`` instant
+(host clock, set by the launch file), so two sensors replaying the two
+partners of one take dance together. At a tick at host time t the sensor
+shows the motion at clip time ``(t - start) * speed`` (or the fixed clip
+time ``hold``: a person standing still), plus Gaussian tracker noise of
+``noise`` m per axis (white: the worst case for a speed-based score), and
+drops the frame with probability ``drop``.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hri_sync.joints import NUM_JOINTS
+
+
+@dataclass
+class SensorFrames:
+    """Frames of one batch of ticks (dropped ticks removed)."""
+
+    stamps: np.ndarray          # (M,) host time, s
+    positions: np.ndarray       # (M, 15, 3) m, sensor frame
+    orientations: np.ndarray    # (M, 15, 4) x, y, z, w
+    confidence: np.ndarray      # (M, 15)
+    dropped: int                # ticks dropped in this batch
+
+
+def tick_times(start, phase, rate, t0, t1):
+    """Tick instants ``start + phase + k / rate`` (any integer k) in [t0, t1)."""
+    period = 1.0 / rate
+    first = np.ceil((t0 - start - phase) / period - 1e-9)
+    last = np.ceil((t1 - start - phase) / period - 1e-9)
+    k = np.arange(first, last)
+    return start + phase + k * period
+
+
+class SkeletonSource:
+    """Samples a ``hri_sync.motion.Motion`` like a live tracker."""
+
+    def __init__(self, motion, noise=0.003, drop=0.0, speed=1.0, hold=None,
+                 mode='pingpong', confidence=1.0, seed=None):
+        if noise < 0 or not 0.0 <= drop < 1.0 or speed <= 0:
+            raise ValueError('need noise >= 0, 0 <= drop < 1, speed > 0; got '
+                             'noise=%r drop=%r speed=%r'
+                             % (noise, drop, speed))
+        self.motion = motion
+        self.noise = float(noise)
+        self.drop = float(drop)
+        self.speed = float(speed)
+        self.hold = hold
+        self.mode = mode
+        self.confidence = float(confidence)
+        self.rng = np.random.default_rng(seed)
+
+    def clip_times(self, stamps, start):
+        """Motion time shown at host times ``stamps``."""
+        stamps = np.asarray(stamps, dtype=float)
+        if self.hold is not None:
+            return np.full(stamps.shape, float(self.hold))
+        return (stamps - start) * self.speed
+
+    def frames(self, stamps, start):
+        """The frames the sensor produces at ticks ``stamps`` (host time)."""
+        stamps = np.asarray(stamps, dtype=float)
+        keep = self.rng.random(stamps.shape) >= self.drop
+        stamps = stamps[keep]
+        clip = self.clip_times(stamps, start)
+        pos = self.motion.positions_at(clip, self.mode)
+        if self.noise > 0:
+            pos = pos + self.rng.normal(0.0, self.noise, pos.shape)
+        return SensorFrames(
+            stamps=stamps, positions=pos,
+            orientations=self.motion.orientations_at(clip, self.mode),
+            confidence=np.full((len(stamps), NUM_JOINTS), self.confidence),
+            dropped=int(np.sum(~keep)))
