@@ -33,10 +33,10 @@ def cases(noise):
         out.append(('still, noise %g mm' % (sigma * 1000),
                     'cmu_131_01_walk', dict(hold=0.0, noise=sigma)))
     out += [
-        ('small movements: salsa at 0.25x speed', 'cmu_60_01_salsa',
-         dict(speed=0.25, noise=noise)),
-        ('small movements: salsa at 0.35x speed', 'cmu_61_01_salsa',
-         dict(speed=0.35, noise=noise)),
+        ('small movements: salsa at 0.3x speed from 3 s', 'cmu_60_01_salsa',
+         dict(speed=0.3, offset=3.0, noise=noise)),
+        ('small movements: salsa at 0.2x speed from 3 s', 'cmu_60_01_salsa',
+         dict(speed=0.2, offset=3.0, noise=noise)),
         ('walk clip, 1x', 'cmu_131_01_walk', dict(noise=noise)),
     ]
     for name in ('cmu_60_01_salsa', 'cmu_61_01_salsa', 'cmu_60_04_salsa',

@@ -5,8 +5,8 @@ host clock with its own ``phase`` (s, within one period), so two sensors'
 frames do not line up. The motion's timeline starts at a ``start`` instant
 (host clock, set by the launch file), so two sensors replaying the two
 partners of one take dance together. At a tick at host time t the sensor
-shows the motion at clip time ``(t - start) * speed`` (or the fixed clip
-time ``hold``: a person standing still), plus Gaussian tracker noise of
+shows the motion at clip time ``offset + (t - start) * speed`` (or the
+fixed clip time ``hold``: a person standing still), plus Gaussian tracker noise of
 ``noise`` m per axis (white: the worst case for a speed-based score), and
 drops the frame with probability ``drop``.
 """
@@ -42,7 +42,7 @@ class SkeletonSource:
     """Samples a ``hri_sync.motion.Motion`` like a live tracker."""
 
     def __init__(self, motion, noise=0.003, drop=0.0, speed=1.0, hold=None,
-                 mode='pingpong', confidence=1.0, seed=None):
+                 offset=0.0, mode='pingpong', confidence=1.0, seed=None):
         if noise < 0 or not 0.0 <= drop < 1.0 or speed <= 0:
             raise ValueError('need noise >= 0, 0 <= drop < 1, speed > 0; got '
                              'noise=%r drop=%r speed=%r'
@@ -52,6 +52,7 @@ class SkeletonSource:
         self.drop = float(drop)
         self.speed = float(speed)
         self.hold = hold
+        self.offset = float(offset)
         self.mode = mode
         self.confidence = float(confidence)
         self.rng = np.random.default_rng(seed)
@@ -61,7 +62,7 @@ class SkeletonSource:
         stamps = np.asarray(stamps, dtype=float)
         if self.hold is not None:
             return np.full(stamps.shape, float(self.hold))
-        return (stamps - start) * self.speed
+        return self.offset + (stamps - start) * self.speed
 
     def frames(self, stamps, start):
         """The frames the sensor produces at ticks ``stamps`` (host time)."""

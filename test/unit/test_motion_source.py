@@ -106,6 +106,9 @@ def test_source_hold_noise_drop():
     src = SkeletonSource(mot, noise=0.0, speed=0.5)
     frames = src.frames([0.5], start=0.0)
     assert frames.positions[0, 0, 0] == pytest.approx(0.25)
+    src = SkeletonSource(mot, noise=0.0, speed=0.5, offset=0.5)
+    frames = src.frames([10.5], start=10.0)
+    assert frames.positions[0, 0, 0] == pytest.approx(0.75)
     with pytest.raises(ValueError):
         SkeletonSource(mot, drop=1.0)
 
