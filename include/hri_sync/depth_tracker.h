@@ -1,0 +1,128 @@
+// The open depth-only skeleton tracker: segment the user from floor and
+// background, find extremities (head, hands, feet) by geodesic distance over
+// the body, place the other joints with a kinematic body model whose bone
+// lengths are calibrated on the first frames, and smooth over time.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "hri_sync/body.h"
+
+namespace hri_sync {
+
+/// The depth image subsampled to a grid of 3-D points (metres).
+struct PointGrid {
+  int width = 0, height = 0, step = 1;
+  std::vector<Vec3> points;
+  std::vector<uint8_t> valid;
+  bool ok(int i) const { return valid[i] != 0; }
+};
+PointGrid makeGrid(const uint16_t* depth_mm, const Camera& cam, int step);
+
+/// Plane n.p + d = 0 with unit normal n pointing up.
+struct Plane {
+  Vec3 n{0, 1, 0};
+  double d = 1.0;
+  bool found = false;
+  double height(const Vec3& p) const { return n.dot(p) + d; }
+};
+/// RANSAC fit of the floor (a plane whose normal is within 30 degrees of +y).
+Plane fitFloor(const PointGrid& g, uint32_t seed = 7);
+
+struct Segmentation {
+  std::vector<int> cells;        ///< grid indices of the user
+  std::vector<uint8_t> mask;     ///< per grid cell: 1 = user
+  Vec3 centroid;
+  double height = 0;             ///< extent along the floor normal (m)
+  bool found = false;
+  std::string reason;            ///< why nothing was found
+};
+/// The user: the connected body of points off the floor that looks most like a
+/// standing person (or lies nearest prev_centroid when given).
+Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* prev_centroid);
+
+/// Geodesic distances over the user's surface (8-neighbour grid graph).
+struct Geodesic {
+  std::vector<float> dist;       ///< from the source; inf off the body
+  std::vector<int> parent;       ///< shortest-path tree towards the source
+  int source = -1;
+  std::vector<int> extremities;  ///< accumulative geodesic extrema, best first
+};
+/// Distances from the body cell nearest the centroid and up to max_extremities
+/// accumulative geodesic extrema at least min_length from the source.
+Geodesic geodesicExtremities(const PointGrid& g, const Segmentation& seg, int max_extremities = 6,
+                             double min_length = 0.3);
+/// Cells from cell back to the source along the shortest-path tree.
+std::vector<int> pathToSource(const Geodesic& geo, int cell);
+
+/// Body model: segment lengths (m), calibrated from the user's height and limb reach.
+struct BodyModel {
+  double height = 1.70;
+  double upper_arm = 0.30, forearm = 0.27, shoulder_width = 0.36, neck_drop = 0.03;
+  double thigh = 0.42, shin = 0.42, hip_width = 0.20;
+  double torso_to_neck = 0.25, torso_to_hips = 0.22, head_top = 0.17;
+  bool calibrated = false;
+  /// Proportions of a height (Drillis and Contini's segment table).
+  static BodyModel fromHeight(double h);
+};
+
+/// Calibration samples: per frame, the head top's height above the floor and
+/// the reach from shoulder level to each hand/foot tip when seen.
+struct CalibrationSample {
+  double head_top_height = 0;
+  std::vector<double> arm_reach, leg_reach;
+};
+BodyModel calibrateBody(const std::vector<CalibrationSample>& samples);
+
+struct TrackerParams {
+  int grid_step = 0;          ///< 0: width / 160
+  int calibration_frames = 15;
+  int hold_frames = 10;       ///< how long a lost extremity is held
+  double filter_min_cutoff = 2.0;   ///< one-euro filter (Hz)
+  double filter_beta = 1.0;
+};
+
+struct SkeletonEstimate {
+  bool tracked = false;
+  std::string state;          ///< searching, calibrating, tracking
+  Joints joints;
+  std::array<float, NUM_JOINTS> confidence{};
+  int user_cells = 0;
+  int extremities = 0;
+};
+
+class DepthTracker {
+ public:
+  explicit DepthTracker(const Camera& cam, TrackerParams params = TrackerParams());
+  /// One depth frame (millimetres) taken at time t (s, device clock).
+  SkeletonEstimate update(const uint16_t* depth_mm, double t);
+  const BodyModel& model() const { return model_; }
+  const Plane& floor() const { return floor_; }
+  void reset();
+
+ private:
+  struct OneEuro {
+    bool init = false;
+    double x = 0, dx = 0, t = 0;
+    double filter(double v, double t, double min_cutoff, double beta);
+  };
+  enum Label { LB_HEAD, LB_LHAND, LB_RHAND, LB_LFOOT, LB_RFOOT, NUM_LABELS };
+
+  Camera cam_;
+  TrackerParams params_;
+  Plane floor_;
+  int frames_ = 0;
+  BodyModel model_;
+  std::vector<CalibrationSample> calib_;
+  bool have_prev_ = false;
+  Vec3 prev_centroid_;
+  std::array<Vec3, NUM_LABELS> tips_;
+  std::array<int, NUM_LABELS> tip_age_{};
+  Vec3 lateral_{1, 0, 0};
+  std::array<std::array<OneEuro, 3>, NUM_JOINTS> filters_;
+};
+
+}  // namespace hri_sync

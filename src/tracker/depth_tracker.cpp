@@ -1,0 +1,525 @@
+#include "hri_sync/depth_tracker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <queue>
+#include <random>
+
+namespace hri_sync {
+
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+// Neighbouring points belong to one surface when their depths differ by less than this.
+double maxJump(double z) { return 0.05 + 0.02 * z; }
+
+Vec3 horizontal(const Vec3& v, const Vec3& up) { return v - up * v.dot(up); }
+
+// A surface point pushed back along its viewing ray, towards the bone inside.
+Vec3 behind(const Vec3& p, double r) { return p + p.normalized() * r; }
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+const int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1};
+const int kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
+
+// Dijkstra over the user's cells from the cells already holding a finite distance in queue.
+void relax(const PointGrid& g, const std::vector<uint8_t>& mask, std::vector<float>* dist,
+           std::vector<int>* parent,
+           std::priority_queue<std::pair<float, int>, std::vector<std::pair<float, int>>,
+                               std::greater<std::pair<float, int>>>* q) {
+  while (!q->empty()) {
+    auto [d, i] = q->top();
+    q->pop();
+    if (d > (*dist)[i]) continue;
+    int x = i % g.width, y = i / g.width;
+    const Vec3& p = g.points[i];
+    for (int k = 0; k < 8; ++k) {
+      int nx = x + kDx[k], ny = y + kDy[k];
+      if (nx < 0 || ny < 0 || nx >= g.width || ny >= g.height) continue;
+      int j = ny * g.width + nx;
+      if (!mask[j]) continue;
+      const Vec3& r = g.points[j];
+      if (std::fabs(r.z - p.z) > maxJump(p.z)) continue;
+      float nd = d + static_cast<float>((r - p).norm());
+      if (nd < (*dist)[j]) {
+        (*dist)[j] = nd;
+        if (parent) (*parent)[j] = i;
+        q->push({nd, j});
+      }
+    }
+  }
+}
+
+}  // namespace
+
+PointGrid makeGrid(const uint16_t* depth_mm, const Camera& cam, int step) {
+  PointGrid g;
+  g.step = std::max(1, step);
+  g.width = cam.width / g.step;
+  g.height = cam.height / g.step;
+  g.points.resize(static_cast<size_t>(g.width) * g.height);
+  g.valid.assign(g.points.size(), 0);
+  for (int y = 0; y < g.height; ++y) {
+    for (int x = 0; x < g.width; ++x) {
+      int u = x * g.step + g.step / 2, v = y * g.step + g.step / 2;
+      uint16_t d = depth_mm[v * cam.width + u];
+      if (d == 0) continue;
+      int i = y * g.width + x;
+      g.points[i] = cam.toWorld(u, v, d * 0.001);
+      g.valid[i] = 1;
+    }
+  }
+  return g;
+}
+
+Plane fitFloor(const PointGrid& g, uint32_t seed) {
+  std::vector<int> cand;  // the lower half of the image holds the floor
+  for (int y = g.height / 2; y < g.height; ++y)
+    for (int x = 0; x < g.width; ++x)
+      if (g.ok(y * g.width + x)) cand.push_back(y * g.width + x);
+  Plane best;
+  if (cand.size() < 50) return best;
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<size_t> pick(0, cand.size() - 1);
+  size_t best_inliers = 0;
+  for (int it = 0; it < 150; ++it) {
+    const Vec3 &a = g.points[cand[pick(rng)]], &b = g.points[cand[pick(rng)]], &c = g.points[cand[pick(rng)]];
+    Vec3 n = (b - a).cross(c - a);
+    if (n.norm() < 1e-9) continue;
+    n = n.normalized();
+    if (n.y < 0) n = n * -1.0;
+    if (n.y < 0.866) continue;  // within 30 degrees of vertical
+    double d = -n.dot(a);
+    size_t inl = 0;
+    for (int i : cand) inl += std::fabs(n.dot(g.points[i]) + d) < 0.02;
+    if (inl > best_inliers) {
+      best_inliers = inl;
+      best.n = n;
+      best.d = d;
+    }
+  }
+  // The floor must be a large share of the lower half and lie below the sensor.
+  best.found = best_inliers > cand.size() / 5 && best.d > 0.2;
+  return best;
+}
+
+Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* prev_centroid) {
+  Segmentation seg;
+  const int n = g.width * g.height;
+  std::vector<int> comp(n, -1);
+  std::vector<uint8_t> cand(n, 0);
+  for (int i = 0; i < n; ++i) {
+    if (!g.ok(i)) continue;
+    if (floor.found && floor.height(g.points[i]) < 0.05) continue;
+    cand[i] = 1;
+  }
+  struct Part {
+    std::vector<int> cells;
+    Vec3 centroid;
+    double lo = 1e9, hi = -1e9, xmin = 1e9, xmax = -1e9, zmin = 1e9, zmax = -1e9;
+  };
+  std::vector<Part> parts;
+  std::vector<int> stack;
+  for (int s = 0; s < n; ++s) {
+    if (!cand[s] || comp[s] >= 0) continue;
+    Part part;
+    comp[s] = static_cast<int>(parts.size());
+    stack.assign(1, s);
+    while (!stack.empty()) {
+      int i = stack.back();
+      stack.pop_back();
+      part.cells.push_back(i);
+      int x = i % g.width, y = i / g.width;
+      const Vec3& p = g.points[i];
+      for (int k = 0; k < 8; ++k) {
+        int nx = x + kDx[k], ny = y + kDy[k];
+        if (nx < 0 || ny < 0 || nx >= g.width || ny >= g.height) continue;
+        int j = ny * g.width + nx;
+        if (!cand[j] || comp[j] >= 0) continue;
+        if (std::fabs(g.points[j].z - p.z) > maxJump(p.z)) continue;
+        comp[j] = comp[s];
+        stack.push_back(j);
+      }
+    }
+    for (int i : part.cells) {
+      const Vec3& p = g.points[i];
+      part.centroid += p;
+      double h = floor.found ? floor.height(p) : p.y + 1.0;
+      part.lo = std::min(part.lo, h); part.hi = std::max(part.hi, h);
+      part.xmin = std::min(part.xmin, p.x); part.xmax = std::max(part.xmax, p.x);
+      part.zmin = std::min(part.zmin, p.z); part.zmax = std::max(part.zmax, p.z);
+    }
+    part.centroid = part.centroid * (1.0 / part.cells.size());
+    parts.push_back(std::move(part));
+  }
+  // The user: tall as a person, no wider than arms spread, not a wall.
+  int best = -1;
+  double best_score = 0;
+  for (size_t k = 0; k < parts.size(); ++k) {
+    const Part& p = parts[k];
+    double tall = p.hi - p.lo;
+    if (p.cells.size() < 40 || tall < 0.5 || p.hi > 2.5 || p.xmax - p.xmin > 2.2 || p.zmax - p.zmin > 1.6) continue;
+    double score;
+    if (prev_centroid) {
+      double dist = (p.centroid - *prev_centroid).norm();
+      if (dist > 0.8) continue;
+      score = p.cells.size() / (0.1 + dist);
+    } else {
+      score = p.cells.size() * std::exp(-std::fabs(p.hi - 1.7) / 0.3);
+    }
+    if (score > best_score) { best_score = score; best = static_cast<int>(k); }
+  }
+  if (best < 0) {
+    seg.reason = parts.empty() ? "no points off the floor" : "no person-sized object in view";
+    return seg;
+  }
+  seg.mask.assign(n, 0);
+  const Part& u = parts[best];
+  seg.cells = u.cells;
+  // Fragments cut off by occlusion or by the floor (a foot, a hand) join the user.
+  for (size_t k = 0; k < parts.size(); ++k) {
+    if (static_cast<int>(k) == best || parts[k].cells.size() > u.cells.size() / 3) continue;
+    Vec3 off = parts[k].centroid - u.centroid;
+    if (std::hypot(off.x, off.z) < 0.9 && parts[k].hi < u.hi + 0.3 && parts[k].lo > u.lo - 0.1)
+      seg.cells.insert(seg.cells.end(), parts[k].cells.begin(), parts[k].cells.end());
+  }
+  for (int i : seg.cells) seg.mask[i] = 1;
+  seg.centroid = u.centroid;
+  seg.height = u.hi;
+  seg.found = true;
+  return seg;
+}
+
+Geodesic geodesicExtremities(const PointGrid& g, const Segmentation& seg, int max_extremities,
+                             double min_length) {
+  Geodesic geo;
+  const int n = g.width * g.height;
+  geo.dist.assign(n, kInf);
+  geo.parent.assign(n, -1);
+  if (!seg.found || seg.cells.empty()) return geo;
+  double best = 1e18;
+  for (int i : seg.cells) {
+    double d = (g.points[i] - seg.centroid).norm();
+    if (d < best) { best = d; geo.source = i; }
+  }
+  std::priority_queue<std::pair<float, int>, std::vector<std::pair<float, int>>, std::greater<std::pair<float, int>>> q;
+  geo.dist[geo.source] = 0;
+  q.push({0.f, geo.source});
+  relax(g, seg.mask, &geo.dist, &geo.parent, &q);
+  // Fragments not reached across the surface: bridge each through its nearest reached cell.
+  for (int round = 0; round < 4; ++round) {
+    int lone = -1, near = -1;
+    double gap = 1e18;
+    std::vector<int> reached;
+    for (int i : seg.cells) if (geo.dist[i] < kInf) reached.push_back(i);
+    for (int i : seg.cells) {
+      if (geo.dist[i] < kInf) continue;
+      for (size_t r = 0; r < reached.size(); r += 2) {
+        double d = (g.points[i] - g.points[reached[r]]).norm();
+        if (d < gap) { gap = d; lone = i; near = reached[r]; }
+      }
+    }
+    if (lone < 0) break;
+    geo.dist[lone] = geo.dist[near] + static_cast<float>(gap);
+    geo.parent[lone] = near;
+    q.push({geo.dist[lone], lone});
+    relax(g, seg.mask, &geo.dist, &geo.parent, &q);
+  }
+  // Accumulative geodesic extrema: the farthest cell becomes a source in turn.
+  std::vector<float> acc = geo.dist;
+  for (int k = 0; k < max_extremities; ++k) {
+    int far = -1;
+    float fd = 0;
+    for (int i : seg.cells) if (acc[i] < kInf && acc[i] > fd) { fd = acc[i]; far = i; }
+    if (far < 0 || fd < min_length) break;
+    geo.extremities.push_back(far);
+    acc[far] = 0;
+    q.push({0.f, far});
+    relax(g, seg.mask, &acc, nullptr, &q);
+  }
+  return geo;
+}
+
+std::vector<int> pathToSource(const Geodesic& geo, int cell) {
+  std::vector<int> path;
+  for (int i = cell; i >= 0 && path.size() < geo.parent.size(); i = geo.parent[i]) path.push_back(i);
+  return path;
+}
+
+BodyModel BodyModel::fromHeight(double h) {
+  BodyModel m;
+  m.height = h;
+  m.upper_arm = 0.186 * h;
+  m.forearm = 0.146 * h;
+  m.shoulder_width = 0.20 * h;
+  m.neck_drop = 0.02 * h;
+  m.thigh = 0.245 * h;
+  m.shin = 0.246 * h;
+  m.hip_width = 0.11 * h;
+  m.torso_to_neck = 0.144 * h;
+  m.torso_to_hips = 0.144 * h;
+  m.head_top = 0.085 * h;
+  return m;
+}
+
+BodyModel calibrateBody(const std::vector<CalibrationSample>& samples) {
+  std::vector<double> heights, arms, legs;
+  for (const auto& s : samples) {
+    if (s.head_top_height > 0.8 && s.head_top_height < 2.4) heights.push_back(s.head_top_height);
+    arms.insert(arms.end(), s.arm_reach.begin(), s.arm_reach.end());
+    legs.insert(legs.end(), s.leg_reach.begin(), s.leg_reach.end());
+  }
+  BodyModel m = BodyModel::fromHeight(heights.empty() ? 1.70 : median(heights));
+  // Limb reach (shoulder or hip to the tip) refines each limb's scale.
+  auto scale = [](std::vector<double> v, double expected) {
+    if (v.size() < 5) return 1.0;
+    std::sort(v.begin(), v.end());
+    double reach = v[v.size() * 9 / 10];
+    return std::clamp(reach / expected, 0.85, 1.2);
+  };
+  double sa = scale(arms, m.upper_arm + m.forearm + 0.05);
+  double sl = scale(legs, m.thigh + m.shin + 0.05);
+  m.upper_arm *= sa;
+  m.forearm *= sa;
+  m.thigh *= sl;
+  m.shin *= sl;
+  m.calibrated = !heights.empty();
+  return m;
+}
+
+double DepthTracker::OneEuro::filter(double v, double now, double min_cutoff, double beta) {
+  if (!init || now <= t) {
+    init = true;
+    x = v;
+    dx = 0;
+    t = now;
+    return v;
+  }
+  double dt = now - t;
+  t = now;
+  auto alpha = [dt](double cutoff) { double tau = 1.0 / (2 * M_PI * cutoff); return 1.0 / (1.0 + tau / dt); };
+  double ad = alpha(1.0);
+  dx = ad * ((v - x) / dt) + (1 - ad) * dx;
+  double a = alpha(min_cutoff + beta * std::fabs(dx));
+  x = a * v + (1 - a) * x;
+  return x;
+}
+
+DepthTracker::DepthTracker(const Camera& cam, TrackerParams params) : cam_(cam), params_(params) {
+  if (params_.grid_step <= 0) params_.grid_step = std::max(1, cam.width / 160);
+  reset();
+}
+
+void DepthTracker::reset() {
+  floor_ = Plane();
+  frames_ = 0;
+  model_ = BodyModel();
+  calib_.clear();
+  have_prev_ = false;
+  tip_age_.fill(1 << 20);
+  lateral_ = Vec3(1, 0, 0);
+  for (auto& f : filters_) f = {};
+}
+
+SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
+  SkeletonEstimate out;
+  PointGrid g = makeGrid(depth_mm, cam_, params_.grid_step);
+  if (!floor_.found || frames_ % 30 == 0) {
+    Plane f = fitFloor(g, 7 + frames_);
+    if (f.found) floor_ = f;
+  }
+  ++frames_;
+  Segmentation seg = segmentUser(g, floor_, have_prev_ ? &prev_centroid_ : nullptr);
+  if (!seg.found) {
+    have_prev_ = false;
+    out.state = "searching: " + seg.reason;
+    return out;
+  }
+  out.user_cells = static_cast<int>(seg.cells.size());
+  Geodesic geo = geodesicExtremities(g, seg);
+  out.extremities = static_cast<int>(geo.extremities.size());
+  const Vec3 up = floor_.found ? floor_.n : Vec3(0, 1, 0);
+  if (!model_.calibrated && calib_.empty()) model_ = BodyModel::fromHeight(std::clamp(seg.height + 0.03, 1.2, 2.2));
+
+  // Trunk: the body within a short geodesic radius of the centroid.
+  Vec3 trunk;
+  int nt = 0;
+  for (int i : seg.cells) if (geo.dist[i] < 0.22f) { trunk += g.points[i]; ++nt; }
+  trunk = nt ? trunk * (1.0 / nt) : seg.centroid;
+  const Vec3 torso = behind(trunk, 0.09);
+  const Vec3 neck = torso + up * model_.torso_to_neck;
+  const Vec3 hipc = torso - up * model_.torso_to_hips;
+
+  // Label the extremities: nearest to last frame's joints when tracked, else by shape.
+  std::vector<Vec3> ext;
+  for (int c : geo.extremities) ext.push_back(g.points[c]);
+  const int m = static_cast<int>(ext.size());
+  const Joint label_joint[NUM_LABELS] = {HEAD, L_HAND, R_HAND, L_FOOT, R_FOOT};
+  std::array<int, NUM_LABELS> assign;
+  assign.fill(-1);
+  if (have_prev_) {
+    std::array<Vec3, NUM_LABELS> prior;
+    for (int l = 0; l < NUM_LABELS; ++l) prior[l] = tips_[l];
+    const double gate = 0.5;
+    double best_cost = 1e18;
+    std::array<int, NUM_LABELS> cur;
+    std::vector<uint8_t> used(m, 0);
+    std::function<void(int, double)> search = [&](int l, double cost) {
+      if (cost >= best_cost) return;
+      if (l == NUM_LABELS) { best_cost = cost; assign = cur; return; }
+      cur[l] = -1;
+      search(l + 1, cost + gate);
+      for (int k = 0; k < m; ++k) {
+        if (used[k]) continue;
+        double d = (ext[k] - prior[l]).norm();
+        double rise = (ext[k] - torso).dot(up);
+        if (d > gate || (l == LB_HEAD && rise < 0.25) || (l >= LB_LFOOT && rise > 0.1)) continue;
+        used[k] = 1;
+        cur[l] = k;
+        search(l + 1, cost + d);
+        used[k] = 0;
+      }
+    };
+    search(0, 0.0);
+  } else {
+    std::vector<uint8_t> used(m, 0);
+    double best = 0.35;
+    for (int k = 0; k < m; ++k) {  // head: above the torso, nearest its vertical axis
+      Vec3 off = ext[k] - torso;
+      double side = horizontal(off, up).norm();
+      if (off.dot(up) > 0.3 && side < best) { best = side; assign[LB_HEAD] = k; }
+    }
+    if (assign[LB_HEAD] >= 0) used[assign[LB_HEAD]] = 1;
+    std::vector<int> low, rest;
+    for (int k = 0; k < m; ++k) {
+      if (used[k]) continue;
+      ((ext[k] - hipc).dot(up) < -0.2 ? low : rest).push_back(k);
+    }
+    auto by_side = [&](std::vector<int>& v, int left, int right) {
+      std::sort(v.begin(), v.end(), [&](int a, int b) { return (ext[a] - ext[b]).dot(lateral_) > 0; });
+      if (v.size() >= 2) { assign[left] = v[0]; assign[right] = v[1]; }
+      else if (v.size() == 1) assign[(ext[v[0]] - torso).dot(lateral_) > 0 ? left : right] = v[0];
+    };
+    std::sort(low.begin(), low.end(), [&](int a, int b) { return ext[a].dot(up) < ext[b].dot(up); });
+    if (low.size() > 2) { rest.insert(rest.end(), low.begin() + 2, low.end()); low.resize(2); }
+    if (rest.size() > 2) rest.resize(2);
+    by_side(low, LB_LFOOT, LB_RFOOT);
+    by_side(rest, LB_LHAND, LB_RHAND);
+  }
+
+  // Limb geometry from the geodesic paths of the labelled extremities.
+  std::array<std::vector<Vec3>, NUM_LABELS> paths;
+  int found = 0;
+  for (int l = 0; l < NUM_LABELS; ++l) {
+    if (assign[l] < 0) { ++tip_age_[l]; continue; }
+    ++found;
+    tip_age_[l] = 0;
+    tips_[l] = ext[assign[l]];
+    for (int c : pathToSource(geo, geo.extremities[assign[l]])) paths[l].push_back(g.points[c]);
+  }
+  // Lateral axis (right to left) from where the limbs meet the trunk.
+  auto at_reach = [](const std::vector<Vec3>& path, double reach) -> const Vec3* {
+    for (const Vec3& p : path) if ((p - path.front()).norm() >= reach) return &p;
+    return nullptr;
+  };
+  Vec3 lat_meas;
+  const Vec3* hl = paths[LB_LFOOT].empty() ? nullptr : at_reach(paths[LB_LFOOT], model_.thigh + model_.shin + 0.05);
+  const Vec3* hr = paths[LB_RFOOT].empty() ? nullptr : at_reach(paths[LB_RFOOT], model_.thigh + model_.shin + 0.05);
+  if (hl && hr) lat_meas += horizontal(*hl - *hr, up);
+  const Vec3* sl = paths[LB_LHAND].empty() ? nullptr : at_reach(paths[LB_LHAND], model_.upper_arm + model_.forearm + 0.05);
+  const Vec3* sr = paths[LB_RHAND].empty() ? nullptr : at_reach(paths[LB_RHAND], model_.upper_arm + model_.forearm + 0.05);
+  if (sl && sr) lat_meas += horizontal(*sl - *sr, up) * 0.5;
+  if (lat_meas.norm() > 0.05) {
+    Vec3 meas = lat_meas.normalized();
+    if (meas.dot(lateral_) > -0.3) lateral_ = horizontal(lateral_ * 0.6 + meas * 0.4, up).normalized();
+  }
+
+  Joints j;
+  std::array<float, NUM_JOINTS> conf;
+  conf.fill(0.5f);
+  j[TORSO] = torso;
+  j[NECK] = neck;
+  conf[TORSO] = conf[NECK] = 0.8f;
+  j[L_SHOULDER] = neck + lateral_ * (model_.shoulder_width / 2) - up * model_.neck_drop;
+  j[R_SHOULDER] = neck - lateral_ * (model_.shoulder_width / 2) - up * model_.neck_drop;
+  j[L_HIP] = hipc + lateral_ * (model_.hip_width / 2);
+  j[R_HIP] = hipc - lateral_ * (model_.hip_width / 2);
+  if (assign[LB_HEAD] >= 0) {
+    j[HEAD] = tips_[LB_HEAD] - up * model_.head_top;
+    conf[HEAD] = 0.9f;
+  } else {
+    j[HEAD] = neck + up * (model_.head_top + 0.05);
+    conf[HEAD] = 0.3f;
+  }
+  // Arms and legs: tip -> end joint; middle joint on the path where both bones fit.
+  struct Limb { int label; Joint root, mid, end; double upper, lower, r_mid, r_end; };
+  const Limb limbs[4] = {
+      {LB_LHAND, L_SHOULDER, L_ELBOW, L_HAND, model_.upper_arm, model_.forearm, 0.045, 0.04},
+      {LB_RHAND, R_SHOULDER, R_ELBOW, R_HAND, model_.upper_arm, model_.forearm, 0.045, 0.04},
+      {LB_LFOOT, L_HIP, L_KNEE, L_FOOT, model_.thigh, model_.shin, 0.06, 0.05},
+      {LB_RFOOT, R_HIP, R_KNEE, R_FOOT, model_.thigh, model_.shin, 0.06, 0.05}};
+  for (const Limb& lb : limbs) {
+    const Vec3 root = j[lb.root];
+    const auto& path = paths[lb.label];
+    if (!path.empty()) {
+      const Vec3* endp = at_reach(path, 0.05);
+      Vec3 end = endp ? *endp : path.front();
+      double best = 1e18;
+      Vec3 mid = (root + end) * 0.5;
+      for (const Vec3& p : path) {
+        double c = std::fabs((p - end).norm() - lb.lower) + std::fabs((p - root).norm() - lb.upper);
+        if (c < best) { best = c; mid = p; }
+      }
+      j[lb.end] = behind(end, lb.r_end);
+      j[lb.mid] = behind(mid, lb.r_mid);
+      conf[lb.end] = 0.9f;
+      conf[lb.mid] = best < 0.1 ? 0.8f : 0.5f;
+    } else if (have_prev_ && tip_age_[lb.label] <= params_.hold_frames) {
+      j[lb.end] = Vec3(filters_[lb.end][0].x, filters_[lb.end][1].x, filters_[lb.end][2].x);
+      j[lb.mid] = Vec3(filters_[lb.mid][0].x, filters_[lb.mid][1].x, filters_[lb.mid][2].x);
+      conf[lb.end] = conf[lb.mid] = 0.3f;
+    } else {  // hanging limb of the model
+      j[lb.mid] = root - up * lb.upper;
+      j[lb.end] = root - up * (lb.upper + lb.lower);
+      conf[lb.end] = conf[lb.mid] = 0.1f;
+    }
+  }
+
+  // Calibration of the bone lengths on the first frames.
+  if (!model_.calibrated) {
+    CalibrationSample s;
+    if (assign[LB_HEAD] >= 0) s.head_top_height = floor_.found ? floor_.height(tips_[LB_HEAD]) : tips_[LB_HEAD].y + 1.0;
+    for (int l : {LB_LHAND, LB_RHAND})
+      if (assign[l] >= 0) s.arm_reach.push_back((tips_[l] - j[l == LB_LHAND ? L_SHOULDER : R_SHOULDER]).norm());
+    for (int l : {LB_LFOOT, LB_RFOOT})
+      if (assign[l] >= 0) s.leg_reach.push_back((tips_[l] - j[l == LB_LFOOT ? L_HIP : R_HIP]).norm());
+    calib_.push_back(s);
+    if (static_cast<int>(calib_.size()) >= params_.calibration_frames) {
+      model_ = calibrateBody(calib_);
+      if (!model_.calibrated) calib_.clear();  // no head seen yet: start over
+    }
+  }
+
+  for (int k = 0; k < NUM_JOINTS; ++k) {
+    out.joints[k] = Vec3(filters_[k][0].filter(j[k].x, t, params_.filter_min_cutoff, params_.filter_beta),
+                         filters_[k][1].filter(j[k].y, t, params_.filter_min_cutoff, params_.filter_beta),
+                         filters_[k][2].filter(j[k].z, t, params_.filter_min_cutoff, params_.filter_beta));
+  }
+  have_prev_ = true;
+  prev_centroid_ = seg.centroid;
+  out.confidence = conf;
+  out.tracked = model_.calibrated && found >= 2;
+  out.state = model_.calibrated ? (out.tracked ? "tracking" : "tracking (few extremities)") : "calibrating";
+  if (!out.tracked) out.confidence.fill(0.f);
+  return out;
+}
+
+}  // namespace hri_sync

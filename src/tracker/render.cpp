@@ -1,0 +1,129 @@
+#include "hri_sync/render.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+
+namespace hri_sync {
+
+std::vector<Capsule> bodyCapsules(const Joints& j) {
+  Vec3 hip_mid = (j[L_HIP] + j[R_HIP]) * 0.5;
+  Vec3 up = (j[HEAD] - j[NECK]).normalized();
+  std::vector<Capsule> c = {
+      {j[HEAD] + up * 0.04, j[HEAD] + up * 0.05, 0.10},   // head
+      {j[NECK], j[HEAD], 0.055},                          // neck
+      {j[NECK], j[TORSO], 0.12},                          // chest
+      {j[TORSO], hip_mid, 0.12},                          // belly
+      {j[L_SHOULDER], j[R_SHOULDER], 0.06},
+      {j[L_SHOULDER], j[L_HIP], 0.09},
+      {j[R_SHOULDER], j[R_HIP], 0.09},
+      {j[L_HIP], j[R_HIP], 0.09},
+      {j[L_SHOULDER], j[L_ELBOW], 0.05},
+      {j[R_SHOULDER], j[R_ELBOW], 0.05},
+      {j[L_ELBOW], j[L_HAND], 0.04},
+      {j[R_ELBOW], j[R_HAND], 0.04},
+      {j[L_HAND], j[L_HAND], 0.05},
+      {j[R_HAND], j[R_HAND], 0.05},
+      {j[L_HIP], j[L_KNEE], 0.075},
+      {j[R_HIP], j[R_KNEE], 0.075},
+      {j[L_KNEE], j[L_FOOT], 0.055},
+      {j[R_KNEE], j[R_FOOT], 0.055},
+      {j[L_FOOT], j[L_FOOT], 0.06},
+      {j[R_FOOT], j[R_FOOT], 0.06},
+  };
+  return c;
+}
+
+namespace {
+
+// Distance along the unit ray rd (from the origin) to the capsule, or -1.
+double intersectCapsule(const Vec3& rd, const Capsule& cap) {
+  Vec3 ba = cap.b - cap.a, oa = cap.a * -1.0;
+  double r = cap.radius;
+  double baba = ba.dot(ba), bard = ba.dot(rd), baoa = ba.dot(oa);
+  double rdoa = rd.dot(oa), oaoa = oa.dot(oa);
+  if (baba < 1e-12) {  // sphere
+    double b = rdoa, c = oaoa - r * r, h = b * b - c;
+    return h > 0 ? -b - std::sqrt(h) : -1.0;
+  }
+  double a = baba - bard * bard;
+  double b = baba * rdoa - baoa * bard;
+  double c = baba * oaoa - baoa * baoa - r * r * baba;
+  double h = b * b - a * c;
+  if (h < 0) return -1.0;
+  double y = baoa;  // axial coordinate (times baba) of the hit; 0 when the ray runs along the axis
+  if (a > 1e-12) {
+    double t = (-b - std::sqrt(h)) / a;
+    y = baoa + t * bard;
+    if (y > 0 && y < baba) return t;
+  }
+  Vec3 oc = (y <= 0) ? oa : cap.b * -1.0;  // origin minus the nearer end cap centre
+  double b2 = rd.dot(oc), c2 = oc.dot(oc) - r * r, h2 = b2 * b2 - c2;
+  return h2 > 0 ? -b2 - std::sqrt(h2) : -1.0;
+}
+
+}  // namespace
+
+void renderDepth(const Joints& j, const Camera& cam, const RenderOptions& opt,
+                 std::vector<uint16_t>* depth_mm) {
+  const int W = cam.width, H = cam.height;
+  std::vector<float> z(static_cast<size_t>(W) * H, std::numeric_limits<float>::infinity());
+  // Floor and background.
+  for (int v = 0; v < H; ++v) {
+    for (int u = 0; u < W; ++u) {
+      Vec3 d = cam.ray(u, v);
+      float& zz = z[v * W + u];
+      if (d.y < -1e-6) zz = std::min<double>(zz, opt.floor_y / d.y);
+      if (opt.background) {
+        zz = std::min<double>(zz, opt.wall_z);
+        // A cabinet 0.8 m wide, 1.2 m high, front face at z = 3.6 m, left of centre.
+        double bz = 3.6, x = d.x * bz, y = d.y * bz;
+        if (x > -2.0 && x < -1.2 && y > opt.floor_y && y < opt.floor_y + 1.2) zz = std::min<double>(zz, bz);
+      }
+    }
+  }
+  // Body capsules, each over its projected bounding box.
+  for (const Capsule& cap : bodyCapsules(j)) {
+    if (!cap.a.finite() || !cap.b.finite()) continue;
+    double umin = 1e9, umax = -1e9, vmin = 1e9, vmax = -1e9;
+    bool behind = false;
+    for (const Vec3& end : {cap.a, cap.b}) {
+      for (int k = 0; k < 8; ++k) {
+        double r = cap.radius;
+        Vec3 w = end + Vec3((k & 1) ? r : -r, (k & 2) ? r : -r, (k & 4) ? r : -r);
+        if (w.z < 0.05) { behind = true; continue; }
+        double u, v;
+        cam.project(w, &u, &v);
+        umin = std::min(umin, u); umax = std::max(umax, u);
+        vmin = std::min(vmin, v); vmax = std::max(vmax, v);
+      }
+    }
+    if (behind) continue;
+    int u0 = std::max(0, static_cast<int>(std::floor(umin))), u1 = std::min(W - 1, static_cast<int>(std::ceil(umax)));
+    int v0 = std::max(0, static_cast<int>(std::floor(vmin))), v1 = std::min(H - 1, static_cast<int>(std::ceil(vmax)));
+    for (int v = v0; v <= v1; ++v) {
+      for (int u = u0; u <= u1; ++u) {
+        Vec3 d = cam.ray(u, v);
+        double n = d.norm();
+        double t = intersectCapsule(d * (1.0 / n), cap);
+        if (t > 0) {
+          float zz = static_cast<float>(t / n);
+          float& dst = z[v * W + u];
+          if (zz < dst) dst = zz;
+        }
+      }
+    }
+  }
+  depth_mm->assign(z.size(), 0);
+  std::mt19937 rng(opt.seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  for (size_t i = 0; i < z.size(); ++i) {
+    double zz = z[i];
+    if (!(zz < opt.max_range) || zz < 0.4) continue;  // the Kinect sees nothing nearer than 0.4 m
+    if (opt.noise > 0) zz += gauss(rng) * opt.noise * zz * zz;
+    (*depth_mm)[i] = static_cast<uint16_t>(std::lround(std::max(0.0, zz) * 1000.0));
+  }
+}
+
+}  // namespace hri_sync

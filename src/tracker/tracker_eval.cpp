@@ -1,0 +1,163 @@
+// tracker_eval: renders a .track motion through the virtual Kinect (OpenNI2),
+// runs the depth tracker on every frame and prints one JSON object with the
+// error against the motion's true joints, the tracked share and the speed.
+//   tracker_eval --track FILE.track [--res 320x240] [--seconds S] [--background 0|1]
+//                [--noise SIGMA] [--direct]
+// --direct renders in-process instead of through OpenNI (same renderer).
+#include <OpenNI.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "hri_sync/body.h"
+#include "hri_sync/depth_tracker.h"
+#include "hri_sync/render.h"
+
+using namespace hri_sync;
+
+namespace {
+
+struct Stats {
+  std::vector<std::vector<double>> err = std::vector<std::vector<double>>(NUM_JOINTS);
+  int frames = 0, tracked = 0, dropped = 0;
+  double cpu = 0;
+};
+
+double pct(std::vector<double> v, double q) {
+  if (v.empty()) return -1;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(q * v.size()))];
+}
+
+void account(Stats* s, const SkeletonEstimate& est, const Joints& truth) {
+  ++s->frames;
+  if (!est.tracked) return;
+  ++s->tracked;
+  for (int k = 0; k < NUM_JOINTS; ++k) s->err[k].push_back((est.joints[k] - truth[k]).norm());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string track_path, res = "320x240";
+  double seconds = 0, noise = 0.0015;
+  bool direct = false, background = false;
+  for (int i = 1; i < argc; ++i) {
+    std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) { std::fprintf(stderr, "tracker_eval: %s needs a value\n", a.c_str()); std::exit(2); }
+      return argv[++i];
+    };
+    if (a == "--track") track_path = next();
+    else if (a == "--res") res = next();
+    else if (a == "--seconds") seconds = std::stod(next());
+    else if (a == "--noise") noise = std::stod(next());
+    else if (a == "--background") background = next() != "0";
+    else if (a == "--direct") direct = true;
+    else { std::fprintf(stderr, "tracker_eval: unknown argument %s\n", a.c_str()); return 2; }
+  }
+  if (track_path.empty()) { std::fprintf(stderr, "usage: tracker_eval --track FILE.track [...]\n"); return 2; }
+  Track track;
+  try {
+    track = Track::load(track_path);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tracker_eval: %s\n", e.what());
+    return 1;
+  }
+  if (seconds <= 0) seconds = track.duration();
+  Camera cam;
+  cam.width = res == "640x480" ? 640 : 320;
+  cam.height = res == "640x480" ? 480 : 240;
+  const int fps = 30;
+  const int total = static_cast<int>(seconds * fps);
+  DepthTracker tracker(cam);
+  Stats st;
+  using Clock = std::chrono::steady_clock;
+
+  if (direct) {
+    std::vector<uint16_t> depth;
+    RenderOptions ro;
+    ro.background = background;
+    ro.noise = noise;
+    for (int n = 0; n < total; ++n) {
+      double t = static_cast<double>(n) / fps;
+      Joints truth = track.at(t);
+      ro.seed = n + 1;
+      renderDepth(truth, cam, ro, &depth);
+      auto c0 = Clock::now();
+      SkeletonEstimate est = tracker.update(depth.data(), t);
+      st.cpu += std::chrono::duration<double>(Clock::now() - c0).count();
+      account(&st, est, truth);
+    }
+  } else {
+    if (openni::OpenNI::initialize() != openni::STATUS_OK) {
+      std::fprintf(stderr, "tracker_eval: OpenNI: %s\n", openni::OpenNI::getExtendedError());
+      return 1;
+    }
+    {
+      char uri[4096];
+      std::snprintf(uri, sizeof(uri), "virtual://%s?res=%s&noise=%g&background=%d", track_path.c_str(),
+                    res.c_str(), noise, background ? 1 : 0);
+      openni::Device dev;
+      openni::VideoStream depth;
+      if (dev.open(uri) != openni::STATUS_OK || depth.create(dev, openni::SENSOR_DEPTH) != openni::STATUS_OK ||
+          depth.start() != openni::STATUS_OK) {
+        std::fprintf(stderr, "tracker_eval: cannot open %s: %s\n", uri, openni::OpenNI::getExtendedError());
+        return 1;
+      }
+      openni::VideoFrameRef f;
+      int last_index = 0;
+      while (true) {
+        openni::VideoStream* streams[] = {&depth};
+        int ready;
+        if (openni::OpenNI::waitForAnyStream(streams, 1, &ready, 3000) != openni::STATUS_OK) {
+          std::fprintf(stderr, "tracker_eval: no frame for 3 s\n");
+          break;
+        }
+        if (depth.readFrame(&f) != openni::STATUS_OK) break;
+        int idx = f.getFrameIndex();
+        if (idx > total) break;
+        if (last_index && idx > last_index + 1) st.dropped += idx - last_index - 1;
+        last_index = idx;
+        double t = (idx - 1) / static_cast<double>(fps);  // the virtual Kinect's motion time
+        auto c0 = Clock::now();
+        SkeletonEstimate est = tracker.update(static_cast<const uint16_t*>(f.getData()), f.getTimestamp() * 1e-6);
+        st.cpu += std::chrono::duration<double>(Clock::now() - c0).count();
+        account(&st, est, track.at(t));
+      }
+      depth.stop();
+      depth.destroy();
+      dev.close();
+    }
+    openni::OpenNI::shutdown();
+  }
+
+  std::vector<double> all;
+  std::string joints;
+  for (int k = 0; k < NUM_JOINTS; ++k) {
+    all.insert(all.end(), st.err[k].begin(), st.err[k].end());
+    double mean = 0;
+    for (double e : st.err[k]) mean += e;
+    mean = st.err[k].empty() ? -1 : mean / st.err[k].size();
+    char buf[160];
+    std::snprintf(buf, sizeof(buf), "%s\"%s\": {\"mean_m\": %.4f, \"p95_m\": %.4f}", k ? ", " : "",
+                  kJointNames[k], mean, pct(st.err[k], 0.95));
+    joints += buf;
+  }
+  std::vector<double> hands = st.err[L_HAND];
+  hands.insert(hands.end(), st.err[R_HAND].begin(), st.err[R_HAND].end());
+  double mean = 0;
+  for (double e : all) mean += e;
+  mean = all.empty() ? -1 : mean / all.size();
+  std::printf("{\"mean_error_m\": %.4f, \"joints\": {%s}, \"hands_p95_error_m\": %.4f, \"tracked_share\": %.4f, "
+              "\"fps\": %.1f, \"frames\": %d, \"dropped_frames\": %d, \"resolution\": \"%dx%d\", "
+              "\"height_m\": %.3f}\n",
+              mean, joints.c_str(), pct(hands, 0.95), st.frames ? double(st.tracked) / st.frames : 0.0,
+              st.cpu > 0 ? st.frames / st.cpu : 0.0, st.frames, st.dropped, cam.width, cam.height,
+              tracker.model().height);
+  return st.frames > 0 ? 0 : 1;
+}

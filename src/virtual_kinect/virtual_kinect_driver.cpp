@@ -1,0 +1,369 @@
+// Virtual Kinect: an OpenNI2 driver that renders the depth image of a body
+// (capsules around a skeleton's bones) moving as a .track file dictates.
+//
+// URI: virtual://PATH.track[?key=value&...]; keys (defaults):
+//   res=320x240 (or 640x480), fps=30, background=0 (1: back wall and a cabinet),
+//   noise=0.0015 (depth sigma in m at 1 m, grows with z^2; 0 turns it off),
+//   loop=1 (0: stop sending frames at the end of the track), start=0 (s into the track),
+//   offset_us=1000000 (device clock at open), drift_ppm=0 (device clock rate error),
+//   lose_after=0 (s; > 0 simulates the sensor being unplugged after that time).
+// Setting HRI_SYNC_VIRTUAL_KINECT=URI also announces that device at start-up, so
+// tools that open "any device" find it.
+#define XN_NEW(type, ...) new type(__VA_ARGS__)
+#define XN_DELETE(p) delete (p)
+#include <Driver/OniDriverAPI.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "hri_sync/body.h"
+#include "hri_sync/render.h"
+
+namespace {
+
+using hri_sync::Camera;
+using hri_sync::RenderOptions;
+using hri_sync::Track;
+using Clock = std::chrono::steady_clock;
+
+struct VirtualConfig {
+  std::string uri, path;
+  int width = 320, height = 240, fps = 30;
+  RenderOptions render;
+  bool loop = true;
+  double start = 0.0, lose_after = 0.0, drift_ppm = 0.0;
+  double offset_us = 1e6;
+};
+
+double toNumber(const std::string& key, const std::string& value) {
+  try {
+    size_t pos = 0;
+    double v = std::stod(value, &pos);
+    if (pos != value.size()) throw std::invalid_argument(value);
+    return v;
+  } catch (const std::exception&) {
+    throw std::runtime_error("virtual kinect: bad value '" + value + "' for '" + key + "'");
+  }
+}
+
+VirtualConfig parseUri(const std::string& uri) {
+  const std::string scheme = "virtual://";
+  if (uri.compare(0, scheme.size(), scheme) != 0) {
+    throw std::runtime_error("virtual kinect: URI must start with virtual://");
+  }
+  VirtualConfig c;
+  c.uri = uri;
+  c.render.noise = 0.0015;
+  std::string rest = uri.substr(scheme.size());
+  size_t q = rest.find('?');
+  c.path = rest.substr(0, q);
+  if (c.path.empty()) throw std::runtime_error("virtual kinect: URI has no track path");
+  std::string query = q == std::string::npos ? "" : rest.substr(q + 1);
+  std::stringstream ss(query);
+  std::string item;
+  while (std::getline(ss, item, '&')) {
+    if (item.empty()) continue;
+    size_t eq = item.find('=');
+    if (eq == std::string::npos) throw std::runtime_error("virtual kinect: '" + item + "' is not key=value");
+    std::string k = item.substr(0, eq), v = item.substr(eq + 1);
+    if (k == "res") {
+      if (v == "320x240") { c.width = 320; c.height = 240; }
+      else if (v == "640x480") { c.width = 640; c.height = 480; }
+      else throw std::runtime_error("virtual kinect: res must be 320x240 or 640x480, not " + v);
+    } else if (k == "fps") {
+      c.fps = static_cast<int>(toNumber(k, v));
+      if (c.fps != 30 && c.fps != 20 && c.fps != 15) throw std::runtime_error("virtual kinect: fps must be 15, 20 or 30");
+    } else if (k == "background") { c.render.background = toNumber(k, v) != 0;
+    } else if (k == "noise") { c.render.noise = toNumber(k, v);
+    } else if (k == "loop") { c.loop = toNumber(k, v) != 0;
+    } else if (k == "start") { c.start = toNumber(k, v);
+    } else if (k == "offset_us") { c.offset_us = toNumber(k, v);
+    } else if (k == "drift_ppm") { c.drift_ppm = toNumber(k, v);
+    } else if (k == "lose_after") { c.lose_after = toNumber(k, v);
+    } else {
+      throw std::runtime_error("virtual kinect: unknown URI key '" + k + "'");
+    }
+  }
+  return c;
+}
+
+class VirtualDriver;
+
+class DepthStream : public oni::driver::StreamBase {
+ public:
+  DepthStream(const VirtualConfig& cfg, std::shared_ptr<const Track> track,
+              std::function<void()> on_lost)
+      : cfg_(cfg), track_(std::move(track)), on_lost_(std::move(on_lost)) {
+    mode_.pixelFormat = ONI_PIXEL_FORMAT_DEPTH_1_MM;
+    mode_.resolutionX = cfg.width;
+    mode_.resolutionY = cfg.height;
+    mode_.fps = cfg.fps;
+  }
+  ~DepthStream() override { stop(); }
+
+  OniStatus start() override {
+    if (running_) return ONI_STATUS_OK;
+    running_ = true;
+    thread_ = std::thread([this] { run(); });
+    return ONI_STATUS_OK;
+  }
+  void stop() override {
+    running_ = false;
+    if (thread_.joinable()) thread_.join();
+  }
+
+  int getRequiredFrameSize() override { return mode_.resolutionX * mode_.resolutionY * 2; }
+
+  OniBool isPropertySupported(int id) override {
+    switch (id) {
+      case ONI_STREAM_PROPERTY_VIDEO_MODE: case ONI_STREAM_PROPERTY_STRIDE:
+      case ONI_STREAM_PROPERTY_CROPPING: case ONI_STREAM_PROPERTY_HORIZONTAL_FOV:
+      case ONI_STREAM_PROPERTY_VERTICAL_FOV: case ONI_STREAM_PROPERTY_MAX_VALUE:
+      case ONI_STREAM_PROPERTY_MIN_VALUE: case ONI_STREAM_PROPERTY_MIRRORING:
+        return TRUE;
+      default:
+        return FALSE;
+    }
+  }
+
+  OniStatus getProperty(int id, void* data, int* size) override {
+    Camera cam;
+    switch (id) {
+      case ONI_STREAM_PROPERTY_VIDEO_MODE: return put(mode_, data, size);
+      case ONI_STREAM_PROPERTY_STRIDE: return put<int>(mode_.resolutionX * 2, data, size);
+      case ONI_STREAM_PROPERTY_CROPPING: {
+        OniCropping c{};
+        c.enabled = FALSE;
+        c.width = mode_.resolutionX;
+        c.height = mode_.resolutionY;
+        return put(c, data, size);
+      }
+      case ONI_STREAM_PROPERTY_HORIZONTAL_FOV: return put<float>(static_cast<float>(cam.hfov), data, size);
+      case ONI_STREAM_PROPERTY_VERTICAL_FOV: return put<float>(static_cast<float>(cam.vfov), data, size);
+      case ONI_STREAM_PROPERTY_MAX_VALUE: return put<int>(10000, data, size);
+      case ONI_STREAM_PROPERTY_MIN_VALUE: return put<int>(0, data, size);
+      case ONI_STREAM_PROPERTY_MIRRORING: return put<OniBool>(FALSE, data, size);
+      default: return ONI_STATUS_NOT_SUPPORTED;
+    }
+  }
+
+  OniStatus setProperty(int id, const void* data, int size) override {
+    if (id == ONI_STREAM_PROPERTY_VIDEO_MODE && size == sizeof(OniVideoMode)) {
+      const auto* m = static_cast<const OniVideoMode*>(data);
+      bool ok = m->pixelFormat == ONI_PIXEL_FORMAT_DEPTH_1_MM &&
+                ((m->resolutionX == 320 && m->resolutionY == 240) ||
+                 (m->resolutionX == 640 && m->resolutionY == 480)) && m->fps == cfg_.fps;
+      if (!ok || running_) return ONI_STATUS_NOT_SUPPORTED;
+      mode_ = *m;
+      return ONI_STATUS_OK;
+    }
+    if (id == ONI_STREAM_PROPERTY_MIRRORING && size == sizeof(OniBool)) {
+      return *static_cast<const OniBool*>(data) ? ONI_STATUS_NOT_SUPPORTED : ONI_STATUS_OK;
+    }
+    if (id == ONI_STREAM_PROPERTY_CROPPING && size == sizeof(OniCropping)) {
+      return static_cast<const OniCropping*>(data)->enabled ? ONI_STATUS_NOT_SUPPORTED : ONI_STATUS_OK;
+    }
+    return ONI_STATUS_NOT_SUPPORTED;
+  }
+
+ private:
+  template <typename T>
+  static OniStatus put(const T& v, void* data, int* size) {
+    if (*size < static_cast<int>(sizeof(T))) return ONI_STATUS_BAD_PARAMETER;
+    std::memcpy(data, &v, sizeof(T));
+    *size = sizeof(T);
+    return ONI_STATUS_OK;
+  }
+
+  void run() {
+    Camera cam;
+    cam.width = mode_.resolutionX;
+    cam.height = mode_.resolutionY;
+    const auto t0 = Clock::now();
+    const double period = 1.0 / mode_.fps;
+    std::vector<uint16_t> depth;
+    for (uint64_t n = 0; running_; ++n) {
+      const auto due = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(n * period));
+      while (running_ && Clock::now() < due) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+      if (!running_) break;
+      double host_elapsed = n * period;
+      if (cfg_.lose_after > 0 && host_elapsed >= cfg_.lose_after) {
+        if (on_lost_) on_lost_();
+        while (running_) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        break;
+      }
+      double t = cfg_.start + n * period;
+      if (!cfg_.loop && t > track_->duration()) {  // end of the motion: no more frames
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        continue;
+      }
+      RenderOptions ro = cfg_.render;
+      ro.seed = static_cast<uint32_t>(n + 1);
+      hri_sync::renderDepth(track_->at(t, cfg_.loop), cam, ro, &depth);
+      OniFrame* frame = getServices().acquireFrame();
+      if (frame == nullptr) continue;
+      std::memcpy(frame->data, depth.data(), depth.size() * sizeof(uint16_t));
+      frame->dataSize = static_cast<int>(depth.size() * sizeof(uint16_t));
+      frame->sensorType = ONI_SENSOR_DEPTH;
+      frame->frameIndex = static_cast<int>(n + 1);
+      frame->timestamp = static_cast<uint64_t>(cfg_.offset_us + host_elapsed * 1e6 * (1.0 + cfg_.drift_ppm * 1e-6));
+      frame->width = cam.width;
+      frame->height = cam.height;
+      frame->videoMode = mode_;
+      frame->croppingEnabled = FALSE;
+      frame->cropOriginX = 0;
+      frame->cropOriginY = 0;
+      frame->stride = cam.width * 2;
+      raiseNewFrame(frame);
+      getServices().releaseFrame(frame);
+    }
+  }
+
+  VirtualConfig cfg_;
+  std::shared_ptr<const Track> track_;
+  std::function<void()> on_lost_;
+  OniVideoMode mode_;
+  std::atomic<bool> running_{false};
+  std::thread thread_;
+};
+
+class VirtualDevice : public oni::driver::DeviceBase {
+ public:
+  VirtualDevice(VirtualConfig cfg, std::shared_ptr<const Track> track, std::function<void()> on_lost)
+      : cfg_(std::move(cfg)), track_(std::move(track)), on_lost_(std::move(on_lost)) {
+    modes_[0] = {ONI_PIXEL_FORMAT_DEPTH_1_MM, 320, 240, cfg_.fps};
+    modes_[1] = {ONI_PIXEL_FORMAT_DEPTH_1_MM, 640, 480, cfg_.fps};
+    if (cfg_.width == 640) std::swap(modes_[0], modes_[1]);
+    sensor_.sensorType = ONI_SENSOR_DEPTH;
+    sensor_.numSupportedVideoModes = 2;
+    sensor_.pSupportedVideoModes = modes_;
+  }
+
+  OniStatus getSensorInfoList(OniSensorInfo** infos, int* n) override {
+    *infos = &sensor_;
+    *n = 1;
+    return ONI_STATUS_OK;
+  }
+  oni::driver::StreamBase* createStream(OniSensorType type) override {
+    if (type != ONI_SENSOR_DEPTH) return nullptr;
+    auto s = std::make_unique<DepthStream>(cfg_, track_, on_lost_);
+    oni::driver::StreamBase* raw = s.get();
+    streams_.push_back(std::move(s));
+    return raw;
+  }
+  void destroyStream(oni::driver::StreamBase* stream) override {
+    for (auto it = streams_.begin(); it != streams_.end(); ++it) {
+      if (it->get() == stream) { streams_.erase(it); return; }
+    }
+  }
+
+ private:
+  VirtualConfig cfg_;
+  std::shared_ptr<const Track> track_;
+  std::function<void()> on_lost_;
+  OniVideoMode modes_[2];
+  OniSensorInfo sensor_;
+  std::vector<std::unique_ptr<DepthStream>> streams_;
+};
+
+class VirtualDriver : public oni::driver::DriverBase {
+ public:
+  explicit VirtualDriver(OniDriverServices* services) : DriverBase(services) {}
+
+  OniStatus initialize(oni::driver::DeviceConnectedCallback connected,
+                       oni::driver::DeviceDisconnectedCallback disconnected,
+                       oni::driver::DeviceStateChangedCallback state_changed, void* cookie) override {
+    OniStatus s = DriverBase::initialize(connected, disconnected, state_changed, cookie);
+    const char* env = std::getenv("HRI_SYNC_VIRTUAL_KINECT");
+    if (s == ONI_STATUS_OK && env != nullptr && *env != '\0') tryDevice(env);
+    return s;
+  }
+
+  OniStatus tryDevice(const char* uri) override {
+    try {
+      VirtualConfig cfg = parseUri(uri);
+      load(cfg.path);
+    } catch (const std::exception& e) {
+      if (std::strncmp(uri, "virtual://", 10) == 0) getServices().errorLoggerAppend("%s", e.what());
+      return ONI_STATUS_ERROR;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (infos_.count(uri) == 0) {
+      OniDeviceInfo info{};
+      std::strncpy(info.uri, uri, ONI_MAX_STR - 1);
+      std::strncpy(info.vendor, "hri_sync", ONI_MAX_STR - 1);
+      std::strncpy(info.name, "Virtual Kinect", ONI_MAX_STR - 1);
+      info.usbVendorId = 0x045e;  // the Kinect v1's ids, as a real device reports them
+      info.usbProductId = 0x02ae;
+      infos_[uri] = std::make_unique<OniDeviceInfo>(info);
+      deviceConnected(infos_[uri].get());
+    }
+    return ONI_STATUS_OK;
+  }
+
+  oni::driver::DeviceBase* deviceOpen(const char* uri, const char* /*mode*/) override {
+    try {
+      VirtualConfig cfg = parseUri(uri);
+      auto track = load(cfg.path);
+      const OniDeviceInfo* info = nullptr;
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        auto it = infos_.find(uri);
+        if (it != infos_.end()) info = it->second.get();
+      }
+      auto on_lost = [this, info] {
+        if (info != nullptr) deviceDisconnected(info);
+      };
+      auto dev = std::make_unique<VirtualDevice>(cfg, track, on_lost);
+      oni::driver::DeviceBase* raw = dev.get();
+      std::lock_guard<std::mutex> lock(mutex_);
+      devices_.push_back(std::move(dev));
+      return raw;
+    } catch (const std::exception& e) {
+      getServices().errorLoggerAppend("%s", e.what());
+      return nullptr;
+    }
+  }
+
+  void deviceClose(oni::driver::DeviceBase* device) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (auto it = devices_.begin(); it != devices_.end(); ++it) {
+      if (it->get() == device) { devices_.erase(it); return; }
+    }
+  }
+
+  void shutdown() override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    devices_.clear();
+  }
+
+ private:
+  std::shared_ptr<const Track> load(const std::string& path) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = tracks_.find(path);
+    if (it != tracks_.end()) return it->second;
+    auto t = std::make_shared<const Track>(Track::load(path));
+    tracks_[path] = t;
+    return t;
+  }
+
+  std::mutex mutex_;
+  std::map<std::string, std::shared_ptr<const Track>> tracks_;
+  std::map<std::string, std::unique_ptr<OniDeviceInfo>> infos_;
+  std::vector<std::unique_ptr<VirtualDevice>> devices_;
+};
+
+}  // namespace
+
+ONI_EXPORT_DRIVER(VirtualDriver);
