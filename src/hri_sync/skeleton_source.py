@@ -78,3 +78,26 @@ class SkeletonSource:
             orientations=self.motion.orientations_at(clip, self.mode),
             confidence=np.full((len(stamps), NUM_JOINTS), self.confidence),
             dropped=int(np.sum(~keep)))
+
+
+def replay_schedule(rel_times):
+    """Endless (time, index) of recorded frames replayed forward, backward,
+    forward... ``rel_times``: the frames' increasing times from 0. The turn
+    frames are not repeated, so the gaps are always recorded gaps."""
+    rel = np.asarray(rel_times, dtype=float)
+    if rel.ndim != 1 or len(rel) < 2 or not np.all(np.diff(rel) > 0):
+        raise ValueError('need >= 2 recorded frames with increasing times')
+    span = rel[-1] - rel[0]
+    rel = rel - rel[0]
+    count = len(rel)
+    yield 0.0, 0
+    turn = 0
+    while True:
+        base = turn * span
+        if turn % 2 == 0:
+            for i in range(1, count):
+                yield base + rel[i], i
+        else:
+            for i in range(count - 2, -1, -1):
+                yield base + span - rel[i], i
+        turn += 1

@@ -148,3 +148,14 @@ def test_processor_scores_and_counts():
 def test_processor_empty_window():
     res = SkeletonExpressiveness().process([], 0.0, 1.0)
     assert (res.value, res.frames_used, res.frames_rejected) == (0.0, 0, 0)
+
+
+def test_replay_schedule_pingpong():
+    from itertools import islice
+    from hri_sync.skeleton_source import replay_schedule
+    got = list(islice(replay_schedule([0.0, 0.1, 0.3]), 7))
+    times = [t for t, _ in got]
+    assert [i for _, i in got] == [0, 1, 2, 1, 0, 1, 2]
+    np.testing.assert_allclose(times, [0.0, 0.1, 0.3, 0.5, 0.6, 0.7, 0.9])
+    with pytest.raises(ValueError):
+        next(replay_schedule([0.0]))
