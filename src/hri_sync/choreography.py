@@ -114,7 +114,7 @@ class Move:
 
 @dataclass(frozen=True)
 class Event:
-    """A discrete output at plan time ``time``: kind 'led1', 'led2', 'sound'."""
+    """A discrete output at plan time ``time``: 'led1', 'led2' or 'sound'."""
 
     time: float
     kind: str
@@ -235,7 +235,7 @@ def dance(duration, bearings=(math.radians(30.0), math.radians(-30.0)),
                 heading = new_heading
                 if kind == 'turn':
                     next_participant += 1
-                want_turn = kind == 'pair' and len(bearings) > 0
+                want_turn = kind == 'pair'
                 placed = True
                 break
         if not placed:

@@ -1,0 +1,56 @@
+"""Precise waits on a global clock, and the host's unfaked clock.
+
+No ROS.  ``wait_until`` is how DJ Rob's nodes start an action on time: a
+coarse sleep, then a short spin on the clock itself, so the action starts
+within a fraction of a millisecond of the target unless the machine is
+overloaded.  ``host_time`` reads CLOCK_REALTIME by a raw system call,
+which libfaketime does not intercept: the ground truth a test compares a
+faked process's actions with.
+"""
+import ctypes
+import ctypes.util
+import platform
+import time
+
+# SYS_clock_gettime by architecture (asm/unistd.h).
+_SYS_CLOCK_GETTIME = {'x86_64': 228, 'aarch64': 113, 'i686': 265,
+                      'armv7l': 263}
+_CLOCK_REALTIME = 0
+
+
+class _Timespec(ctypes.Structure):
+    _fields_ = [('tv_sec', ctypes.c_long), ('tv_nsec', ctypes.c_long)]
+
+
+_libc = ctypes.CDLL(ctypes.util.find_library('c') or 'libc.so.6',
+                    use_errno=True)
+_syscall_nr = _SYS_CLOCK_GETTIME.get(platform.machine())
+
+
+def host_time():
+    """The host's real CLOCK_REALTIME in s, bypassing libfaketime.
+
+    Returns NaN on an architecture whose syscall number is not known here
+    (never a silently faked value)."""
+    if _syscall_nr is None:
+        return float('nan')
+    ts = _Timespec()
+    if _libc.syscall(_syscall_nr, _CLOCK_REALTIME, ctypes.byref(ts)) != 0:
+        return float('nan')
+    return ts.tv_sec + ts.tv_nsec * 1e-9
+
+
+def wait_until(now, target, spin=0.003, stop=lambda: False):
+    """Block until ``now() >= target`` (both in the same clock, s).
+
+    Sleeps until ``spin`` s before the target, then spins.  Returns how
+    late it returned (s, >= 0), or None if ``stop()`` became true first.
+    """
+    while True:
+        remaining = target - now()
+        if remaining <= 0:
+            return max(0.0, -remaining)
+        if stop():
+            return None
+        if remaining > spin:
+            time.sleep(min(remaining - spin, 0.1))
