@@ -1,0 +1,177 @@
+"""Recompute recorded dance-off rounds and check them (no ROS).
+
+The core of ``nodes/verify_decisions``. Messages are duck-typed (rospy
+messages or ``rosbags`` dataclasses): for every recorded ``Decision`` it
+takes the round's ``ClientResult`` of each participant, recomputes the
+score from that client's ``/<client_id>/captured`` frames inside the
+result's window, and recomputes the decision from the recomputed scores
+with the decision module's rule and parameters.
+"""
+
+import math
+from dataclasses import dataclass, field
+
+from hri_sync.decision import ABORTED, decide
+from hri_sync.expressiveness import DEFAULT_MIN_CONFIDENCE, \
+    SkeletonExpressiveness
+from hri_sync.processors import Frame
+
+REL_TOL = 1e-6
+ABS_TOL = 1e-9
+ROUND_ABORTED = 'aborted'       # RoundStatus.ABORTED
+
+
+def seconds(t):
+    """A rospy.Time or a rosbags Time (sec, nanosec) in seconds."""
+    if hasattr(t, 'to_sec'):
+        return t.to_sec()
+    return t.sec + t.nanosec * 1e-9
+
+
+@dataclass
+class ClientCheck:
+    """One participant's recorded and recomputed result of a round."""
+
+    client: str
+    status: str
+    frames: int = 0
+    frames_recomputed: int = 0
+    value: float = math.nan
+    value_recomputed: float = math.nan
+    problems: list = field(default_factory=list)
+
+
+@dataclass
+class RoundCheck:
+    """One round: the clients' checks and the two decisions."""
+
+    round: int
+    clients: list
+    outcome: str
+    winner: int
+    outcome_recomputed: str = ''
+    winner_recomputed: int = 0
+    reason: str = ''
+    problems: list = field(default_factory=list)
+
+    @property
+    def ok(self):
+        return not self.problems and not any(c.problems for c in self.clients)
+
+
+def _close(a, b):
+    if math.isnan(a) and math.isnan(b):
+        return True
+    return math.isclose(a, b, rel_tol=REL_TOL, abs_tol=ABS_TOL)
+
+
+def _min_confidence(result):
+    for kv in result.diagnostics:
+        if kv.key == 'min_confidence':
+            return float(kv.value)
+    return DEFAULT_MIN_CONFIDENCE
+
+
+def check_client(result, captured):
+    """Recompute one ClientResult from ``captured``: [(stamp, msg)] sorted."""
+    check = ClientCheck(result.client_id, result.status,
+                        frames=result.frames, value=result.value)
+    start, end = seconds(result.capture_start), seconds(result.capture_end)
+    frames = [Frame(s, m) for s, m in captured if start <= s < end]
+    if not frames and result.frames:
+        check.problems.append('no captured frames recorded for the window')
+    res = SkeletonExpressiveness(_min_confidence(result)).process(
+        frames, start, end)
+    check.frames_recomputed = res.frames_used
+    check.value_recomputed = res.value if frames else math.nan
+    if result.status in ('ok', 'partial'):
+        if res.frames_used != result.frames:
+            check.problems.append('frames %d recorded, %d recomputed'
+                                  % (result.frames, res.frames_used))
+        if not _close(res.value, result.value):
+            check.problems.append('value %.9g recorded, %.9g recomputed'
+                                  % (result.value, res.value))
+    return check
+
+
+def check_round(decision, results, captured, config, aborted_reason=None):
+    """Check one recorded Decision.
+
+    ``results``: {client_id: ClientResult} of the round; ``captured``:
+    {client_id: [(stamp, msg)]}; ``config``: the decision module's
+    ``min_expressiveness``, ``tie_margin``, ``on_missing``;
+    ``aborted_reason``: set when the control module aborted the round.
+    """
+    participants = list(decision.clients)
+    check = RoundCheck(decision.round, [], decision.outcome, decision.winner,
+                       reason=decision.reason)
+    recomputed = {}
+    for client in participants:
+        result = results.get(client)
+        if result is None:
+            continue
+        c = check_client(result, captured.get(client, []))
+        check.clients.append(c)
+        value = c.value_recomputed if result.status in ('ok', 'partial') \
+            else math.nan
+        recomputed[client] = (result.status, value)
+    for client, score in zip(participants, decision.scores):
+        result = results.get(client)
+        recorded = result.value if result is not None and \
+            result.status in ('ok', 'partial') else math.nan
+        if not _close(score, recorded):
+            check.problems.append('decision score of %s %.9g differs from its '
+                                  'result %.9g' % (client, score, recorded))
+    if aborted_reason is not None:
+        outcome, winner = ABORTED, 0
+    else:
+        verdict = decide(participants, recomputed,
+                         float(config['min_expressiveness']),
+                         float(config['tie_margin']),
+                         str(config['on_missing']))
+        outcome, winner = verdict.outcome, verdict.winner
+    check.outcome_recomputed, check.winner_recomputed = outcome, winner
+    if (outcome, winner) != (decision.outcome, decision.winner):
+        check.problems.append('decision %s/%d recorded, %s/%d recomputed'
+                              % (decision.outcome, decision.winner, outcome,
+                                 winner))
+    return check
+
+
+def check_recording(decisions, results, captured, config, aborted=None):
+    """Check every recorded decision.
+
+    ``results``: list of ClientResult; ``captured``: {client_id: [(stamp,
+    msg)]}; ``aborted``: {round: reason} from RoundStatus.
+    """
+    aborted = aborted or {}
+    by_round = {}
+    for r in results:
+        by_round.setdefault(r.round, {})[r.client_id] = r
+    for frames in captured.values():
+        frames.sort(key=lambda f: f[0])
+    return [check_round(d, by_round.get(d.round, {}), captured, config,
+                        aborted.get(d.round))
+            for d in sorted(decisions, key=lambda d: d.round)]
+
+
+def format_table(checks):
+    """A plain-text table of the checks."""
+    lines = ['round client   status   frames(rec/re)  value recorded   '
+             'recomputed       check']
+    for rc in checks:
+        for c in rc.clients:
+            lines.append('%5d %-8s %-8s %6d/%-6d  %15.9g  %15.9g  %s' % (
+                rc.round, c.client, c.status, c.frames, c.frames_recomputed,
+                c.value, c.value_recomputed,
+                'ok' if not c.problems else 'MISMATCH: ' + '; '.join(
+                    c.problems)))
+        lines.append('%5d decision: recorded %s%s, recomputed %s%s  %s' % (
+            rc.round, rc.outcome,
+            ' (participant %d)' % rc.winner if rc.winner else '',
+            rc.outcome_recomputed,
+            ' (participant %d)' % rc.winner_recomputed
+            if rc.winner_recomputed else '',
+            'ok' if not rc.problems else 'MISMATCH: ' + '; '.join(
+                rc.problems)))
+    return '\n'.join(lines)
