@@ -53,7 +53,7 @@ struct Geodesic {
 };
 /// Distances from the body cell nearest the centroid and up to max_extremities
 /// accumulative geodesic extrema at least min_length from the source.
-Geodesic geodesicExtremities(const PointGrid& g, const Segmentation& seg, int max_extremities = 6,
+Geodesic geodesicExtremities(const PointGrid& g, const Segmentation& seg, int max_extremities = 8,
                              double min_length = 0.3);
 /// Cells from cell back to the source along the shortest-path tree.
 std::vector<int> pathToSource(const Geodesic& geo, int cell);
@@ -63,7 +63,7 @@ struct BodyModel {
   double height = 1.70;
   double upper_arm = 0.30, forearm = 0.27, shoulder_width = 0.36, neck_drop = 0.03;
   double thigh = 0.42, shin = 0.42, hip_width = 0.20;
-  double torso_to_neck = 0.25, torso_to_hips = 0.22, head_top = 0.17;
+  double torso_to_neck = 0.25, torso_to_hips = 0.22, head_top = 0.15, head_to_neck = 0.12;
   bool calibrated = false;
   /// Proportions of a height (Drillis and Contini's segment table).
   static BodyModel fromHeight(double h);
@@ -92,6 +92,7 @@ struct SkeletonEstimate {
   std::array<float, NUM_JOINTS> confidence{};
   int user_cells = 0;
   int extremities = 0;
+  std::vector<Vec3> extremity_points;   ///< geodesic extrema found this frame
 };
 
 class DepthTracker {
@@ -122,6 +123,8 @@ class DepthTracker {
   std::array<Vec3, NUM_LABELS> tips_;
   std::array<int, NUM_LABELS> tip_age_{};
   Vec3 lateral_{1, 0, 0};
+  Vec3 facing_{1, 0, 0};        ///< smoothed lateral axis measured from the knees' bend
+  double torso_bias_ = 0;
   std::array<std::array<OneEuro, 3>, NUM_JOINTS> filters_;
 };
 

@@ -13,8 +13,10 @@ namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
-// Neighbouring points belong to one surface when their depths differ by less than this.
+// Neighbouring points belong to one object when their depths differ by less than this.
 double maxJump(double z) { return 0.05 + 0.02 * z; }
+// Geodesic paths cross only smaller steps, so a hand held in front of the body stays apart.
+double maxStep(double z) { return 0.05 + 0.02 * z; }
 
 Vec3 horizontal(const Vec3& v, const Vec3& up) { return v - up * v.dot(up); }
 
@@ -47,7 +49,7 @@ void relax(const PointGrid& g, const std::vector<uint8_t>& mask, std::vector<flo
       int j = ny * g.width + nx;
       if (!mask[j]) continue;
       const Vec3& r = g.points[j];
-      if (std::fabs(r.z - p.z) > maxJump(p.z)) continue;
+      if (std::fabs(r.z - p.z) > maxStep(p.z)) continue;
       float nd = d + static_cast<float>((r - p).norm());
       if (nd < (*dist)[j]) {
         (*dist)[j] = nd;
@@ -56,6 +58,19 @@ void relax(const PointGrid& g, const std::vector<uint8_t>& mask, std::vector<flo
       }
     }
   }
+}
+
+// The point of a limb's path (tip first) where both bones fit between root and end.
+Vec3 midJoint(const std::vector<Vec3>& path, const Vec3& root, const Vec3& end, double upper,
+              double lower, double* misfit) {
+  double best = 1e18;
+  Vec3 mid = (root + end) * 0.5;
+  for (const Vec3& p : path) {
+    double c = std::fabs((p - end).norm() - lower) + std::fabs((p - root).norm() - upper);
+    if (c < best) { best = c; mid = p; }
+  }
+  if (misfit) *misfit = best;
+  return mid;
 }
 
 }  // namespace
@@ -267,6 +282,7 @@ BodyModel BodyModel::fromHeight(double h) {
   m.torso_to_neck = 0.144 * h;
   m.torso_to_hips = 0.144 * h;
   m.head_top = 0.085 * h;
+  m.head_to_neck = 0.07 * h;
   return m;
 }
 
@@ -326,6 +342,8 @@ void DepthTracker::reset() {
   have_prev_ = false;
   tip_age_.fill(1 << 20);
   lateral_ = Vec3(1, 0, 0);
+  facing_ = Vec3(1, 0, 0);
+  torso_bias_ = 0;
   for (auto& f : filters_) f = {};
 }
 
@@ -354,68 +372,96 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
   int nt = 0;
   for (int i : seg.cells) if (geo.dist[i] < 0.22f) { trunk += g.points[i]; ++nt; }
   trunk = nt ? trunk * (1.0 / nt) : seg.centroid;
-  const Vec3 torso = behind(trunk, 0.09);
-  const Vec3 neck = torso + up * model_.torso_to_neck;
-  const Vec3 hipc = torso - up * model_.torso_to_hips;
+  // The centroid sits low (legs are long): a learnt offset along up corrects it.
+  Vec3 torso = behind(trunk, 0.09) + up * torso_bias_;
+  Vec3 neck = torso + up * model_.torso_to_neck;
+  Vec3 hipc = torso - up * model_.torso_to_hips;
 
-  // Label the extremities: nearest to last frame's joints when tracked, else by shape.
+  // Label the extremities (head, hands, feet) by the cheapest assignment that obeys
+  // the body's shape; extra extrema (knees, elbows) stay unlabelled. The cost adds
+  // the distance to the label's last position, while it is recent.
   std::vector<Vec3> ext;
   for (int c : geo.extremities) ext.push_back(g.points[c]);
+  out.extremity_points = ext;
   const int m = static_cast<int>(ext.size());
-  const Joint label_joint[NUM_LABELS] = {HEAD, L_HAND, R_HAND, L_FOOT, R_FOOT};
+  const double arm = model_.upper_arm + model_.forearm + 0.05;
+  auto label_cost = [&](int l, int k) -> double {  // < 0: impossible
+    const Vec3& e = ext[k];
+    const double rise = (e - torso).dot(up);
+    const double above_floor = floor_.found ? floor_.height(e) : e.y + 1.0;
+    double c = 0;
+    if (l == LB_HEAD) {
+      if (rise < 0.2) return -1;
+      c = horizontal(e - neck, up).norm();
+    } else if (l == LB_LFOOT || l == LB_RFOOT) {
+      if (above_floor > 0.45 || rise > -0.3) return -1;
+      c = 0.5 * above_floor;
+      double side = (e - hipc).dot(lateral_) * (l == LB_LFOOT ? 1 : -1);
+      c += side < -0.04 ? 0.3 : 0;
+    } else {
+      if ((e - neck).norm() > arm + 0.25 || above_floor < 0.25) return -1;
+      double side = (e - torso).dot(lateral_) * (l == LB_LHAND ? 1 : -1);
+      c += side < -0.04 ? 0.3 : 0;
+    }
+    if (have_prev_ && tip_age_[l] <= params_.hold_frames) {
+      double gate = 0.45 + 0.08 * tip_age_[l];
+      double d = (e - tips_[l]).norm();
+      if (d > gate) return -1;
+      c += d;
+    }
+    return c;
+  };
+  // Facing: knees bend forward. The lateral axis (right to left) follows it.
+  {
+    Vec3 bend_sum;
+    int legs = 0;
+    for (int k = 0; k < m; ++k) {
+      const double above_floor = floor_.found ? floor_.height(ext[k]) : ext[k].y + 1.0;
+      if (above_floor > 0.45 || (ext[k] - torso).dot(up) > -0.3) continue;
+      std::vector<Vec3> path;
+      for (int c : pathToSource(geo, geo.extremities[k])) path.push_back(g.points[c]);
+      Vec3 knee = midJoint(path, hipc, path.front(), model_.thigh, model_.shin, nullptr);
+      Vec3 axis = (path.front() - hipc).normalized();
+      Vec3 off = knee - hipc;
+      bend_sum += horizontal(off - axis * off.dot(axis), up);
+      ++legs;
+    }
+    if (legs > 0 && bend_sum.norm() > 0.04 * legs) {
+      facing_ = facing_ * 0.7 + bend_sum.normalized().cross(up) * 0.3;
+      if (facing_.norm() > 0.2) lateral_ = horizontal(facing_, up).normalized();
+    }
+  }
+  const double miss = 0.6;
   std::array<int, NUM_LABELS> assign;
   assign.fill(-1);
-  if (have_prev_) {
-    std::array<Vec3, NUM_LABELS> prior;
-    for (int l = 0; l < NUM_LABELS; ++l) prior[l] = tips_[l];
-    const double gate = 0.5;
+  {
+    std::vector<std::vector<double>> cost(NUM_LABELS, std::vector<double>(m));
+    for (int l = 0; l < NUM_LABELS; ++l)
+      for (int k = 0; k < m; ++k) cost[l][k] = label_cost(l, k);
     double best_cost = 1e18;
     std::array<int, NUM_LABELS> cur;
     std::vector<uint8_t> used(m, 0);
-    std::function<void(int, double)> search = [&](int l, double cost) {
-      if (cost >= best_cost) return;
-      if (l == NUM_LABELS) { best_cost = cost; assign = cur; return; }
-      cur[l] = -1;
-      search(l + 1, cost + gate);
+    std::function<void(int, double)> search = [&](int l, double c) {
+      if (c >= best_cost) return;
+      if (l == NUM_LABELS) { best_cost = c; assign = cur; return; }
       for (int k = 0; k < m; ++k) {
-        if (used[k]) continue;
-        double d = (ext[k] - prior[l]).norm();
-        double rise = (ext[k] - torso).dot(up);
-        if (d > gate || (l == LB_HEAD && rise < 0.25) || (l >= LB_LFOOT && rise > 0.1)) continue;
+        if (used[k] || cost[l][k] < 0) continue;
         used[k] = 1;
         cur[l] = k;
-        search(l + 1, cost + d);
+        search(l + 1, c + cost[l][k]);
         used[k] = 0;
       }
+      cur[l] = -1;
+      search(l + 1, c + miss);
     };
     search(0, 0.0);
-  } else {
-    std::vector<uint8_t> used(m, 0);
-    double best = 0.35;
-    for (int k = 0; k < m; ++k) {  // head: above the torso, nearest its vertical axis
-      Vec3 off = ext[k] - torso;
-      double side = horizontal(off, up).norm();
-      if (off.dot(up) > 0.3 && side < best) { best = side; assign[LB_HEAD] = k; }
-    }
-    if (assign[LB_HEAD] >= 0) used[assign[LB_HEAD]] = 1;
-    std::vector<int> low, rest;
-    for (int k = 0; k < m; ++k) {
-      if (used[k]) continue;
-      ((ext[k] - hipc).dot(up) < -0.2 ? low : rest).push_back(k);
-    }
-    auto by_side = [&](std::vector<int>& v, int left, int right) {
-      std::sort(v.begin(), v.end(), [&](int a, int b) { return (ext[a] - ext[b]).dot(lateral_) > 0; });
-      if (v.size() >= 2) { assign[left] = v[0]; assign[right] = v[1]; }
-      else if (v.size() == 1) assign[(ext[v[0]] - torso).dot(lateral_) > 0 ? left : right] = v[0];
-    };
-    std::sort(low.begin(), low.end(), [&](int a, int b) { return ext[a].dot(up) < ext[b].dot(up); });
-    if (low.size() > 2) { rest.insert(rest.end(), low.begin() + 2, low.end()); low.resize(2); }
-    if (rest.size() > 2) rest.resize(2);
-    by_side(low, LB_LFOOT, LB_RFOOT);
-    by_side(rest, LB_LHAND, LB_RHAND);
   }
 
   // Limb geometry from the geodesic paths of the labelled extremities.
+  auto at_reach = [](const std::vector<Vec3>& path, double reach) -> const Vec3* {
+    for (const Vec3& p : path) if ((p - path.front()).norm() >= reach) return &p;
+    return nullptr;
+  };
   std::array<std::vector<Vec3>, NUM_LABELS> paths;
   int found = 0;
   for (int l = 0; l < NUM_LABELS; ++l) {
@@ -425,23 +471,18 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
     tips_[l] = ext[assign[l]];
     for (int c : pathToSource(geo, geo.extremities[assign[l]])) paths[l].push_back(g.points[c]);
   }
-  // Lateral axis (right to left) from where the limbs meet the trunk.
-  auto at_reach = [](const std::vector<Vec3>& path, double reach) -> const Vec3* {
-    for (const Vec3& p : path) if ((p - path.front()).norm() >= reach) return &p;
-    return nullptr;
-  };
-  Vec3 lat_meas;
-  const Vec3* hl = paths[LB_LFOOT].empty() ? nullptr : at_reach(paths[LB_LFOOT], model_.thigh + model_.shin + 0.05);
-  const Vec3* hr = paths[LB_RFOOT].empty() ? nullptr : at_reach(paths[LB_RFOOT], model_.thigh + model_.shin + 0.05);
-  if (hl && hr) lat_meas += horizontal(*hl - *hr, up);
-  const Vec3* sl = paths[LB_LHAND].empty() ? nullptr : at_reach(paths[LB_LHAND], model_.upper_arm + model_.forearm + 0.05);
-  const Vec3* sr = paths[LB_RHAND].empty() ? nullptr : at_reach(paths[LB_RHAND], model_.upper_arm + model_.forearm + 0.05);
-  if (sl && sr) lat_meas += horizontal(*sl - *sr, up) * 0.5;
-  if (lat_meas.norm() > 0.05) {
-    Vec3 meas = lat_meas.normalized();
-    if (meas.dot(lateral_) > -0.3) lateral_ = horizontal(lateral_ * 0.6 + meas * 0.4, up).normalized();
+  // Torso and neck down the head's path, when the head is seen.
+  if (!paths[LB_HEAD].empty()) {
+    const Vec3* pn = at_reach(paths[LB_HEAD], model_.head_top + model_.head_to_neck);
+    const Vec3* pt = at_reach(paths[LB_HEAD], model_.head_top + model_.head_to_neck + model_.torso_to_neck);
+    if (pn && pt) {
+      Vec3 t_new = behind(*pt, 0.09);
+      torso_bias_ += 0.2 * (t_new - torso).dot(up);
+      torso = t_new;
+      neck = behind(*pn, 0.06);
+      hipc = torso - up * model_.torso_to_hips;
+    }
   }
-
   Joints j;
   std::array<float, NUM_JOINTS> conf;
   conf.fill(0.5f);
@@ -472,12 +513,8 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
     if (!path.empty()) {
       const Vec3* endp = at_reach(path, 0.05);
       Vec3 end = endp ? *endp : path.front();
-      double best = 1e18;
-      Vec3 mid = (root + end) * 0.5;
-      for (const Vec3& p : path) {
-        double c = std::fabs((p - end).norm() - lb.lower) + std::fabs((p - root).norm() - lb.upper);
-        if (c < best) { best = c; mid = p; }
-      }
+      double best;
+      Vec3 mid = midJoint(path, root, end, lb.upper, lb.lower, &best);
       j[lb.end] = behind(end, lb.r_end);
       j[lb.mid] = behind(mid, lb.r_mid);
       conf[lb.end] = 0.9f;

@@ -2,7 +2,8 @@
 // runs the depth tracker on every frame and prints one JSON object with the
 // error against the motion's true joints, the tracked share and the speed.
 //   tracker_eval --track FILE.track [--res 320x240] [--seconds S] [--background 0|1]
-//                [--noise SIGMA] [--direct]
+//                [--noise SIGMA] [--direct] [--dump FILE]
+// --dump writes per frame: index, tracked, 15 estimated and 15 true joints, extremity count.
 // --direct renders in-process instead of through OpenNI (same renderer).
 #include <OpenNI.h>
 
@@ -33,7 +34,18 @@ double pct(std::vector<double> v, double q) {
   return v[std::min(v.size() - 1, static_cast<size_t>(q * v.size()))];
 }
 
+FILE* g_dump = nullptr;
+int g_snapshot = -1;
+
 void account(Stats* s, const SkeletonEstimate& est, const Joints& truth) {
+  if (g_dump) {
+    std::fprintf(g_dump, "%d %d", s->frames, est.tracked ? 1 : 0);
+    for (const Vec3& p : est.joints) std::fprintf(g_dump, " %.4f %.4f %.4f", p.x, p.y, p.z);
+    for (const Vec3& p : truth) std::fprintf(g_dump, " %.4f %.4f %.4f", p.x, p.y, p.z);
+    std::fprintf(g_dump, " %d", est.extremities);
+    for (const Vec3& p : est.extremity_points) std::fprintf(g_dump, " %.4f %.4f %.4f", p.x, p.y, p.z);
+    std::fprintf(g_dump, "\n");
+  }
   ++s->frames;
   if (!est.tracked) return;
   ++s->tracked;
@@ -58,6 +70,8 @@ int main(int argc, char** argv) {
     else if (a == "--noise") noise = std::stod(next());
     else if (a == "--background") background = next() != "0";
     else if (a == "--direct") direct = true;
+    else if (a == "--snapshot") g_snapshot = std::stoi(next());
+    else if (a == "--dump") g_dump = std::fopen(next().c_str(), "w");
     else { std::fprintf(stderr, "tracker_eval: unknown argument %s\n", a.c_str()); return 2; }
   }
   if (track_path.empty()) { std::fprintf(stderr, "usage: tracker_eval --track FILE.track [...]\n"); return 2; }
@@ -88,6 +102,11 @@ int main(int argc, char** argv) {
       Joints truth = track.at(t);
       ro.seed = n + 1;
       renderDepth(truth, cam, ro, &depth);
+      if (n == g_snapshot) {
+        FILE* f = std::fopen("/tmp/tracker_snapshot.raw", "wb");
+        std::fwrite(depth.data(), 2, depth.size(), f);
+        std::fclose(f);
+      }
       auto c0 = Clock::now();
       SkeletonEstimate est = tracker.update(depth.data(), t);
       st.cpu += std::chrono::duration<double>(Clock::now() - c0).count();
