@@ -6,12 +6,12 @@ clamps the command to the velocity limits, reaches it no faster than the
 acceleration limits allow, and integrates the wheels' motion into a pose.
 ``nodes/kobuki_sim`` steps it at 50 Hz and publishes the odometry.
 
-It also counts how often a command was NOT followed exactly (clamped to a
-velocity limit, or slewed by the acceleration limit beyond a small
-tolerance: more than twice one step's change, since a commander that
-publishes at the same rate with some jitter may land two of its own
-steps in one of ours), so a test can tell a compliant commander from a
-base that merely hides a bad one.
+It also counts how often a command was NOT followed (clamped to a
+velocity limit, or more than two nominal steps' worth of acceleration
+away from the current velocity: a commander within the limits that
+publishes at the same rate with some jitter may land two of its steps in
+one of ours, but never more), so a test can tell a compliant commander
+from a base that merely hides a bad one.
 """
 import math
 from dataclasses import dataclass
@@ -54,7 +54,7 @@ class KobukiBase:
         self.wheel_radius = wheel_radius
         self.timeout = timeout
         self.max_step = 1.0 / rate
-        self.accel_tolerance = accel_tolerance
+        self.slack = 2.0 * (1.0 + accel_tolerance) / rate   # s of accel
         self.state = BaseState(stamp=start)
         self.command_value = Twist()
         self.command_stamp = None
@@ -101,9 +101,10 @@ class KobukiBase:
     def _substep(self, dt):
         s = self.state
         goal = self.target(s.stamp + dt)
-        lin = self._slew(s.linear, goal.linear, self.limits.linear_accel * dt)
+        lin = self._slew(s.linear, goal.linear, self.limits.linear_accel,
+                         dt)
         ang = self._slew(s.angular, goal.angular,
-                         self.limits.angular_accel * dt)
+                         self.limits.angular_accel, dt)
         # Wheel surface speeds, averaged over the step (trapezoid).
         half = self.wheelbase / 2.0
         v = (s.linear + lin) / 2.0
@@ -126,8 +127,8 @@ class KobukiBase:
         s.linear, s.angular = lin, ang
         s.stamp += dt
 
-    def _slew(self, current, goal, max_change):
+    def _slew(self, current, goal, max_accel, dt):
         change = goal - current
-        if abs(change) > 2.0 * max_change * (1.0 + self.accel_tolerance):
+        if abs(change) > max_accel * self.slack:
             self.accel_limited += 1
-        return current + max(-max_change, min(max_change, change))
+        return current + max(-max_accel * dt, min(max_accel * dt, change))

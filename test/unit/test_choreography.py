@@ -133,21 +133,33 @@ def test_brake_within_limits_to_zero():
 
 def drive(base, motion, t_start, t_end, rate=50.0, phase=0.0073,
           jitter=0.004):
-    """Feed ``motion.twist`` to ``base`` like a 50 Hz node whose timer
-    wakes late by up to ``jitter``; the base steps on its own 50 Hz grid."""
-    cmd_t = t_start + phase
-    sim_t = base.state.stamp
-    states = []
+    """Feed ``motion.twist`` to ``base`` like the nodes do: a 50 Hz
+    commander whose timer wakes late by up to ``jitter``, the base stepped
+    to each command's arrival and on its own 50 Hz grid."""
+    period = 1.0 / rate
+    arrivals = []
     k = 0
-    while sim_t < t_end:
-        sim_t += 1.0 / rate
-        while cmd_t <= sim_t:
-            late = jitter * ((k * 7919) % 11) / 10.0
-            tw = motion.twist(cmd_t + late - t_start)
-            base.command(tw.linear, tw.angular, cmd_t + late)
-            cmd_t += 1.0 / rate
-            k += 1
-        states.append(base.step(sim_t).__dict__.copy())
+    while t_start + phase + k * period < t_end:
+        t = t_start + phase + k * period
+        arrivals.append(t + jitter * ((k * 7919) % 11) / 10.0)
+        k += 1
+    ticks = []
+    t = base.state.stamp
+    while t < t_end:
+        t += period
+        ticks.append(t)
+    events = sorted([(t, 'cmd') for t in arrivals]
+                    + [(t, 'tick') for t in ticks])
+    states = []
+    for t, kind in events:
+        if t < base.state.stamp:
+            continue
+        base.step(t)
+        if kind == 'cmd':
+            tw = motion.twist(t - t_start)
+            base.command(tw.linear, tw.angular, t)
+        else:
+            states.append(base.state.__dict__.copy())
     return states
 
 

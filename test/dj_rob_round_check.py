@@ -1,0 +1,244 @@
+#!/usr/bin/python3
+"""Checks one DJ Rob round (issue 4) from outside the robot and the music.
+
+Publishes the participants' constant samples (~a_value, ~b_value) so the
+expected participant wins, records what goes on the wire with this
+process's (unfaked) clock, and after the round checks:
+- the decision is ~expect (participant1, participant2 or no_winner);
+- the first dance command arrives, and the music's start (its own raw
+  host-clock reading) falls, within 10 ms of the scheduled start in true
+  time (the time server serves this host's clock, so global = true);
+- a winner: the robot's final odometry heading points at the winner's
+  bearing within 10 degrees, LEDs and sound were used;
+  no_winner: no motion, LED or sound after the window;
+- the commands and the odometry stay within the Kobuki limits over the
+  whole round, every stop ends with an explicit zero, and the base never
+  had to clamp, slew or time out a command.
+"""
+import math
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
+
+from hri_sync.msg import (ActionStart, CaptureData, Decision, Led, Sample,
+                          Sound)
+
+LIMITS = {'linear': 0.7, 'angular': math.pi, 'linear_accel': 0.5,
+          'angular_accel': 3.5}
+START_TOLERANCE = 0.010      # s, the issue's bound
+HEADING_TOLERANCE = 10.0     # deg
+
+
+def yaw_of(q):
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y),
+                      1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def wrap_deg(a):
+    return (a + 180.0) % 360.0 - 180.0
+
+
+class DjRobRound(unittest.TestCase):
+    """One round, observed end to end."""
+
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('dj_rob_check')
+        cls.expect = rospy.get_param('~expect')
+        cls.bearings = rospy.get_param('~participant_bearings')
+        cls.lock = threading.Lock()
+        cls.cmds, cls.odom, cls.starts, cls.leds, cls.sounds = \
+            [], [], [], [], []
+        cls.capture = cls.decision = None
+        cls.diag = {}
+        sub = rospy.Subscriber
+        sub('/mobile_base/commands/velocity', Twist, cls.rec,
+            ('cmds', lambda m: (m.linear.x, m.angular.z)), tcp_nodelay=True,
+            queue_size=1000)
+        sub('/odom', Odometry, cls.rec, ('odom', lambda m: (
+            m.header.stamp.to_sec(), m.pose.pose.position.x,
+            m.pose.pose.position.y, yaw_of(m.pose.pose.orientation),
+            m.twist.twist.linear.x, m.twist.twist.angular.z)),
+            queue_size=1000)
+        for topic in ('/dj_rob/action_start', '/music/action_start'):
+            sub(topic, ActionStart, cls.rec, ('starts', lambda m: m))
+        for topic in ('/mobile_base/commands/led1',
+                      '/mobile_base/commands/led2'):
+            sub(topic, Led, cls.rec, ('leds', lambda m: m.value))
+        sub('/mobile_base/commands/sound', Sound, cls.rec,
+            ('sounds', lambda m: m.value))
+        sub('/capture_data', CaptureData, cls.on_capture)
+        sub('/decision', Decision, cls.on_decision)
+        sub('/diagnostics', DiagnosticArray, cls.on_diag)
+        threading.Thread(target=cls.publish_samples, daemon=True).start()
+        cls.wait_round()
+
+    @classmethod
+    def rec(cls, msg, args):
+        key, conv = args
+        with cls.lock:
+            getattr(cls, key).append((time.time(), conv(msg)))
+
+    @classmethod
+    def on_capture(cls, msg):
+        cls.capture = msg
+
+    @classmethod
+    def on_decision(cls, msg):
+        cls.decision = (time.time(), msg)
+
+    @classmethod
+    def on_diag(cls, msg):
+        for s in msg.status:
+            if s.hardware_id == 'kobuki_sim':
+                cls.diag = {kv.key: kv.value for kv in s.values}
+
+    @classmethod
+    def publish_samples(cls):
+        pubs = {c: rospy.Publisher('~%s_samples' % c, Sample, queue_size=10)
+                for c in ('a', 'b')}
+        values = {c: float(rospy.get_param('~%s_value' % c))
+                  for c in ('a', 'b')}
+        index = 0
+        rate = rospy.Rate(50)
+        while not rospy.is_shutdown():
+            for c, pub in pubs.items():
+                msg = Sample(index=index, value=values[c])
+                msg.header.stamp = rospy.Time.now()
+                pub.publish(msg)
+            index += 1
+            rate.sleep()
+
+    @classmethod
+    def wait_round(cls):
+        deadline = time.time() + 90.0
+        while cls.decision is None and time.time() < deadline:
+            time.sleep(0.1)
+        if cls.decision is None:
+            return
+        # The gesture takes about 6 s; wait until the base rests for 2 s.
+        end = time.time() + 20.0
+        while time.time() < end:
+            time.sleep(0.5)
+            with cls.lock:
+                recent = [o for t, o in cls.odom if t > time.time() - 2.0]
+                moving = any(abs(o[4]) > 1e-6 or abs(o[5]) > 1e-6
+                             for o in recent)
+                last_cmd = cls.cmds[-1][0] if cls.cmds else 0.0
+            if recent and not moving and time.time() - last_cmd > 2.0:
+                break
+        time.sleep(1.5)                    # one more diagnostics period
+
+    def window(self):
+        self.assertIsNotNone(self.capture, 'no capture_data seen')
+        start = self.capture.cr_t.to_sec() + self.capture.str_aft
+        return start, start + self.capture.dur
+
+    def test_1_decision(self):
+        self.assertIsNotNone(self.decision, 'no decision within 90 s')
+        d = self.decision[1]
+        self.assertIn('dj_rob', self.capture.clients)
+        self.assertIn('music', self.capture.clients)
+        if self.expect == 'no_winner':
+            self.assertEqual(d.outcome, Decision.NO_WINNER, d.reason)
+        else:
+            self.assertEqual(d.outcome, Decision.WINNER, d.reason)
+            self.assertEqual(d.winner, int(self.expect[-1]), d.reason)
+
+    def test_2_starts_on_time(self):
+        start, _ = self.window()
+        with self.lock:
+            cmds = [(t, c) for t, c in self.cmds if t > start - 2.0]
+            starts = {m.action: m for _, m in self.starts}
+        self.assertTrue(cmds, 'no velocity command around the window')
+        first = cmds[0][0] - start
+        rospy.loginfo('first dance command received %+.2f ms from the '
+                      'scheduled start (true time)', first * 1e3)
+        self.assertLess(abs(first), START_TOLERANCE)
+        for action in (ActionStart.DANCE, ActionStart.MUSIC):
+            self.assertIn(action, starts, 'no %s action_start' % action)
+            m = starts[action]
+            self.assertAlmostEqual(m.scheduled.to_sec(), start, places=6)
+            true_offset = m.host_time.to_sec() - start
+            rospy.loginfo('%s started %+.2f ms from the schedule in true '
+                          'time (%+.2f ms by its own clock)', action,
+                          true_offset * 1e3, m.offset * 1e3)
+            self.assertLess(abs(true_offset), START_TOLERANCE, action)
+            self.assertLess(abs(m.offset), START_TOLERANCE, action)
+
+    def test_3_outcome_motion(self):
+        _, end = self.window()
+        with self.lock:
+            odom = [o for _, o in self.odom]
+            after = [o for t, o in self.odom if t > end + 0.1]
+            cmds_after = [c for t, c in self.cmds if t > end + 0.1]
+            leds = [v for t, v in self.leds if t > end]
+            sounds = [v for t, v in self.sounds if t > end]
+        self.assertTrue(odom and after, 'no odometry after the window')
+        final = odom[-1]
+        if self.expect == 'no_winner':
+            self.assertTrue(all(c == (0.0, 0.0) for c in cmds_after),
+                            'moved after a no_winner round')
+            ref = after[0]
+            for o in after:
+                self.assertLess(math.hypot(o[1] - ref[1], o[2] - ref[2]),
+                                1e-4)
+                self.assertLess(abs(wrap_deg(math.degrees(o[3] - ref[3]))),
+                                0.05)
+            self.assertEqual(leds, [])
+            self.assertEqual(sounds, [])
+            return
+        bearing = self.bearings[int(self.expect[-1]) - 1]
+        heading = math.degrees(final[3])
+        rospy.loginfo('final heading %.2f deg, winner at %.1f deg; '
+                      'position (%.3f, %.3f) m', heading, bearing, final[1],
+                      final[2])
+        self.assertLess(abs(wrap_deg(heading - bearing)), HEADING_TOLERANCE)
+        self.assertLess(math.hypot(final[1], final[2]), 0.05)
+        approach = max(math.hypot(o[1], o[2]) for o in after)
+        self.assertGreater(approach, 0.2, 'no approach toward the winner')
+        self.assertIn(Led.GREEN, leds)
+        self.assertEqual(leds[-1], Led.BLACK)
+        self.assertIn(Sound.CLEANINGEND, sounds)
+
+    def test_4_limits(self):
+        with self.lock:
+            cmds = list(self.cmds)
+            odom = [o for _, o in self.odom]
+        self.assertGreater(len(cmds), 100)
+        for (t0, a), (t1, b) in zip(cmds, cmds[1:]):
+            self.assertLessEqual(abs(b[0]), LIMITS['linear'])
+            self.assertLessEqual(abs(b[1]), LIMITS['angular'])
+            # arrival times jitter: allow one 10 ms extra per step
+            dt = t1 - t0 + 0.010
+            self.assertLessEqual(abs(b[0] - a[0]) / dt,
+                                 LIMITS['linear_accel'], (t1, a, b))
+            self.assertLessEqual(abs(b[1] - a[1]) / dt,
+                                 LIMITS['angular_accel'], (t1, a, b))
+        self.assertEqual(cmds[-1][1], (0.0, 0.0), 'no explicit zero at the '
+                         'end')
+        peak_w = max(abs(o[5]) for o in odom)
+        self.assertGreater(peak_w, 0.3, 'the robot never turned')
+        for a, b in zip(odom, odom[1:]):
+            dt = b[0] - a[0]
+            self.assertLessEqual(abs(b[4]), LIMITS['linear'] + 1e-9)
+            self.assertLessEqual(abs(b[5]), LIMITS['angular'] + 1e-9)
+            if dt > 0:
+                self.assertLessEqual(abs(b[4] - a[4]) / dt,
+                                     LIMITS['linear_accel'] * 1.001)
+                self.assertLessEqual(abs(b[5] - a[5]) / dt,
+                                     LIMITS['angular_accel'] * 1.001)
+        self.assertTrue(self.diag, 'no diagnostics from kobuki_sim')
+        for key in ('velocity_clamped', 'accel_limited', 'timeouts',
+                    'refused'):
+            self.assertEqual(self.diag[key], '0', '%s: %s' % (key, self.diag))
+
+
+if __name__ == '__main__':
+    rostest.rosrun('hri_sync', 'dj_rob_round', DjRobRound)
