@@ -41,7 +41,8 @@ include_directories(include ${catkin_INCLUDE_DIRS} ${OPENNI2_INCLUDE_DIR})
 add_library(hri_sync_tracker_core STATIC
   src/tracker/body.cpp
   src/tracker/render.cpp
-  src/tracker/depth_tracker.cpp)
+  src/tracker/depth_tracker.cpp
+  src/tracker/clock_map.cpp)
 set_target_properties(hri_sync_tracker_core PROPERTIES POSITION_INDEPENDENT_CODE ON)
 
 # The virtual Kinect driver, built straight into the private Drivers folder.
@@ -67,7 +68,14 @@ hri_sync_openni2_program(oni_info src/virtual_kinect/oni_info.cpp)
 hri_sync_openni2_program(tracker_eval src/tracker/tracker_eval.cpp)
 target_link_libraries(tracker_eval hri_sync_tracker_core)
 
-install(TARGETS record_oni oni_info tracker_eval
+# The ROS node.
+hri_sync_openni2_program(skeleton_tracker
+  src/tracker/skeleton_tracker_node.cpp
+  src/tracker/nite_backend.cpp)
+target_link_libraries(skeleton_tracker hri_sync_tracker_core ${catkin_LIBRARIES} ${CMAKE_DL_LIBS})
+add_dependencies(skeleton_tracker ${${PROJECT_NAME}_EXPORTED_TARGETS} ${catkin_EXPORTED_TARGETS})
+
+install(TARGETS skeleton_tracker record_oni oni_info tracker_eval
   RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 install(TARGETS VirtualKinect
   LIBRARY DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION}/openni2/OpenNI2/Drivers)

@@ -1,0 +1,376 @@
+// skeleton_tracker: OpenNI2 depth sensor or .oni recording in, global-time
+// 15-joint hri_sync/Skeleton out on /<client_id>/skeleton, status on /diagnostics.
+//
+// ~device      "" (first connected sensor), a URI (virtual://FILE.track?...), or FILE.oni
+// ~backend     depth (default, the open tracker) or nite (libNiTE2.so at run time)
+// ~client_id   the client whose clock (/<client_id>/clock_state) stamps the skeletons
+// ~frame_id    header.frame_id (the sensor frame, OpenNI axes)
+// ~loop        replay an .oni recording when it ends (default false)
+// ~frame_timeout  s without frames before the sensor is reported lost (1.0)
+// ~reopen_period  s between attempts to reopen a lost or unopenable device (3.0)
+#include <OpenNI.h>
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <hri_sync/ClockState.h>
+#include <hri_sync/Skeleton.h>
+#include <ros/ros.h>
+
+#include <atomic>
+#include <cmath>
+#include <deque>
+#include <fstream>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <string>
+
+#include "hri_sync/clock_map.h"
+#include "hri_sync/depth_tracker.h"
+#include "hri_sync/nite_backend.h"
+
+namespace hri_sync {
+namespace {
+
+double hostNow() { return ros::WallTime::now().toSec(); }  // CLOCK_REALTIME, the CPM's local clock
+
+std::string fmt(double v, int prec = 3) {
+  std::ostringstream ss;
+  ss.setf(std::ios::fixed);
+  ss.precision(prec);
+  ss << v;
+  return ss.str();
+}
+
+class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
+ public:
+  TrackerNode() : pnh_("~") {
+    pnh_.param<std::string>("device", device_uri_, "");
+    pnh_.param<std::string>("backend", backend_name_, "depth");
+    pnh_.param<std::string>("client_id", client_id_, "tracker");
+    pnh_.param<std::string>("frame_id", frame_id_, "openni_depth_frame");
+    pnh_.param("loop", loop_, false);
+    pnh_.param("frame_timeout", frame_timeout_, 1.0);
+    pnh_.param("reopen_period", reopen_period_, 3.0);
+    is_file_ = device_uri_.size() > 4 && device_uri_.compare(device_uri_.size() - 4, 4, ".oni") == 0;
+    skeleton_pub_ = nh_.advertise<hri_sync::Skeleton>("/" + client_id_ + "/skeleton", 30);
+    diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
+    clock_sub_ = nh_.subscribe("/" + client_id_ + "/clock_state", 1, &TrackerNode::onClock, this);
+    diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0), &TrackerNode::publishDiagnostics, this);
+    if (backend_name_ != "depth" && backend_name_ != "nite") {
+      setError("unknown ~backend '" + backend_name_ + "' (use depth or nite)");
+      fatal_ = true;
+    }
+  }
+
+  ~TrackerNode() override { closeDevice(); }
+
+  void onDeviceDisconnected(const openni::DeviceInfo* info) override {
+    if (device_ && device_->isValid() && info && device_->getDeviceInfo().getUri() == std::string(info->getUri())) {
+      lost_ = true;
+    }
+  }
+
+  void run() {
+    double last_attempt = -1e9;
+    while (ros::ok()) {
+      if (fatal_) { ros::WallDuration(0.2).sleep(); continue; }
+      if (!depth_) {
+        if (hostNow() - last_attempt < reopen_period_) { ros::WallDuration(0.05).sleep(); continue; }
+        last_attempt = hostNow();
+        openDevice();
+        continue;
+      }
+      openni::VideoStream* streams[] = {depth_.get()};
+      int ready = -1;
+      openni::Status st = openni::OpenNI::waitForAnyStream(streams, 1, &ready, 200);
+      const double now = hostNow();
+      if (st != openni::STATUS_OK) {
+        std::lock_guard<std::mutex> lock(mu_);
+        double silent = now - (last_frame_host_ > 0 ? last_frame_host_ : opened_host_);
+        if (ended()) {
+          state_ = "end of recording";
+        } else if (lost_ || silent > frame_timeout_) {
+          setErrorLocked(std::string(lost_ ? "sensor disconnected" : "no depth frames") + " for " + fmt(silent, 1) +
+                         " s: nothing published meanwhile (the gap shows in the stamps)");
+          if (!is_file_ && silent > reopen_period_) {
+            ROS_ERROR_STREAM("skeleton_tracker: " << error_ << "; reopening " << uriLabel());
+            closeDeviceLocked();
+          }
+        }
+        continue;
+      }
+      handleFrame(now);
+    }
+  }
+
+ private:
+  std::string uriLabel() const { return device_uri_.empty() ? "the first connected sensor" : "'" + device_uri_ + "'"; }
+
+  bool ended() const {
+    return is_file_ && !loop_ && total_frames_ > 0 && last_index_ >= total_frames_;
+  }
+
+  void onClock(const hri_sync::ClockState::ConstPtr& msg) {
+    std::lock_guard<std::mutex> lock(mu_);
+    GlobalClockModel c;
+    c.ok = msg->ok && std::isfinite(msg->offset) && std::isfinite(msg->drift) && std::isfinite(msg->local_ref);
+    c.reason = msg->ok ? (c.ok ? "" : "clock_state has non-finite values") : "CPM reports: " + msg->reason;
+    c.local_ref = msg->local_ref;
+    c.offset = msg->offset;
+    c.drift = msg->drift;
+    c.uncertainty = msg->uncertainty;
+    clock_ = c;
+  }
+
+  void setError(const std::string& e) { std::lock_guard<std::mutex> lock(mu_); setErrorLocked(e); }
+  /// Logs an error once per kind (the text before any " for "); diagnostics carry the details.
+  void setErrorLocked(const std::string& e) {
+    std::string kind = e.substr(0, e.find(" for "));
+    if (kind != error_kind_) ROS_ERROR_STREAM("skeleton_tracker: " << e);
+    error_kind_ = kind;
+    error_ = e;
+  }
+
+  void openDevice() {
+    auto dev = std::make_unique<openni::Device>();
+    const char* uri = device_uri_.empty() ? openni::ANY_DEVICE : device_uri_.c_str();
+    if (dev->open(uri) != openni::STATUS_OK) {
+      std::string why = openni::OpenNI::getExtendedError();
+      if (is_file_) why = std::ifstream(device_uri_).good() ? "not a readable .oni recording (corrupt?) " + why : "no such file";
+      setError("cannot open " + uriLabel() + ": " + why);
+      return;
+    }
+    auto depth = std::make_unique<openni::VideoStream>();
+    if (depth->create(*dev, openni::SENSOR_DEPTH) != openni::STATUS_OK) {
+      setError(uriLabel() + " has no depth stream: " + openni::OpenNI::getExtendedError());
+      dev->close();
+      return;
+    }
+    int total = 0;
+    if (dev->isFile()) {
+      openni::PlaybackControl* pb = dev->getPlaybackControl();
+      pb->setRepeatEnabled(loop_);
+      pb->setSpeed(1.0f);
+      total = pb->getNumberOfFrames(*depth);
+      if (total <= 0) {
+        setError("recording " + uriLabel() + " holds no depth frames (corrupt .oni?)");
+        depth->destroy();
+        dev->close();
+        return;
+      }
+    }
+    openni::VideoMode mode = depth->getVideoMode();
+    Camera cam;
+    cam.width = mode.getResolutionX();
+    cam.height = mode.getResolutionY();
+    cam.hfov = depth->getHorizontalFieldOfView();
+    cam.vfov = depth->getVerticalFieldOfView();
+    if (mode.getPixelFormat() != openni::PIXEL_FORMAT_DEPTH_1_MM || cam.width <= 0 || !(cam.hfov > 0.1)) {
+      setError(uriLabel() + ": unsupported depth mode (need 1 mm depth with a field of view)");
+      depth->destroy();
+      dev->close();
+      return;
+    }
+    std::unique_ptr<NiteBackend> nite;
+    if (backend_name_ == "nite") {
+      try {
+        nite = std::make_unique<NiteBackend>(dev.get());
+      } catch (const std::exception& e) {
+        setError(e.what());
+        fatal_ = true;
+        depth->destroy();
+        dev->close();
+        return;
+      }
+    } else if (depth->start() != openni::STATUS_OK) {
+      setError("cannot start depth on " + uriLabel() + ": " + openni::OpenNI::getExtendedError());
+      depth->destroy();
+      dev->close();
+      return;
+    }
+    std::lock_guard<std::mutex> lock(mu_);
+    device_ = std::move(dev);
+    depth_ = std::move(depth);
+    nite_ = std::move(nite);
+    tracker_ = std::make_unique<DepthTracker>(cam);
+    mapper_.reset();
+    lost_ = false;
+    total_frames_ = total;
+    last_index_ = 0;
+    last_frame_host_ = 0;
+    opened_host_ = hostNow();
+    resolution_ = std::to_string(cam.width) + "x" + std::to_string(cam.height);
+    state_ = "opened";
+    error_.clear();
+    error_kind_.clear();
+    ROS_INFO_STREAM("skeleton_tracker: " << client_id_ << " reads " << uriLabel() << " (" << resolution_
+                    << ", backend " << backend_name_ << ")");
+  }
+
+  void closeDevice() { std::lock_guard<std::mutex> lock(mu_); closeDeviceLocked(); }
+  void closeDeviceLocked() {
+    nite_.reset();
+    if (depth_) { depth_->stop(); depth_->destroy(); depth_.reset(); }
+    if (device_) { device_->close(); device_.reset(); }
+    tracker_.reset();
+  }
+
+  void handleFrame(double host) {
+    SkeletonEstimate est;
+    unsigned long long device_us = 0;
+    int index = 0;
+    if (nite_) {
+      try {
+        est = nite_->read(&device_us, &index);
+      } catch (const std::exception& e) {
+        setError(e.what());
+        return;
+      }
+    } else {
+      openni::VideoFrameRef f;
+      if (depth_->readFrame(&f) != openni::STATUS_OK || !f.isValid()) {
+        setError("readFrame failed: " + std::string(openni::OpenNI::getExtendedError()));
+        return;
+      }
+      device_us = f.getTimestamp();
+      index = f.getFrameIndex();
+      est = tracker_->update(static_cast<const uint16_t*>(f.getData()), device_us * 1e-6);
+    }
+    const double device_s = device_us * 1e-6;
+    std::lock_guard<std::mutex> lock(mu_);
+    ++frames_;
+    if (!error_.empty()) {
+      ROS_INFO_STREAM("skeleton_tracker: frames again from " << uriLabel());
+      error_.clear();
+      error_kind_.clear();
+    }
+    if (last_index_ > 0 && index > last_index_ + 1) dropped_ += index - last_index_ - 1;
+    if (!mapper_.add(device_s, host)) {
+      ++clock_restarts_;
+      if (tracker_) tracker_->reset();
+      ROS_WARN_STREAM("skeleton_tracker: device clock jumped (recording looped or sensor reset); "
+                      "re-estimating the device clock");
+    }
+    last_index_ = index;
+    last_frame_host_ = host;
+    fps_window_.push_back(device_s);
+    while (fps_window_.size() > 1 && fps_window_.back() - fps_window_.front() > 2.0) fps_window_.pop_front();
+    state_ = est.state;
+    tracked_ += est.tracked;
+    if (!est.tracked) return;
+    if (!clock_.ok) { ++withheld_; return; }
+    if (!mapper_.ready()) { ++withheld_; return; }
+
+    hri_sync::Skeleton msg;
+    const double global = clock_.toGlobal(mapper_.toHost(device_s));
+    msg.header.stamp.fromSec(global);
+    msg.header.frame_id = frame_id_;
+    msg.client_id = client_id_;
+    msg.user_id = 1;
+    msg.device_stamp.fromSec(device_s);
+    for (int k = 0; k < NUM_JOINTS; ++k) {
+      msg.positions[k].x = est.joints[k].x;
+      msg.positions[k].y = est.joints[k].y;
+      msg.positions[k].z = est.joints[k].z;
+      msg.orientations[k].w = 1.0;  // the depth backend estimates positions only
+      msg.confidence[k] = est.confidence[k];
+    }
+    skeleton_pub_.publish(msg);
+    ++published_;
+  }
+
+  void publishDiagnostics(const ros::WallTimerEvent&) {
+    diagnostic_msgs::DiagnosticArray arr;
+    arr.header.stamp = ros::Time::now();
+    diagnostic_msgs::DiagnosticStatus s;
+    s.name = "skeleton_tracker: " + client_id_;
+    s.hardware_id = device_uri_.empty() ? "openni:any" : device_uri_;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      double fps = fps_window_.size() > 1 ? (fps_window_.size() - 1) / (fps_window_.back() - fps_window_.front()) : 0.0;
+      if (depth_ && last_frame_host_ > 0 && hostNow() - last_frame_host_ > frame_timeout_) fps = 0.0;
+      if (!error_.empty()) {
+        s.level = diagnostic_msgs::DiagnosticStatus::ERROR;
+        s.message = error_;
+      } else if (!clock_.ok) {
+        s.level = diagnostic_msgs::DiagnosticStatus::WARN;
+        s.message = "not publishing: no valid global clock (" + clock_.reason + ") on /" + client_id_ + "/clock_state";
+      } else if (!depth_) {
+        s.level = diagnostic_msgs::DiagnosticStatus::WARN;
+        s.message = "opening " + uriLabel();
+      } else if (state_ != "tracking") {
+        s.level = diagnostic_msgs::DiagnosticStatus::WARN;
+        s.message = "not tracking: " + state_;
+      } else {
+        s.level = diagnostic_msgs::DiagnosticStatus::OK;
+        s.message = "tracking";
+      }
+      auto kv = [&s](const std::string& k, const std::string& v) {
+        diagnostic_msgs::KeyValue p;
+        p.key = k;
+        p.value = v;
+        s.values.push_back(p);
+      };
+      kv("backend", backend_name_);
+      kv("resolution", resolution_);
+      kv("frame_rate_hz", fmt(fps, 1));
+      kv("frames", std::to_string(frames_));
+      kv("frames_tracked", std::to_string(tracked_));
+      kv("skeletons_published", std::to_string(published_));
+      kv("dropped_frames", std::to_string(dropped_));
+      kv("withheld_no_clock", std::to_string(withheld_));
+      kv("tracking_state", state_);
+      kv("global_clock", clock_.ok ? "ok" : clock_.reason);
+      kv("device_clock_offset_s", fmt(mapper_.offset(), 6));
+      kv("device_clock_drift_ppm", fmt(mapper_.drift() * 1e6, 1));
+      kv("device_clock_restarts", std::to_string(clock_restarts_));
+      kv("mean_arrival_delay_ms", fmt(mapper_.meanDelay() * 1e3, 2));
+    }
+    arr.status.push_back(s);
+    diag_pub_.publish(arr);
+  }
+
+  ros::NodeHandle nh_, pnh_;
+  ros::Publisher skeleton_pub_, diag_pub_;
+  ros::Subscriber clock_sub_;
+  ros::WallTimer diag_timer_;
+  std::string device_uri_, backend_name_, client_id_, frame_id_;
+  bool loop_ = false, is_file_ = false;
+  double frame_timeout_ = 1.0, reopen_period_ = 3.0;
+  std::atomic<bool> lost_{false};
+  std::atomic<bool> fatal_{false};
+
+  std::mutex mu_;  // guards everything below
+  std::unique_ptr<openni::Device> device_;
+  std::unique_ptr<openni::VideoStream> depth_;
+  std::unique_ptr<NiteBackend> nite_;
+  std::unique_ptr<DepthTracker> tracker_;
+  DeviceClockMapper mapper_;
+  GlobalClockModel clock_;
+  std::string state_ = "starting", error_, error_kind_, resolution_ = "?";
+  std::deque<double> fps_window_;
+  int total_frames_ = 0, last_index_ = 0;
+  double last_frame_host_ = 0, opened_host_ = 0;
+  unsigned long frames_ = 0, tracked_ = 0, published_ = 0, dropped_ = 0, withheld_ = 0, clock_restarts_ = 0;
+};
+
+}  // namespace
+}  // namespace hri_sync
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "skeleton_tracker");
+  if (openni::OpenNI::initialize() != openni::STATUS_OK) {
+    ROS_FATAL_STREAM("skeleton_tracker: OpenNI2 failed to initialise: " << openni::OpenNI::getExtendedError());
+    return 1;
+  }
+  {
+    hri_sync::TrackerNode node;
+    openni::OpenNI::addDeviceDisconnectedListener(&node);
+    ros::AsyncSpinner spinner(1);
+    spinner.start();
+    node.run();
+    spinner.stop();
+    openni::OpenNI::removeDeviceDisconnectedListener(&node);
+  }
+  openni::OpenNI::shutdown();
+  return 0;
+}
