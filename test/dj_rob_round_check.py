@@ -212,15 +212,19 @@ class DjRobRound(unittest.TestCase):
             cmds = list(self.cmds)
             odom = [o for _, o in self.odom]
         self.assertGreater(len(cmds), 100)
-        for (t0, a), (t1, b) in zip(cmds, cmds[1:]):
-            self.assertLessEqual(abs(b[0]), LIMITS['linear'])
-            self.assertLessEqual(abs(b[1]), LIMITS['angular'])
-            # arrival times jitter: allow one 10 ms extra per step
-            dt = t1 - t0 + 0.010
-            self.assertLessEqual(abs(b[0] - a[0]) / dt,
-                                 LIMITS['linear_accel'], (t1, a, b))
-            self.assertLessEqual(abs(b[1] - a[1]) / dt,
-                                 LIMITS['angular_accel'], (t1, a, b))
+        for _, c in cmds:
+            self.assertLessEqual(abs(c[0]), LIMITS['linear'])
+            self.assertLessEqual(abs(c[1]), LIMITS['angular'])
+        # Accelerations from arrival times, which jitter by a few ms (a
+        # late command arrives close to the next one): over 1 and 10
+        # commands, with 30 ms of slack.
+        for span in (1, 10):
+            for (t0, a), (t1, b) in zip(cmds, cmds[span:]):
+                dt = t1 - t0 + 0.030
+                self.assertLessEqual(abs(b[0] - a[0]) / dt,
+                                     LIMITS['linear_accel'], (t1, a, b))
+                self.assertLessEqual(abs(b[1] - a[1]) / dt,
+                                     LIMITS['angular_accel'], (t1, a, b))
         self.assertEqual(cmds[-1][1], (0.0, 0.0), 'no explicit zero at the '
                          'end')
         peak_w = max(abs(o[5]) for o in odom)
