@@ -32,13 +32,13 @@ int main(int argc, char** argv) {
       rc = 1;
     } else if (depth.create(dev, openni::SENSOR_DEPTH) != openni::STATUS_OK ||
                rec.create(argv[2]) != openni::STATUS_OK || rec.attach(depth) != openni::STATUS_OK ||
-               depth.start() != openni::STATUS_OK || rec.start() != openni::STATUS_OK) {
+               rec.start() != openni::STATUS_OK || depth.start() != openni::STATUS_OK) {
       std::fprintf(stderr, "record_oni: cannot record to '%s': %s\n", argv[2], openni::OpenNI::getExtendedError());
       rc = 1;
     } else {
       std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
-      rec.stop();
       depth.stop();
+      rec.stop();
       std::printf("recorded %.1f s of depth to %s\n", seconds, argv[2]);
     }
     rec.destroy();
