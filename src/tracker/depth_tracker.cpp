@@ -60,6 +60,32 @@ void relax(const PointGrid& g, const std::vector<uint8_t>& mask, std::vector<flo
   }
 }
 
+// Smallest standard deviation of a point set across any plane (0 for a flat object).
+double thickness(const PointGrid& g, const std::vector<int>& cells, const Vec3& mean) {
+  double c[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+  for (int i : cells) {
+    Vec3 d = g.points[i] - mean;
+    double v[3] = {d.x, d.y, d.z};
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) c[a][b] += v[a] * v[b];
+  }
+  for (auto& row : c) for (double& x : row) x /= cells.size();
+  // Smallest eigenvalue of the symmetric 3x3 covariance (trigonometric method).
+  double p1 = c[0][1] * c[0][1] + c[0][2] * c[0][2] + c[1][2] * c[1][2];
+  double q = (c[0][0] + c[1][1] + c[2][2]) / 3;
+  double p2 = (c[0][0] - q) * (c[0][0] - q) + (c[1][1] - q) * (c[1][1] - q) + (c[2][2] - q) * (c[2][2] - q) + 2 * p1;
+  double pp = std::sqrt(p2 / 6);
+  if (pp < 1e-12) return std::sqrt(std::max(0.0, q));
+  double b[3][3];
+  for (int a = 0; a < 3; ++a)
+    for (int k = 0; k < 3; ++k) b[a][k] = (c[a][k] - (a == k ? q : 0)) / pp;
+  double r = (b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1]) - b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0]) +
+              b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0])) / 2;
+  double phi = std::acos(std::clamp(r, -1.0, 1.0)) / 3;
+  double smallest = q + 2 * pp * std::cos(phi + 2 * M_PI / 3);
+  return std::sqrt(std::max(0.0, smallest));
+}
+
 // The point of a limb's path (tip first) where both bones fit between root and end.
 Vec3 midJoint(const std::vector<Vec3>& path, const Vec3& root, const Vec3& end, double upper,
               double lower, double* misfit) {
@@ -182,6 +208,7 @@ Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* pre
     const Part& p = parts[k];
     double tall = p.hi - p.lo;
     if (p.cells.size() < 40 || tall < 0.5 || p.hi > 2.5 || p.xmax - p.xmin > 2.2 || p.zmax - p.zmin > 1.6) continue;
+    if (thickness(g, p.cells, p.centroid) < 0.025) continue;  // flat: a wall, a cabinet, a door
     double score;
     if (prev_centroid) {
       double dist = (p.centroid - *prev_centroid).norm();
@@ -299,7 +326,7 @@ BodyModel calibrateBody(const std::vector<CalibrationSample>& samples) {
     if (v.size() < 5) return 1.0;
     std::sort(v.begin(), v.end());
     double reach = v[v.size() * 9 / 10];
-    return std::clamp(reach / expected, 0.85, 1.2);
+    return std::clamp(reach / expected, 1.0, 1.2);  // a bent limb reaches less: reach is a lower bound
   };
   double sa = scale(arms, m.upper_arm + m.forearm + 0.05);
   double sl = scale(legs, m.thigh + m.shin + 0.05);
