@@ -5,11 +5,14 @@ messages or ``rosbags`` dataclasses): for every recorded ``Decision`` it
 takes the round's ``ClientResult`` of each participant, recomputes the
 score from that client's ``/<client_id>/captured`` frames inside the
 result's window, and recomputes the decision from the recomputed scores
-with the decision module's rule and parameters.
+with the decision module's rule and parameters. ``read_bag`` reads a
+recording with the pure-Python ``rosbags`` library (imported on use).
 """
 
 import math
 from dataclasses import dataclass, field
+
+import yaml
 
 from hri_sync.decision import ABORTED, decide
 from hri_sync.expressiveness import DEFAULT_MIN_CONFIDENCE, \
@@ -38,6 +41,7 @@ class ClientCheck:
     frames_recomputed: int = 0
     value: float = math.nan
     value_recomputed: float = math.nan
+    first_frame_offset: float = math.nan    # s after the window start
     problems: list = field(default_factory=list)
 
 
@@ -83,6 +87,8 @@ def check_client(result, captured):
     res = SkeletonExpressiveness(_min_confidence(result)).process(
         frames, start, end)
     check.frames_recomputed = res.frames_used
+    if frames:
+        check.first_frame_offset = frames[0].stamp - start
     check.value_recomputed = res.value if frames else math.nan
     if result.status in ('ok', 'partial'):
         if res.frames_used != result.frames:
@@ -166,6 +172,14 @@ def format_table(checks):
                 c.value, c.value_recomputed,
                 'ok' if not c.problems else 'MISMATCH: ' + '; '.join(
                     c.problems)))
+        offsets = [c.first_frame_offset for c in rc.clients]
+        if len(offsets) > 1 and all(map(math.isfinite, offsets)):
+            lines.append('%5d first frames after the window start: %s; '
+                         'spread %.1f ms' % (rc.round, ', '.join(
+                             '%s %.1f ms' % (c.client,
+                                             c.first_frame_offset * 1e3)
+                             for c in rc.clients),
+                             (max(offsets) - min(offsets)) * 1e3))
         lines.append('%5d decision: recorded %s%s, recomputed %s%s  %s' % (
             rc.round, rc.outcome,
             ' (participant %d)' % rc.winner if rc.winner else '',
@@ -175,3 +189,48 @@ def format_table(checks):
             'ok' if not rc.problems else 'MISMATCH: ' + '; '.join(
                 rc.problems)))
     return '\n'.join(lines)
+
+
+def read_bag(path):
+    """Decisions, results, captured frames, config and CM aborts of a bag.
+
+    Returns (decisions, results, {client_id: [(stamp, msg)]}, config dict
+    from /dance_off/config or {}, {round: reason} of aborted rounds).
+    Raises rosbags' ReaderError or ValueError for an unreadable bag.
+    """
+    from rosbags.rosbag1 import Reader
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+    store = get_typestore(Stores.ROS1_NOETIC)
+    decisions, results, captured, aborted = [], [], {}, {}
+    config = {}
+    with Reader(path) as reader:
+        for conn in reader.connections:
+            if conn.msgtype not in store.types:
+                store.register(get_types_from_msg(conn.msgdef.data,
+                                                  conn.msgtype))
+        for conn, _, raw in reader.messages():
+            kind = conn.msgtype.replace('/msg/', '/')
+            if kind == 'hri_sync/Decision':
+                decisions.append(store.deserialize_ros1(raw, conn.msgtype))
+            elif kind == 'hri_sync/ClientResult':
+                results.append(store.deserialize_ros1(raw, conn.msgtype))
+            elif kind == 'hri_sync/RoundStatus':
+                msg = store.deserialize_ros1(raw, conn.msgtype)
+                if msg.state == ROUND_ABORTED:
+                    aborted[msg.round] = msg.reason
+            elif kind == 'hri_sync/Skeleton' and \
+                    conn.topic.endswith('/captured'):
+                msg = store.deserialize_ros1(raw, conn.msgtype)
+                client = conn.topic.strip('/').split('/')[0]
+                captured.setdefault(client, []).append(
+                    (seconds(msg.header.stamp), msg))
+            elif conn.topic == '/dance_off/config':
+                try:
+                    config = yaml.safe_load(
+                        store.deserialize_ros1(raw, conn.msgtype).data)
+                except yaml.YAMLError as e:
+                    raise ValueError('/dance_off/config: %s' % e)
+                if not isinstance(config, dict):
+                    raise ValueError('/dance_off/config is not a mapping: %r'
+                                     % (config,))
+    return decisions, results, captured, config, aborted

@@ -55,6 +55,8 @@ def test_agreeing_round():
     assert checks[0].ok, format_table(checks)
     assert checks[0].clients[0].value_recomputed == pytest.approx(14.625)
     assert 'recomputed winner (participant 1)' in format_table(checks)
+    assert checks[0].clients[0].first_frame_offset == pytest.approx(0.01)
+    assert 'spread 0.0 ms' in format_table(checks)
 
 
 def test_tampered_score_is_caught():
