@@ -174,16 +174,20 @@ def _move(start, displacement, limits, linear, beat=None, name=''):
 
 def dance(duration, bearings=(math.radians(30.0), math.radians(-30.0)),
           limits=Limits(), beat=0.5, step=0.15, step_beats=2, margin=0.9,
-          first_beat=0.0):
+          first_beat=0.0, heading=0.0):
     """The dance over a capture window of ``duration`` s.
 
     Phrases of forward-and-back (``step`` m each way, ``step_beats`` beats
     each, shortened if the limits require) and a turn to face the next
     participant (participant 1 first; ``bearings`` in rad from the start
-    heading), all on the beat grid ``first_beat + k * beat``.  The dance
-    always ends facing the start heading again, at rest, by ``duration``;
-    a window too short for a move is danced standing still (head only).
+    pose), all on the beat grid ``first_beat + k * beat``.  ``heading`` is
+    where the robot faces when the dance starts (rad, the bearings' frame;
+    after a winner gesture cut short it is not 0).  The dance ends facing
+    heading 0 (between the participants), at rest, by ``duration``; a
+    window too short for a move is danced standing still (head only).
     """
+    if not math.isfinite(heading):
+        raise ValueError('dance: start heading is not finite')
     if not (math.isfinite(duration) and duration >= 0.0):
         raise ValueError('dance duration must be >= 0, got %r' % duration)
     if not (math.isfinite(beat) and beat > 0.0):
@@ -198,7 +202,7 @@ def dance(duration, bearings=(math.radians(30.0), math.radians(-30.0)),
     step = min(step, max_move_displacement(step_time, lim.linear,
                                            lim.linear_accel))
     moves = []
-    heading = 0.0
+    heading = wrap_angle(heading)
     next_participant = 0
     beat_index = 0            # moves start at first_beat + beat_index * beat
     want_turn = False         # phrase order: step pair, then turn
@@ -224,11 +228,14 @@ def dance(duration, bearings=(math.radians(30.0), math.radians(-30.0)),
                 candidate, new_heading = [fwd, back], heading
             else:
                 target = bearings[next_participant % len(bearings)]
-                turn = _move(start, wrap_angle(target - heading), lim, False,
-                             beat, 'turn to participant %d'
-                             % (next_participant % len(bearings) + 1))
-                candidate, new_heading = [turn], target
-            end = candidate[-1].end
+                delta = wrap_angle(target - heading)
+                candidate, new_heading = [], target     # already facing
+                if abs(delta) > 1e-6:
+                    candidate = [_move(start, delta, lim, False, beat,
+                                       'turn to participant %d' % (
+                                           next_participant % len(bearings)
+                                           + 1))]
+            end = candidate[-1].end if candidate else start
             if end + home_time(new_heading) <= duration + 1e-9:
                 moves.extend(candidate)
                 beat_index = int(round((end - first_beat) / beat))
@@ -241,8 +248,10 @@ def dance(duration, bearings=(math.radians(30.0), math.radians(-30.0)),
         if not placed:
             break
     if abs(heading) > 1e-9:
-        moves.append(_move(at(beat_index), -heading, lim, False, beat,
-                           'turn to centre'))
+        home = _move(at(beat_index), -heading, lim, False, beat,
+                     'turn to centre')
+        if home.end <= duration + 1e-9:     # else the window is too short
+            moves.append(home)
     return Plan(tuple(moves), (), duration)
 
 

@@ -58,6 +58,26 @@ def test_dance_moves_on_the_beat_and_turns_between_participants():
     assert steps and all(abs(m.distance) > 0.05 for m in steps)
 
 
+@pytest.mark.parametrize('start_deg', [30.0, -30.0, 12.0, 150.0, -179.0])
+def test_dance_from_a_turned_start(start_deg):
+    """After a winner gesture cut short, the dance still turns to the
+    participants' bearings and ends between them."""
+    h0 = start_deg * DEG
+    plan = ch.dance(20.0, heading=h0)
+    assert ch.check_limits(sample(plan, 21.0), KOBUKI) == []
+    turns = [m for m in plan.moves if m.angle]
+    faced = [ch.wrap_angle(h0 + plan.heading(m.end)) for m in turns]
+    expect = [30 * DEG, -30 * DEG] * len(faced)
+    if start_deg == 30.0:           # already facing participant 1
+        expect = expect[1:]
+    assert faced[:-1] == pytest.approx(expect[:len(faced) - 1], abs=1e-9)
+    assert len(faced) > 4
+    assert faced[-1] == pytest.approx(0.0, abs=1e-9)
+    # too short to turn back: it stays put rather than overrun the window
+    short = ch.dance(0.7, heading=h0)
+    assert all(m.end <= 0.7 for m in short.moves)
+
+
 def test_short_window_dances_in_place():
     plan = ch.dance(1.5)
     assert plan.moves == ()
