@@ -69,7 +69,8 @@ class DanceOffRound(unittest.TestCase):
                                    'round.bag')
             cls.recorder = subprocess.Popen(
                 ['rosbag', 'record', '-O', cls.bag] + RECORD,
-                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                start_new_session=True)
         rospy.Subscriber('/client_result', ClientResult, cls.on_result)
         rospy.Subscriber('/decision', Decision, cls.on_decision)
         for c in CLIENTS:
@@ -83,11 +84,18 @@ class DanceOffRound(unittest.TestCase):
             time.sleep(0.1)
         time.sleep(1.0)     # late captured frames
         if cls.recorder is not None:
-            cls.recorder.send_signal(signal.SIGINT)
+            # Ctrl-C to the recorder's process group (rosbag's wrapper and
+            # its record child), then wait for the bag to be closed.
+            os.killpg(cls.recorder.pid, signal.SIGINT)
             try:
                 cls.recorder.wait(timeout=15)
             except subprocess.TimeoutExpired:
-                cls.recorder.kill()
+                os.killpg(cls.recorder.pid, signal.SIGKILL)
+            deadline = time.time() + 15
+            while time.time() < deadline and (
+                    os.path.exists(cls.bag + '.active')
+                    or not os.path.exists(cls.bag)):
+                time.sleep(0.1)
 
     @classmethod
     def on_result(cls, msg):
@@ -156,7 +164,9 @@ class DanceOffRound(unittest.TestCase):
         if not self.verify:
             self.skipTest('~verify is off for this round')
         self.decision()
-        self.assertTrue(os.path.exists(self.bag), 'rosbag record made no bag')
+        self.assertTrue(os.path.exists(self.bag), 'rosbag record made no bag'
+                        + (' (still .active)' if os.path.exists(
+                            self.bag + '.active') else ''))
         tool = os.path.join(rospkg.RosPack().get_path('hri_sync'), 'nodes',
                             'verify_decisions')
         out = subprocess.run(['/usr/bin/python3', tool, self.bag],
