@@ -99,6 +99,18 @@ Vec3 midJoint(const std::vector<Vec3>& path, const Vec3& root, const Vec3& end, 
   return mid;
 }
 
+// The middle joint of a two-bone limb from its ends, bent towards pole.
+Vec3 twoBone(const Vec3& root, const Vec3& end, double upper, double lower, const Vec3& pole) {
+  Vec3 axis = end - root;
+  double d = std::clamp(axis.norm(), std::fabs(upper - lower) + 1e-3, upper + lower - 1e-3);
+  Vec3 u = axis.norm() > 1e-6 ? axis.normalized() : Vec3(0, -1, 0);
+  double along = (upper * upper - lower * lower + d * d) / (2 * d);
+  double h = std::sqrt(std::max(0.0, upper * upper - along * along));
+  Vec3 side = pole - u * pole.dot(u);
+  if (side.norm() < 1e-6) side = Vec3(0, -1, 0) - u * (-u.y);
+  return root + u * along + side.normalized() * h;
+}
+
 }  // namespace
 
 PointGrid makeGrid(const uint16_t* depth_mm, const Camera& cam, int step) {
@@ -407,8 +419,43 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
   // Label the extremities (head, hands, feet) by the cheapest assignment that obeys
   // the body's shape; extra extrema (knees, elbows) stay unlabelled. The cost adds
   // the distance to the label's last position, while it is recent.
+  // Candidates: the geodesic extrema, plus the tips of parts held out in front of the
+  // trunk towards the sensor (a hand reaching forward), which are no geodesic extrema.
+  std::vector<int> ext_cells = geo.extremities;
+  {
+    const Vec3 view = trunk.normalized();
+    std::vector<uint8_t> front(g.width * g.height, 0);
+    for (int i : seg.cells) front[i] = (trunk - g.points[i]).dot(view) > 0.15;
+    std::vector<int> stack;
+    for (int s0 : seg.cells) {
+      if (front[s0] != 1) continue;
+      int tip = s0, size = 0;
+      double best = -1;
+      front[s0] = 2;
+      stack.assign(1, s0);
+      while (!stack.empty()) {
+        int i = stack.back();
+        stack.pop_back();
+        ++size;
+        double ahead = (trunk - g.points[i]).dot(view);
+        if (ahead > best) { best = ahead; tip = i; }
+        int x = i % g.width, y = i / g.width;
+        for (int k = 0; k < 8; ++k) {
+          int nx = x + kDx[k], ny = y + kDy[k];
+          if (nx < 0 || ny < 0 || nx >= g.width || ny >= g.height) continue;
+          int jn = ny * g.width + nx;
+          if (front[jn] != 1 || std::fabs(g.points[jn].z - g.points[i].z) > maxJump(g.points[i].z)) continue;
+          front[jn] = 2;
+          stack.push_back(jn);
+        }
+      }
+      bool known = false;
+      for (int c : ext_cells) known |= (g.points[c] - g.points[tip]).norm() < 0.15;
+      if (size >= 3 && !known && ext_cells.size() < 10) ext_cells.push_back(tip);
+    }
+  }
   std::vector<Vec3> ext;
-  for (int c : geo.extremities) ext.push_back(g.points[c]);
+  for (int c : ext_cells) ext.push_back(g.points[c]);
   out.extremity_points = ext;
   const int m = static_cast<int>(ext.size());
   const double arm = model_.upper_arm + model_.forearm + 0.05;
@@ -446,7 +493,7 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
       const double above_floor = floor_.found ? floor_.height(ext[k]) : ext[k].y + 1.0;
       if (above_floor > 0.45 || (ext[k] - torso).dot(up) > -0.3) continue;
       std::vector<Vec3> path;
-      for (int c : pathToSource(geo, geo.extremities[k])) path.push_back(g.points[c]);
+      for (int c : pathToSource(geo, ext_cells[k])) path.push_back(g.points[c]);
       Vec3 knee = midJoint(path, hipc, path.front(), model_.thigh, model_.shin, nullptr);
       Vec3 axis = (path.front() - hipc).normalized();
       Vec3 off = knee - hipc;
@@ -496,7 +543,7 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
     ++found;
     tip_age_[l] = 0;
     tips_[l] = ext[assign[l]];
-    for (int c : pathToSource(geo, geo.extremities[assign[l]])) paths[l].push_back(g.points[c]);
+    for (int c : pathToSource(geo, ext_cells[assign[l]])) paths[l].push_back(g.points[c]);
   }
   // Torso and neck down the head's path, when the head is seen.
   if (!paths[LB_HEAD].empty()) {
@@ -541,11 +588,17 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
       const Vec3* endp = at_reach(path, 0.05);
       Vec3 end = endp ? *endp : path.front();
       double best;
-      Vec3 mid = midJoint(path, root, end, lb.upper, lb.lower, &best);
+      Vec3 mid = behind(midJoint(path, root, end, lb.upper, lb.lower, &best), lb.r_mid);
       j[lb.end] = behind(end, lb.r_end);
-      j[lb.mid] = behind(mid, lb.r_mid);
       conf[lb.end] = 0.9f;
-      conf[lb.mid] = best < 0.1 ? 0.8f : 0.5f;
+      conf[lb.mid] = 0.8f;
+      if (best > 0.08) {  // the path skips the limb (held towards the sensor): two-bone fit
+        Vec3 pole = have_prev_ ? Vec3(filters_[lb.mid][0].x, filters_[lb.mid][1].x, filters_[lb.mid][2].x) - root
+                               : up * -1.0;
+        mid = twoBone(root, j[lb.end], lb.upper, lb.lower, pole);
+        conf[lb.mid] = 0.5f;
+      }
+      j[lb.mid] = mid;
     } else if (have_prev_ && tip_age_[lb.label] <= params_.hold_frames) {
       j[lb.end] = Vec3(filters_[lb.end][0].x, filters_[lb.end][1].x, filters_[lb.end][2].x);
       j[lb.mid] = Vec3(filters_[lb.mid][0].x, filters_[lb.mid][1].x, filters_[lb.mid][2].x);

@@ -3,7 +3,8 @@
 // error against the motion's true joints, the tracked share and the speed.
 //   tracker_eval --track FILE.track [--res 320x240] [--seconds S] [--background 0|1]
 //                [--noise SIGMA] [--direct] [--dump FILE]
-// --dump writes per frame: index, tracked, 15 estimated and 15 true joints, extremity count.
+// --dump writes per frame: index, tracked, 15 estimated and 15 true joints, 15 confidences,
+// the extremity count and the extremities.
 // --direct renders in-process instead of through OpenNI (same renderer).
 #include <OpenNI.h>
 
@@ -42,6 +43,7 @@ void account(Stats* s, const SkeletonEstimate& est, const Joints& truth) {
     std::fprintf(g_dump, "%d %d", s->frames, est.tracked ? 1 : 0);
     for (const Vec3& p : est.joints) std::fprintf(g_dump, " %.4f %.4f %.4f", p.x, p.y, p.z);
     for (const Vec3& p : truth) std::fprintf(g_dump, " %.4f %.4f %.4f", p.x, p.y, p.z);
+    for (float c : est.confidence) std::fprintf(g_dump, " %.2f", c);
     std::fprintf(g_dump, " %d", est.extremities);
     for (const Vec3& p : est.extremity_points) std::fprintf(g_dump, " %.4f %.4f %.4f", p.x, p.y, p.z);
     std::fprintf(g_dump, "\n");
