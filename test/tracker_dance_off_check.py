@@ -1,0 +1,61 @@
+#!/usr/bin/python3
+"""Checks a dance-off round with a skeleton_tracker client (issue 5).
+
+One side's skeletons come from skeleton_tracker on a virtual Kinect, the
+other's from skeleton_sensor. Checks that the round is decided with the
+winner two skeleton-sensor clients give on the same motions (~expect; for the
+default salsa pair the follower, cmu_61_01, on the right: participant2, see
+test/dance_off_dancers.test), that the tracker client's result is ok with
+frames at its 30 Hz over DUR, and that both values are finite.
+"""
+import math
+import time
+import unittest
+
+import rospy
+import rostest
+from hri_sync.msg import ClientResult, Decision
+
+PKG = 'hri_sync'
+
+
+class TrackerDanceOffTest(unittest.TestCase):
+
+    @classmethod
+    def setUpClass(cls):
+        cls.results, cls.decisions = {}, []
+        rospy.Subscriber('/client_result', ClientResult,
+                         lambda m: cls.results.__setitem__(m.client_id, m))
+        rospy.Subscriber('/decision', Decision, cls.decisions.append)
+        deadline = time.time() + rospy.get_param('~timeout', 90.0)
+        while not cls.decisions and time.time() < deadline and not rospy.is_shutdown():
+            time.sleep(0.2)
+        time.sleep(0.5)
+
+    def test_winner(self):
+        self.assertTrue(self.decisions, 'no /decision')
+        d = self.decisions[0]
+        expect = rospy.get_param('~expect')
+        self.assertEqual('%s%d' % ('participant', d.winner), expect,
+                         'outcome %s winner %d: %s' % (d.outcome, d.winner, d.reason))
+
+    def test_tracker_result(self):
+        tracker = rospy.get_param('~tracker_client')
+        dur = rospy.get_param('~dur')
+        self.assertTrue(self.decisions, 'no /decision')
+        for client in ('left', 'right'):
+            r = self.results.get(client)
+            self.assertIsNotNone(r, 'no result from %s' % client)
+            self.assertEqual(r.status, ClientResult.OK, '%s: %s' % (client, r.status))
+            self.assertTrue(math.isfinite(r.value), client)
+        r = self.results[tracker]
+        rospy.loginfo('tracker client %s: %d frames, %d rejected, coverage %.2f, value %.2f',
+                      tracker, r.frames, r.frames_rejected, r.coverage, r.value)
+        self.assertGreaterEqual(r.frames + r.frames_rejected, 0.9 * 30 * dur)
+        self.assertLessEqual(r.frames + r.frames_rejected, 30 * dur + 1)
+        self.assertGreaterEqual(r.coverage, 0.9)
+
+
+if __name__ == '__main__':
+    rospy.init_node('tracker_dance_off_check')
+    rostest.rosrun(PKG, 'tracker_dance_off', TrackerDanceOffTest)
