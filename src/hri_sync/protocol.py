@@ -95,7 +95,8 @@ class StrAftPolicy:
         if self.fixed is not None:
             return self.fixed
         worst_latency = max(self.latencies, default=0.0)
-        worst_unc = max((a.uncertainty for a in acks), default=0.0)
+        worst_unc = max((a.uncertainty for a in acks
+                         if math.isfinite(a.uncertainty)), default=0.0)
         return max(self.minimum, self.latency_factor * max(worst_latency, 0)
                    + 2 * worst_unc + self.margin)
 
@@ -232,8 +233,9 @@ class ClientSchedule:
         if self.acked_round is None or capture.round != self.acked_round:
             self.ignored['unacked_round'] += 1
             return None
-        if not (math.isfinite(capture.str_aft) and math.isfinite(capture.dur)
-                and capture.dur > 0 and capture.str_aft >= 0):
+        if not (math.isfinite(capture.cr_t) and math.isfinite(capture.str_aft)
+                and math.isfinite(capture.dur) and capture.dur > 0
+                and capture.str_aft >= 0):
             self.ignored['malformed'] += 1
             return None
         self.acked_round = None  # one capture per ACK
