@@ -3,12 +3,15 @@
 No ROS.  ``wait_until`` is how DJ Rob's nodes start an action on time: a
 coarse sleep, then a short spin on the clock itself, so the action starts
 within a fraction of a millisecond of the target unless the machine is
-overloaded.  ``host_time`` reads CLOCK_REALTIME by a raw system call,
-which libfaketime does not intercept: the ground truth a test compares a
-faked process's actions with.
+overloaded; ``realtime`` lifts the waiting thread to real-time scheduling
+for the start so that a busy machine does not delay it.  ``host_time``
+reads CLOCK_REALTIME by a raw system call, which libfaketime does not
+intercept: the ground truth a test compares a faked process's actions
+with.
 """
 import ctypes
 import ctypes.util
+import os
 import platform
 import time
 
@@ -38,6 +41,37 @@ def host_time():
     if _libc.syscall(_syscall_nr, _CLOCK_REALTIME, ctypes.byref(ts)) != 0:
         return float('nan')
     return ts.tv_sec + ts.tv_nsec * 1e-9
+
+
+class realtime:
+    """Context manager: the calling thread runs SCHED_FIFO at
+    ``priority`` inside the block (0: unchanged), so a busy machine does
+    not delay a start.  ``ok`` says whether it was granted (it needs root
+    or CAP_SYS_NICE / an rtprio limit); ``error`` says why not."""
+
+    def __init__(self, priority):
+        self.priority = priority
+        self.ok = False
+        self.error = '' if priority > 0 else 'not requested'
+        self._saved = None
+
+    def __enter__(self):
+        if self.priority <= 0:
+            return self
+        try:
+            self._saved = (os.sched_getscheduler(0), os.sched_getparam(0))
+            os.sched_setscheduler(0, os.SCHED_FIFO,
+                                  os.sched_param(self.priority))
+            self.ok = True
+        except (OSError, AttributeError) as e:
+            self.error = str(e)
+        return self
+
+    def __exit__(self, *exc):
+        if self.ok:
+            policy, param = self._saved
+            os.sched_setscheduler(0, policy, param)
+        return False
 
 
 def wait_until(now, target, spin=0.003, stop=lambda: False):

@@ -1,0 +1,197 @@
+#!/usr/bin/python3
+"""Benchmark: how close to the scheduled start DJ Rob dances, music plays.
+
+Runs ROUNDS back-to-back rounds (time server, server, one sensor client,
+DJ Rob on kobuki_sim, the music) on a private ROS master, each of the robot
+and the music optionally under its own libfaketime clock, and prints JSON:
+per action, the start offset from CR_T+STR_AFT in true time (the node's
+raw host-clock reading at the start; the time server serves this host's
+clock, so global = true) and, for the robot, the arrival of its first
+command at an outside subscriber (includes ROS transport).
+
+    source WS/devel/setup.bash
+    bench/dj_rob_start.py --rounds 10 --dur 3 [--robot-clock '+2.5s x1.0002']
+"""
+import argparse
+import json
+import math
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+LAUNCH = """<launch>
+  <arg name="ntp_port"/>
+  <include file="$(find hri_sync)/launch/timeserver.launch">
+    <arg name="ntp_port" value="$(arg ntp_port)"/>
+  </include>
+  <include file="$(find hri_sync)/launch/server.launch">
+    <arg name="clients" value="a,dj_rob,music"/>
+    <arg name="participants" value="a"/>
+    <arg name="rounds" value="{rounds}"/>
+    <arg name="dur" value="{dur}"/>
+    <arg name="ntp_port" value="$(arg ntp_port)"/>
+    <arg name="required" value="false"/>
+  </include>
+  <node pkg="hri_sync" type="synthetic_sensor" name="reference">
+    <param name="rate" value="50.0"/>
+    <param name="signal" value="sine"/>
+  </node>
+  <include file="$(find hri_sync)/launch/client.launch">
+    <arg name="client_id" value="a"/>
+    <arg name="ntp_port" value="$(arg ntp_port)"/>
+    <arg name="input" value="/reference/samples"/>
+    <arg name="stamp_source" value="arrival"/>
+  </include>
+  {robot}
+  {music}
+</launch>
+"""
+INCLUDE = """<include file="$(find hri_sync)/launch/dj_rob.launch">
+    <arg name="robot" value="{robot}"/>
+    <arg name="music" value="{music}"/>
+    <arg name="ntp_port" value="$(arg ntp_port)"/>
+    <arg name="start_spin" value="{spin}"/>
+    <arg name="realtime_priority" value="{rt}"/>
+  </include>"""
+SKEWED = """<node pkg="hri_sync" type="skewed_client" name="{name}_clock"
+        args="--clock '{clock}' dj_rob.launch robot:={robot} music:={music}
+              ntp_port:=$(arg ntp_port) start_spin:={spin}
+              realtime_priority:={rt}"/>"""
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]
+
+
+def part(name, clock, robot, music, opts):
+    if clock:
+        return SKEWED.format(name=name, clock=clock, robot=robot,
+                             music=music, spin=opts.spin,
+                             rt=opts.realtime_priority)
+    return INCLUDE.format(robot=robot, music=music, spin=opts.spin,
+                          rt=opts.realtime_priority)
+
+
+def stats(values):
+    vals = sorted(v for v in values if math.isfinite(v))
+    if not vals:
+        return {'n': 0}
+
+    def pct(q):
+        return vals[max(0, min(len(vals) - 1,
+                               math.ceil(q / 100 * len(vals)) - 1))]
+    return {'n': len(vals), 'p50_ms': pct(50) * 1e3, 'p99_ms': pct(99) * 1e3,
+            'max_ms': vals[-1] * 1e3, 'min_ms': vals[0] * 1e3}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap.add_argument('--rounds', type=int, default=10)
+    ap.add_argument('--dur', type=float, default=3.0)
+    ap.add_argument('--robot-clock', default='')
+    ap.add_argument('--music-clock', default='')
+    ap.add_argument('--spin', type=float, default=0.01,
+                    help='start_spin of both nodes, s')
+    ap.add_argument('--realtime-priority', type=int, default=10,
+                    help='SCHED_FIFO priority of the start threads; 0: off')
+    opts = ap.parse_args()
+    launch = LAUNCH.format(
+        rounds=opts.rounds, dur=opts.dur,
+        robot=part('robot', opts.robot_clock, 'sim', 'false', opts),
+        music=part('music', opts.music_clock, 'none', 'true', opts))
+    workdir = tempfile.mkdtemp(prefix='dj_rob_bench_')
+    path = os.path.join(workdir, 'bench.launch')
+    with open(path, 'w') as f:
+        f.write(launch)
+    port = free_port()
+    env = dict(os.environ, ROS_MASTER_URI='http://localhost:%d' % port)
+    os.environ['ROS_MASTER_URI'] = env['ROS_MASTER_URI']
+    proc = subprocess.Popen(['roslaunch', '-p', str(port), path,
+                             'ntp_port:=%d' % free_port()], env=env,
+                            stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    try:
+        result = observe(opts)
+    finally:
+        os.killpg(proc.pid, signal.SIGINT)
+        try:
+            proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+    print(json.dumps(result, indent=1))
+
+
+def observe(opts):
+    import rospy
+    from geometry_msgs.msg import Twist
+    from hri_sync.msg import ActionStart, CaptureData, Decision
+    time.sleep(3.0)                  # the master comes up
+    rospy.init_node('dj_rob_bench', disable_signals=True)
+    lock = threading.Lock()
+    captures, starts, first_cmd, decisions = {}, {}, {}, set()
+
+    def on_capture(m):
+        with lock:
+            captures[m.round] = m.cr_t.to_sec() + m.str_aft
+
+    def on_start(m):
+        with lock:
+            starts[(m.round, m.action)] = m.host_time.to_sec()
+
+    def on_cmd(_m):
+        t = time.time()
+        with lock:
+            for r, start in captures.items():
+                if r not in first_cmd and t > start - 1.0:
+                    first_cmd[r] = t
+
+    rospy.Subscriber('/capture_data', CaptureData, on_capture)
+    for topic in ('/dj_rob/action_start', '/music/action_start'):
+        rospy.Subscriber(topic, ActionStart, on_start)
+    rospy.Subscriber('/mobile_base/commands/velocity', Twist, on_cmd,
+                     tcp_nodelay=True)
+    rospy.Subscriber('/decision', Decision,
+                     lambda m: decisions.add(m.round))
+    deadline = time.time() + 60 + opts.rounds * (opts.dur + 5)
+    while time.time() < deadline and len(decisions) < opts.rounds:
+        time.sleep(0.2)
+    time.sleep(1.0)
+    with lock:
+        rounds = sorted(captures)
+        dance = [starts.get((r, 'dance'), math.nan) - captures[r]
+                 for r in rounds]
+        music = [starts.get((r, 'music'), math.nan) - captures[r]
+                 for r in rounds]
+        cmd = [first_cmd.get(r, math.nan) - captures[r] for r in rounds]
+    return {
+        'benchmark': 'dj_rob_start', 'rounds_requested': opts.rounds,
+        'rounds_captured': len(rounds), 'decisions': len(decisions),
+        'dur_s': opts.dur, 'robot_clock': opts.robot_clock,
+        'music_clock': opts.music_clock, 'start_spin_s': opts.spin,
+        'realtime_priority': opts.realtime_priority,
+        'dance_start_true_offset': stats(dance),
+        'dance_abs_true_offset': stats([abs(v) for v in dance]),
+        'first_command_arrival_offset': stats(cmd),
+        'music_start_true_offset': stats(music),
+        'music_abs_true_offset': stats([abs(v) for v in music]),
+        'per_round_ms': {str(r): {'dance': round(d * 1e3, 3),
+                                  'first_command': round(c * 1e3, 3),
+                                  'music': round(m * 1e3, 3)}
+                         for r, d, c, m in zip(rounds, dance, cmd, music)},
+        'missing': {'dance': sum(1 for v in dance if not math.isfinite(v)),
+                    'music': sum(1 for v in music if not math.isfinite(v))},
+    }
+
+
+if __name__ == '__main__':
+    sys.exit(main())
