@@ -49,8 +49,9 @@ def window_stats(stamps, start, end, max_gap=None):
     ``stamps`` are the kept samples' global stamps (sorted).  The nominal
     period is their median spacing; a gap longer than ``max_gap`` (default
     2.5 periods) is uncovered, and each missing period in a gap counts as a
-    dropped frame.  Returns a dict: coverage (0..1), dropped, period,
-    first_frame_offset (NaN without samples).
+    dropped frame; a lone sample has no period, so covers nothing.  Returns
+    a dict: coverage (0..1), dropped, period, first_frame_offset (NaN
+    without samples).
     """
     dur = end - start
     if not stamps:
@@ -59,7 +60,7 @@ def window_stats(stamps, start, end, max_gap=None):
     gaps = [b - a for a, b in zip(stamps, stamps[1:])]
     period = sorted(gaps)[len(gaps) // 2] if gaps else math.nan
     if max_gap is None:
-        max_gap = 2.5 * period if gaps else dur
+        max_gap = 2.5 * period if gaps else 0.0
     covered = sum(g for g in gaps if g <= max_gap)
     dropped = sum(max(0, round(g / period) - 1) for g in gaps) if gaps else 0
     # The edges: start -> first sample and last sample -> end.
