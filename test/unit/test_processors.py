@@ -1,0 +1,107 @@
+"""hri_sync.processors: the CountMean processor and load_processor."""
+
+import math
+import textwrap
+from types import SimpleNamespace as NS
+
+import pytest
+
+from hri_sync.processors import (CountMean, Frame, ProcessResult, Processor,
+                                 load_processor)
+
+
+def frames(*values):
+    return [Frame(100.0 + 0.05 * k, NS(value=v)) for k, v in
+            enumerate(values)]
+
+
+def test_count_mean():
+    r = CountMean().process(frames(1.0, 2.0, 4.5), 100.0, 101.0)
+    assert r == ProcessResult(value=2.5, frames_used=3, frames_rejected=0,
+                              diagnostics={'count': 3})
+
+
+def test_count_mean_rejects_non_finite_values():
+    r = CountMean().process(frames(1.0, math.nan, 3.0, math.inf, -math.inf),
+                            100.0, 101.0)
+    assert (r.value, r.frames_used, r.frames_rejected) == (2.0, 2, 3)
+    assert r.diagnostics == {'count': 2}
+
+
+def test_count_mean_of_no_frames_is_nan():
+    r = CountMean().process([], 100.0, 101.0)
+    assert math.isnan(r.value)
+    assert (r.frames_used, r.frames_rejected) == (0, 0)
+
+
+def test_base_processor_defaults():
+    p = Processor()
+    assert p.msg_type == 'hri_sync/Sample'
+    assert p.device_stamp(NS(value=1.0)) is None
+    with pytest.raises(NotImplementedError):
+        p.process([], 0.0, 1.0)
+
+
+def test_load_processor_by_class_path():
+    p = load_processor('hri_sync.processors.CountMean')
+    assert type(p) is CountMean
+    assert type(load_processor('hri_sync.processors.CountMean', {})) is \
+        CountMean
+
+
+@pytest.mark.parametrize('path, message', [
+    ('CountMean', "must be a class path like 'hri_sync.processors.CountMean'"
+                  ", got 'CountMean'"),
+    ('hri_sync.no_such_module.Thing',
+     r"~processor 'hri_sync.no_such_module.Thing' cannot be loaded"),
+    ('hri_sync.processors.NoSuchClass',
+     r"~processor 'hri_sync.processors.NoSuchClass' cannot be loaded"),
+    ('hri_sync.processors.Frame',
+     r"~processor 'hri_sync.processors.Frame' is not a hri_sync Processor"),
+    ('math.pi', r"~processor 'math.pi' is not a hri_sync Processor"),
+])
+def test_load_processor_errors_name_the_path(path, message):
+    with pytest.raises(ValueError, match=message):
+        load_processor(path)
+
+
+def test_processor_without_params_refuses_params():
+    with pytest.raises(ValueError, match='CountMean takes no parameters, got '
+                       'gain, offset'):
+        load_processor('hri_sync.processors.CountMean',
+                       {'offset': 1, 'gain': 2})
+
+
+@pytest.fixture
+def plugin(tmp_path, monkeypatch):
+    (tmp_path / 'my_plugin.py').write_text(textwrap.dedent('''
+        from hri_sync.processors import Processor, ProcessResult
+
+        class Scaled(Processor):
+            msg_type = 'std_msgs/Float64'
+
+            def __init__(self, gain=1.0):
+                self.gain = gain
+
+            def device_stamp(self, msg):
+                return msg.t
+
+            def process(self, frames, start, end):
+                return ProcessResult(self.gain * len(frames), len(frames))
+    '''))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    yield 'my_plugin.Scaled'
+
+
+def test_load_a_plugin_with_params(plugin):
+    p = load_processor(plugin, {'gain': 2.5})
+    assert p.gain == 2.5 and p.msg_type == 'std_msgs/Float64'
+    assert p.device_stamp(NS(t=3.25)) == 3.25
+    assert p.process(frames(1.0, 2.0), 100.0, 101.0).value == 5.0
+
+
+def test_plugin_params_that_do_not_fit(plugin):
+    with pytest.raises(ValueError, match=r"~processor_params do not fit "
+                       r"my_plugin.Scaled: .*unexpected keyword argument "
+                       r"'gian'"):
+        load_processor(plugin, {'gian': 2.5})
