@@ -160,15 +160,15 @@ def test_nobody_listening_is_an_error_not_a_hang():
 
 
 def test_unresolvable_host():
-    with pytest.raises(ntp.NtpError,
-                       match='cannot resolve time server no-such-host.invalid'):
+    with pytest.raises(ntp.NtpError, match='cannot resolve time server '
+                       'no-such-host.invalid'):
         ntp.query('no-such-host.invalid', 123, timeout=0.2)
 
 
 def test_short_reply_is_malformed(fake_server):
     srv = fake_server(server_reply(1.0, 1.0, size=40))
-    with pytest.raises(ntp.NtpError,
-                       match=r'short NTP reply \(40 bytes\) from 127\.0\.0\.1'):
+    with pytest.raises(ntp.NtpError, match=r'short NTP reply \(40 bytes\) '
+                       r'from 127\.0\.0\.1'):
         ntp.query('127.0.0.1', srv.port, timeout=1.0)
 
 
