@@ -77,7 +77,9 @@ class DeviceClockMapper:
     Each sample gives ``arrival - device`` (global arrival minus device
     stamp) = true offset + transport delay >= true offset.  The offset is
     the lower envelope of those values, fitted with drift over a sliding
-    window: the minimum-delay idea of NTP, applied to one-way samples.
+    window: the minimum-delay idea of NTP, applied to one-way samples.  A
+    device clock that goes back (a restarted sensor) starts the fit over
+    and is counted in ``resets``.
     """
 
     def __init__(self, window=30.0, min_span=5.0):
@@ -87,9 +89,13 @@ class DeviceClockMapper:
         self.offset = None
         self.drift = 0.0
         self.ref = 0.0
+        self.resets = 0
 
     def observe(self, device, arrival):
         """Add one sample's device stamp and global arrival time."""
+        if self._points and device < self._points[-1][0]:
+            self._points.clear()
+            self.resets += 1
         self._points.append((device, arrival - device))
         while self._points and self._points[0][0] < device - self.window:
             self._points.popleft()

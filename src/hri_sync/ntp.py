@@ -68,6 +68,9 @@ def query(host, port=123, timeout=0.5, local_clock=time.time):
     if (words[5], words[6]) != (tx_s, tx_f):
         raise NtpError('NTP reply from %s:%d does not match our request'
                        % (host, port))
+    if (words[9], words[10]) == (0, 0):
+        raise NtpError('NTP reply from %s:%d has no transmit time'
+                       % (host, port))
     t2 = _from_ntp(words[7], words[8])
     t3 = _from_ntp(words[9], words[10])
     return NtpSample(t1, t2, t3, t4)

@@ -139,13 +139,14 @@ T0 = 1.7e9
 
 
 def device_stream(seed, ppm, offset, rate=30.0, dur=40.0,
-                  delay=(0.3e-3, 15e-3)):
-    """(device stamp, global arrival, true time) of a drifting sensor."""
+                  delay=(0.3e-3, 15e-3), t0=T0):
+    """(device stamp, global arrival, true time) of a drifting sensor whose
+    clock reads ``offset`` at true time ``t0``."""
     rng = random.Random(seed)
     out = []
     for k in range(int(dur * rate)):
-        true = T0 + k / rate
-        device = offset + (true - T0) * (1.0 + ppm)
+        true = t0 + k / rate
+        device = offset + (true - t0) * (1.0 + ppm)
         out.append((device, true + rng.uniform(*delay), true))
     return out
 
@@ -195,3 +196,18 @@ def test_mapper_robust_to_delay_spikes():
     device, _, true = stream[-1]
     assert m.to_global(device) - true == pytest.approx(0.0, abs=1.5e-3)
     assert m.drift == pytest.approx(-ppm / (1 + ppm), abs=20e-6)
+
+
+def test_mapper_starts_over_when_the_device_clock_goes_back():
+    # A sensor restarted: its clock starts again from 0.  The old points
+    # must not pull the new stamps 100 s off.
+    m = DeviceClockMapper()
+    for device, arrival, _ in device_stream(0, 0.0, 100.0, dur=10.0):
+        m.observe(device, arrival)
+    assert m.resets == 0
+    for device, arrival, true in device_stream(1, 0.0, 0.0, dur=1.0,
+                                               t0=T0 + 10.5):
+        m.observe(device, arrival)
+        assert m.to_global(device) - true == pytest.approx(0.0, abs=0.016)
+    assert m.resets == 1
+    assert m.to_global(device) - true == pytest.approx(0.0, abs=1e-3)

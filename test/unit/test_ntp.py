@@ -194,6 +194,18 @@ def test_reply_with_another_origin_is_refused(fake_server):
                   local_clock=local_clock(1000.0, 1000.0))
 
 
+def test_reply_without_a_transmit_time_is_refused(fake_server):
+    # RFC 4330: a zero transmit timestamp is an unusable reply (it would
+    # read as an offset of -70 years).
+    def reply(request):
+        packet = bytearray(server_reply(1.0, 1.0)(request))
+        packet[40:48] = bytes(8)
+        return bytes(packet)
+    srv = fake_server(reply)
+    with pytest.raises(ntp.NtpError, match='no transmit time'):
+        ntp.query('127.0.0.1', srv.port, timeout=1.0)
+
+
 def test_measure_keeps_the_minimum_delay_exchange_and_skips_failures(
         fake_server):
     # Replies: bad, ok slow, ok fast, bad, ok medium.  The local clock
