@@ -29,11 +29,13 @@ class FakeNtpServer:
     request is recorded in ``requests``.
     """
 
-    def __init__(self, reply):
+    def __init__(self, reply, host='127.0.0.1'):
         self.reply = reply
         self.requests = []
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.bind(('127.0.0.1', 0))
+        self.sock = socket.socket(
+            socket.AF_INET6 if ':' in host else socket.AF_INET,
+            socket.SOCK_DGRAM)
+        self.sock.bind((host, 0))
         self.sock.settimeout(0.05)
         self.port = self.sock.getsockname()[1]
         self._stop = False
@@ -74,8 +76,8 @@ def server_reply(t2, t3, mode=4, stratum=2, li=0, origin=None, size=None):
 def fake_server():
     servers = []
 
-    def start(reply):
-        s = FakeNtpServer(reply)
+    def start(reply, host='127.0.0.1'):
+        s = FakeNtpServer(reply, host)
         servers.append(s)
         return s
     yield start
@@ -125,6 +127,23 @@ def test_real_time_offset_against_a_fake_server_1_7_s_ahead(fake_server):
     assert m.offset == pytest.approx(1.7, abs=0.005)   # generous: loopback
     assert 0 <= m.delay < 0.05
     assert len(srv.requests) == 4
+
+
+def ipv6_loopback():
+    try:
+        with socket.socket(socket.AF_INET6, socket.SOCK_DGRAM) as s:
+            s.bind(('::1', 0))
+        return True
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not ipv6_loopback(), reason='no IPv6 loopback')
+def test_ipv6_server(fake_server):
+    srv = fake_server(server_reply(1001.75, 1001.75), host='::1')
+    s = ntp.query('::1', srv.port, timeout=1.0,
+                  local_clock=local_clock(1000.0, 1000.5))
+    assert s.offset == 1.5 and s.delay == 0.5
 
 
 def test_silent_server_times_out_with_a_reason(fake_server):
