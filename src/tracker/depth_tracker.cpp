@@ -401,7 +401,7 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
     return out;
   }
   out.user_cells = static_cast<int>(seg.cells.size());
-  Geodesic geo = geodesicExtremities(g, seg);
+  Geodesic geo = geodesicExtremities(g, seg, 8, 0.5);
   out.extremities = static_cast<int>(geo.extremities.size());
   const Vec3 up = floor_.found ? floor_.n : Vec3(0, 1, 0);
   if (!model_.calibrated && calib_.empty()) model_ = BodyModel::fromHeight(std::clamp(seg.height + 0.03, 1.2, 2.2));
@@ -505,7 +505,7 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
       if (facing_.norm() > 0.2) lateral_ = horizontal(facing_, up).normalized();
     }
   }
-  const double miss = 0.6;
+  const double miss = 0.6, miss_hand = 0.45;
   std::array<int, NUM_LABELS> assign;
   assign.fill(-1);
   {
@@ -526,7 +526,7 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
         used[k] = 0;
       }
       cur[l] = -1;
-      search(l + 1, c + miss);
+      search(l + 1, c + (l == LB_LHAND || l == LB_RHAND ? miss_hand : miss));
     };
     search(0, 0.0);
   }
@@ -599,9 +599,12 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
         conf[lb.mid] = 0.5f;
       }
       j[lb.mid] = mid;
-    } else if (have_prev_ && tip_age_[lb.label] <= params_.hold_frames) {
-      j[lb.end] = Vec3(filters_[lb.end][0].x, filters_[lb.end][1].x, filters_[lb.end][2].x);
-      j[lb.mid] = Vec3(filters_[lb.mid][0].x, filters_[lb.mid][1].x, filters_[lb.mid][2].x);
+    } else if (lb.label == LB_LHAND || lb.label == LB_RHAND) {
+      // An unseen hand rests against the trunk (it would be an extremity otherwise).
+      const double side = lb.label == LB_LHAND ? 1.0 : -1.0;
+      const Vec3 forward = up.cross(lateral_);
+      j[lb.end] = torso + forward * 0.15 + lateral_ * (0.12 * side) - up * 0.05;
+      j[lb.mid] = twoBone(root, j[lb.end], lb.upper, lb.lower, lateral_ * (0.5 * side) - up);
       conf[lb.end] = conf[lb.mid] = 0.3f;
     } else {  // hanging limb of the model
       j[lb.mid] = root - up * lb.upper;
