@@ -13,7 +13,9 @@ process's (unfaked) clock, and after the round checks:
   no_winner: no motion, LED or sound after the window;
 - the commands and the odometry stay within the Kobuki limits over the
   whole round, every stop ends with an explicit zero, and the base never
-  had to clamp, slew or time out a command.
+  had to clamp, slew or time out a command;
+- no_winner round: decisions with a winner out of range, for an unknown
+  round or with an unknown outcome are logged as errors and ignored.
 """
 import math
 import os
@@ -26,6 +28,7 @@ import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
+from rosgraph_msgs.msg import Log
 
 from hri_sync.hostclock import realtime
 from hri_sync.msg import (ActionStart, CaptureData, Decision, Led, Sample,
@@ -84,6 +87,10 @@ class DjRobRound(unittest.TestCase):
         sub('/capture_data', CaptureData, cls.on_capture)
         sub('/decision', Decision, cls.on_decision)
         sub('/diagnostics', DiagnosticArray, cls.on_diag)
+        cls.errors = []
+        sub('/rosout', Log, lambda m: cls.errors.append(m.msg)
+            if m.name == '/dj_rob' and m.level >= Log.ERROR else None,
+            queue_size=100)
         threading.Thread(target=cls.publish_samples, daemon=True).start()
         cls.wait_round()
 
@@ -99,7 +106,8 @@ class DjRobRound(unittest.TestCase):
 
     @classmethod
     def on_decision(cls, msg):
-        cls.decision = (time.time(), msg)
+        if cls.decision is None:          # the DM's, not our bad ones
+            cls.decision = (time.time(), msg)
 
     @classmethod
     def on_diag(cls, msg):
@@ -142,6 +150,27 @@ class DjRobRound(unittest.TestCase):
             if recent and not moving and time.time() - last_cmd > 2.0:
                 break
         time.sleep(1.5)                    # one more diagnostics period
+        if cls.expect == 'no_winner':
+            cls.send_bad_decisions()
+
+    @classmethod
+    def send_bad_decisions(cls):
+        """Decisions the robot must log and ignore: a winner out of
+        range, an unknown round, an unknown outcome."""
+        pub = rospy.Publisher('/decision', Decision, queue_size=10)
+        deadline = time.time() + 5.0
+        while pub.get_num_connections() < 1 and time.time() < deadline:
+            time.sleep(0.05)
+        time.sleep(1.0)                   # every subscriber connected
+        n = cls.capture.round if cls.capture else 1
+        cls.bad_sent = time.time()
+        for d in (Decision(round=n, outcome=Decision.WINNER, winner=7),
+                  Decision(round=n + 1000, outcome=Decision.WINNER,
+                           winner=1),
+                  Decision(round=n, outcome='bogus', winner=1)):
+            pub.publish(d)
+            time.sleep(0.2)
+        time.sleep(2.0)
 
     def window(self):
         self.assertIsNotNone(self.capture, 'no capture_data seen')
@@ -214,6 +243,20 @@ class DjRobRound(unittest.TestCase):
         self.assertIn(Led.GREEN, leds)
         self.assertEqual(leds[-1], Led.BLACK)
         self.assertIn(Sound.CLEANINGEND, sounds)
+
+    def test_5_bad_decisions_ignored(self):
+        if self.expect != 'no_winner':
+            self.skipTest('sent in the no_winner round only')
+        text = '\n'.join(self.errors)
+        self.assertIn('winner 7 out of range 1..2', text)
+        self.assertIn('not a round this robot was scheduled in', text)
+        self.assertIn("unknown decision outcome 'bogus'", text)
+        with self.lock:
+            moved = [c for t, c in self.cmds
+                     if t > self.bad_sent and c != (0.0, 0.0)]
+            leds = [v for t, v in self.leds if t > self.bad_sent]
+        self.assertEqual(moved, [])
+        self.assertEqual(leds, [])
 
     def test_4_limits(self):
         with self.lock:
