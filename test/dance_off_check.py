@@ -13,6 +13,7 @@ streams and, after the round, checks:
 - scores against ~min_expressiveness: below for a still person, above for
   a mover;
 - with ~nan_joints > 0: NaN joints were counted and the score stays finite;
+- with ~drop > 0: each DPM saw gaps (frames_dropped > 0);
 - with ~verify: records the round with rosbag, then runs verify_decisions
   on the bag, which must exit 0 and recompute the recorded decision.
 """
@@ -57,6 +58,7 @@ class DanceOffRound(unittest.TestCase):
         cls.still = rospy.get_param('~still', '').split(',')
         cls.movers = rospy.get_param('~movers', '').split(',')
         cls.nan_joints = rospy.get_param('~nan_joints', 0.0)
+        cls.drop = rospy.get_param('~drop', 0.0)
         cls.verify = rospy.get_param('~verify', False)
         cls.timeout = rospy.get_param('~timeout', 60.0)
         cls.statuses = {c: rospy.get_param('~expect_status_' + c, 'ok')
@@ -159,6 +161,8 @@ class DanceOffRound(unittest.TestCase):
                 self.assertGreater(r.value, self.min_value, c)
             if self.nan_joints > 0:
                 self.assertGreater(int(diag(r, 'nonfinite_joints')), 0, c)
+            if self.drop > 0:
+                self.assertGreater(r.frames_dropped, 0, c)
 
     def test_verify_decisions(self):
         if not self.verify:
