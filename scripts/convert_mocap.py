@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Convert BVH motion capture into the compact motion files of data/motion/.
 
-For each BVH file: ``<name>.npz`` (float32 times, 15-joint positions in the
-sensor frame, orientations; resampled to --rate Hz, compressed) and, for
+For each BVH file: ``<name>.npz`` (times, 15-joint positions in the sensor
+frame to 0.1 mm, orientations; resampled to --rate Hz, compressed) and, for
 the clips named by --track (or all with --track all), the plain-text
 ``<name>.track`` the C++ virtual Kinect reads. See hri_sync.motion for the
 sensor frame and the 1.70 m height scaling.

@@ -320,8 +320,12 @@ def map_joints(bvh):
             looked = ' or '.join('+'.join(n) for n in JOINT_CANDIDATES[name])
             missing.append('%s (looked for %s)' % (name, looked))
     if missing:
-        raise BvhError('%s: lacks %d of the 15 hri_sync joints: %s'
-                       % (bvh.path, len(missing), '; '.join(missing)))
+        names = [j.name for j in bvh.joints if not j.end_site]
+        raise BvhError('%s: lacks %d of the 15 hri_sync joints: %s (the '
+                       "file's joints: %s%s)"
+                       % (bvh.path, len(missing), '; '.join(missing),
+                          ', '.join(names[:20]),
+                          ', ...' if len(names) > 20 else ''))
     return mapping
 
 

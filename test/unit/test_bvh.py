@@ -94,6 +94,7 @@ def test_missing_joints_are_listed():
     msg = str(err.value)
     assert msg.startswith('two.bvh: lacks 15 of the 15')
     assert 'left_knee (looked for lshin or leftleg' in msg
+    assert "(the file's joints: root, child)" in msg
 
 
 # A minimal standing figure with the salsa file's joint names (y up, facing
