@@ -2,7 +2,8 @@
 // runs the depth tracker on every frame and prints one JSON object with the
 // error against the motion's true joints, the tracked share and the speed.
 //   tracker_eval --track FILE.track [--res 320x240] [--seconds S] [--background 0|1]
-//                [--noise SIGMA] [--direct] [--dump FILE]
+//                [--noise SIGMA] [--direct] [--step N] [--dump FILE]
+// --step: depth pixels per tracker grid cell (default width / 160).
 // --dump writes per frame: index, tracked, 15 estimated and 15 true joints, 15 confidences,
 // the extremity count and the extremities.
 // --direct renders in-process instead of through OpenNI (same renderer).
@@ -65,6 +66,7 @@ void account(Stats* s, const SkeletonEstimate& est, const Joints& truth) {
 
 int main(int argc, char** argv) {
   std::string track_path, res = "320x240";
+  TrackerParams params;
   double seconds = 0, noise = 0.0015;
   bool direct = false, background = false;
   for (int i = 1; i < argc; ++i) {
@@ -79,6 +81,7 @@ int main(int argc, char** argv) {
     else if (a == "--noise") noise = std::stod(next());
     else if (a == "--background") background = next() != "0";
     else if (a == "--direct") direct = true;
+    else if (a == "--step") params.grid_step = std::stoi(next());
     else if (a == "--snapshot") g_snapshot = std::stoi(next());
     else if (a == "--dump") g_dump = std::fopen(next().c_str(), "w");
     else { std::fprintf(stderr, "tracker_eval: unknown argument %s\n", a.c_str()); return 2; }
@@ -97,7 +100,7 @@ int main(int argc, char** argv) {
   cam.height = res == "640x480" ? 480 : 240;
   const int fps = 30;
   const int total = static_cast<int>(seconds * fps);
-  DepthTracker tracker(cam);
+  DepthTracker tracker(cam, params);
   Stats st;
 
   if (direct) {
