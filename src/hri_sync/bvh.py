@@ -21,7 +21,7 @@ END_SUFFIX = '_End'
 
 
 class BvhError(ValueError):
-    """A BVH file that cannot be parsed or mapped; the message names the file."""
+    """A BVH file that cannot be parsed or mapped (the message names it)."""
 
 
 @dataclass
@@ -162,7 +162,8 @@ def _parse_hierarchy(tokens, path):
             if tok == 'ROOT' and (stack or joints):
                 raise BvhError('%s: only one ROOT is supported' % path)
             if tok == 'JOINT' and not stack:
-                raise BvhError('%s: JOINT %s outside ROOT' % (path, tokens[i + 1]))
+                raise BvhError('%s: JOINT %s outside ROOT'
+                               % (path, tokens[i + 1]))
             pending = BvhJoint(tokens[i + 1], stack[-1] if stack else -1,
                                np.zeros(3))
             i += 2
@@ -220,7 +221,8 @@ def _parse_hierarchy(tokens, path):
             channel += count
             i += 2 + count
         else:
-            raise BvhError('%s: unexpected token %r in hierarchy' % (path, tok))
+            raise BvhError('%s: unexpected token %r in hierarchy'
+                           % (path, tok))
     if stack or pending is not None:
         raise BvhError('%s: hierarchy not closed (missing "}")' % path)
     if not joints:

@@ -45,7 +45,7 @@ NPZ_QUATERNION_SCALE = 32767.0
 
 @dataclass
 class Motion:
-    """Joint positions over time; ``times`` in s from 0, strictly increasing."""
+    """Joint positions over time; ``times`` in s, strictly increasing."""
 
     times: np.ndarray               # (N,)
     positions: np.ndarray           # (N, 15, 3) metres, sensor frame
@@ -57,9 +57,9 @@ class Motion:
         self.positions = np.asarray(self.positions, dtype=float)
         count = self.times.shape[0]
         if self.positions.shape != (count, NUM_JOINTS, 3):
-            raise ValueError('Motion %s: positions shape %s, expected (%d, %d, 3)'
-                             % (self.name, self.positions.shape, count,
-                                NUM_JOINTS))
+            raise ValueError('Motion %s: positions shape %s, expected '
+                             '(%d, %d, 3)' % (self.name, self.positions.shape,
+                                              count, NUM_JOINTS))
         if count < 2 or not np.all(np.diff(self.times) > 0):
             raise ValueError('Motion %s: needs >= 2 frames with increasing '
                              'times' % self.name)

@@ -6,9 +6,9 @@ frames do not line up. The motion's timeline starts at a ``start`` instant
 (host clock, set by the launch file), so two sensors replaying the two
 partners of one take dance together. At a tick at host time t the sensor
 shows the motion at clip time ``offset + (t - start) * speed`` (or the
-fixed clip time ``hold``: a person standing still), plus Gaussian tracker noise of
-``noise`` m per axis (white: the worst case for a speed-based score), and
-drops the frame with probability ``drop``.
+fixed clip time ``hold``: a person standing still), plus Gaussian tracker
+noise of ``noise`` m per axis (white: the worst case for a speed-based
+score), and drops the frame with probability ``drop``.
 """
 
 from dataclasses import dataclass
@@ -30,7 +30,7 @@ class SensorFrames:
 
 
 def tick_times(start, phase, rate, t0, t1):
-    """Tick instants ``start + phase + k / rate`` (any integer k) in [t0, t1)."""
+    """Tick instants ``start + phase + k / rate`` (integer k) in [t0, t1)."""
     period = 1.0 / rate
     first = np.ceil((t0 - start - phase) / period - 1e-9)
     last = np.ceil((t1 - start - phase) / period - 1e-9)
