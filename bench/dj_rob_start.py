@@ -7,7 +7,8 @@ and the music optionally under its own libfaketime clock, and prints JSON:
 per action, the start offset from CR_T+STR_AFT in true time (the node's
 raw host-clock reading at the start; the time server serves this host's
 clock, so global = true) and, for the robot, the arrival of its first
-command at an outside subscriber (includes ROS transport).
+command at an outside subscriber (includes ROS transport; the observer
+runs SCHED_FIFO when permitted).
 
     source WS/devel/setup.bash
     bench/dj_rob_start.py --rounds 10 --dur 3 [--robot-clock '+2.5s x1.0002']
@@ -132,10 +133,20 @@ def main():
 
 
 def observe(opts):
+    import rosgraph
     import rospy
     from geometry_msgs.msg import Twist
+    from hri_sync.hostclock import realtime
     from hri_sync.msg import ActionStart, CaptureData, Decision
-    time.sleep(3.0)                  # the master comes up
+    deadline = time.time() + 30.0
+    while not rosgraph.is_master_online() and time.time() < deadline:
+        time.sleep(0.2)
+    # Observe arrivals promptly on a busy machine (rospy's threads inherit
+    # this policy), below the nodes' own priority.
+    with realtime(5) as rt:
+        pass
+    if rt.ok:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(5))
     rospy.init_node('dj_rob_bench', disable_signals=True)
     lock = threading.Lock()
     captures, starts, first_cmd, decisions = {}, {}, {}, set()
