@@ -41,6 +41,7 @@ import roslib.packages
 import rospy
 
 from hri_sync import ntp
+from hri_sync.clock import ClockModel
 from hri_sync.msg import (ClientResult, ClockState, Decision, RoundStatus,
                           SyncAck, SyncTime)
 from hri_sync.rosutil import RoundLog
@@ -71,6 +72,11 @@ def ms(stats):
             for k, v in stats.items()}
 
 
+def mean_ms(values):
+    """Mean of seconds in ms (None for none)."""
+    return round(sum(values) / len(values) * 1e3, 4) if values else None
+
+
 # --------------------------------------------------------------- processes
 
 def _proc_table():
@@ -98,6 +104,17 @@ def _cmdline(pid):
         return '?'
     return ' '.join(os.path.basename(a.decode(errors='replace'))
                     for a in argv[:3])
+
+
+def faketime_start(parent):
+    """True time (s) the faketime child of ``parent`` started, from /proc
+    (10 ms resolution), or None.  libfaketime's drift starts there."""
+    for pid, (ppid, _, _, start) in _proc_table().items():
+        if ppid == parent and _cmdline(pid).startswith('faketime'):
+            since_boot = time.clock_gettime(time.CLOCK_BOOTTIME)
+            return (time.time() - since_boot
+                    + int(start) / os.sysconf('SC_CLK_TCK'))
+    return None
 
 
 class Processes:
@@ -219,6 +236,7 @@ class Recorder:
         self.status = {}        # round -> [RoundStatus]
         self.decided_at = {}    # round -> arrival of the Decision
         self.clock_ok = {}      # client -> ClockState
+        self.clock_states = {}  # client -> [(arrival, ClockState)]
         rospy.Subscriber('/sync_time', SyncTime, self._on_sync)
         rospy.Subscriber('/sync_ack', SyncAck, self._on_ack, queue_size=100)
         rospy.Subscriber('/round_status', RoundStatus, self._on_status,
@@ -245,6 +263,8 @@ class Recorder:
     def _on_clock(self, msg, client):
         if msg.ok:
             self.clock_ok[client] = msg
+            self.clock_states.setdefault(client, []).append(
+                (time.time(), msg))
 
 
 # --------------------------------------------------------------- analysis
@@ -281,6 +301,7 @@ def analyse_round(n, rec, log_round, clocks, failures):
             t = a.stamp.to_sec()
             injected = -(offset + (rate - 1.0) * (t - t0))
             out['ack_offset_error'].append(abs(a.offset - injected))
+            out.setdefault('ack_offset_signed', {})[c] = a.offset - injected
     if decision is None:
         failures.append('round %d: no decision' % n)
     elif decision.outcome == Decision.ABORTED and not aborted:
@@ -295,19 +316,19 @@ def analyse_round(n, rec, log_round, clocks, failures):
     out['str_aft'] = capture.str_aft
     results = log_round['results']
     timings = []
-    out['wake'] = []
+    out['wake'], out['frames'] = [], []
     for c in capture.clients:
         r = results.get(c)
         if r is None:
             failures.append('round %d: no result from %s' % (n, c))
         else:
             if r.status != ClientResult.OK:
-                why = ', '.join('%s=%s' % (kv.key, kv.value)
-                                for kv in r.diagnostics
-                                if kv.key in ('reason', 'error'))
-                failures.append('round %d: %s result %s%s'
-                                % (n, c, r.status,
-                                   ' (%s)' % why if why else ''))
+                why = ['%d frames, coverage %.2f' % (r.frames, r.coverage)]
+                why += ['%s=%s' % (kv.key, kv.value) for kv in r.diagnostics
+                        if kv.key in ('reason', 'error')]
+                failures.append('round %d: %s result %s (%s)'
+                                % (n, c, r.status, ', '.join(why)))
+            out['frames'].append(r.frames)
             if math.isfinite(r.wake_lateness):
                 out['wake'].append(r.wake_lateness)
         t = client_timing(c, log_round['captured'].get(c, []))
@@ -319,6 +340,19 @@ def analyse_round(n, rec, log_round, clocks, failures):
     if missing_clients:
         failures.append('round %d: captured without %s (quorum)'
                         % (n, ','.join(missing_clients)))
+    start = capture.cr_t.to_sec() + capture.str_aft
+    out['model_errors'] = {}
+    for c in capture.clients:
+        states = [m for t, m in rec.clock_states.get(c, []) if t < start]
+        if c in clocks and states:
+            offset, rate, t0 = clocks[c]
+            s = states[-1]
+            local = start + offset + (rate - 1.0) * (start - t0)
+            model = ClockModel(s.local_ref, s.offset, s.drift)
+            out['model_errors'][c] = model.to_global(local) - start
+    if len(out['model_errors']) >= 2:
+        e = out['model_errors'].values()
+        out['model_skew'] = max(e) - min(e)
     out['errors'] = {t.client_id: t.clock_error for t in timings
                      if math.isfinite(t.clock_error)}
     if len(out['errors']) == len(clients):
@@ -338,6 +372,11 @@ def summarize(args, rounds, failures, clocks, extra):
         'ok': not failures,
         'start_skew_ms': ms(percentiles(skews)),
         'offset_error_ms': ms(percentiles(errors)),
+        'clock_skew_ms': ms(percentiles(
+            [r['model_skew'] for r in rounds if 'model_skew' in r])),
+        'clock_model_error_ms': ms(percentiles(
+            [abs(e) for r in rounds
+             for e in r.get('model_errors', {}).values()])),
         'ack_round_ms': ms(percentiles(
             [r['ack_round'] for r in rounds if 'ack_round' in r])),
         'capture_order_ms': ms(percentiles(
@@ -346,6 +385,12 @@ def summarize(args, rounds, failures, clocks, extra):
             [w for r in rounds for w in r.get('wake', [])])),
         'ack_offset_error_ms': ms(percentiles(
             [e for r in rounds for e in r.get('ack_offset_error', [])])),
+        'frames_per_window': {
+            'expected': int(round(args.dur * args.rate)),
+            'min': min((f for r in rounds for f in r.get('frames', [])),
+                       default=None),
+            'p50': percentiles([f for r in rounds
+                                for f in r.get('frames', [])])['p50']},
         'str_aft_s': sorted({round(r['str_aft'], 3) for r in rounds
                              if 'str_aft' in r}),
         'rounds_measured': len(skews),
@@ -354,11 +399,13 @@ def summarize(args, rounds, failures, clocks, extra):
         'start_skew_per_round_ms': [round(r['skew'] * 1e3, 3)
                                     if 'skew' in r else None
                                     for r in rounds],
-        'clock_error_mean_ms': {
-            c: round(sum(v) / len(v) * 1e3, 4) if v else None
-            for c, v in sorted(signed.items())},
+        'clock_error_mean_ms': {c: mean_ms(v)
+                                for c, v in sorted(signed.items())},
         'clocks': {c: {'offset_s': round(o, 6),
-                       'drift_ppm': round((rate - 1) * 1e6, 3)}
+                       'drift_ppm': round((rate - 1) * 1e6, 3),
+                       'ack_offset_error_mean_ms': mean_ms(
+                           [r['ack_offset_signed'][c] for r in rounds
+                            if c in r.get('ack_offset_signed', {})])}
                    for c, (o, rate, _) in sorted(clocks.items())},
         'failures': len(failures),
         'failure_notes': failures[:50],
@@ -503,6 +550,14 @@ def run(args, procs, env, ntp_port, clocks, result):
     wait_until('%d clients (CPM synced, DPM reading the reference)'
                % len(clients), lambda: clients_ready(master, clients, rec),
                setup_time, started)
+    for name, p in started:
+        if name in clocks:
+            t0 = faketime_start(p.pid)
+            if t0 is None:
+                log('WARNING: no faketime process of %s found: the injected'
+                    ' offset is referred to its launch time', name)
+            else:
+                clocks[name] = clocks[name][:2] + (t0,)
     log('%d clients ready; starting the server for %d rounds (dur %g s, '
         'str_aft %s)', len(clients), args.rounds, args.dur, args.str_aft)
 
