@@ -172,12 +172,16 @@ class SyncedClock:
             samples=s['samples']))
 
     def _resync_loop(self):
+        # Re-measure after 0.5, 1, 2, 4 s at start, so the drift is known
+        # within seconds instead of one resync period.
+        pause = 0.5
         while not rospy.is_shutdown():
             error = self.measure()
             if error:
                 rospy.logwarn_throttle(10, '%s: clock sync failed: %s'
                                        % (self.name, error))
-            time.sleep(self.resync_period)
+            time.sleep(min(pause, self.resync_period))
+            pause *= 2
 
 
 class ClientProcess:
