@@ -48,6 +48,8 @@ from hri_sync.rosutil import RoundLog
 from hri_sync.skew import client_timing, percentiles, start_skew
 
 PR_SET_CHILD_SUBREAPER = 36
+SETUP_TIME = 30.0        # s for roscore, chronyd and the sensor
+SETUP_PER_CLIENT = 6.0   # s more per client
 
 
 class Interrupted(Exception):
@@ -70,6 +72,11 @@ def ms(stats):
     """Seconds -> ms in a percentiles dict, NaN -> None (valid JSON)."""
     return {k: round(v * 1e3, 4) if math.isfinite(v) else None
             for k, v in stats.items()}
+
+
+def median(values):
+    """The nearest-rank median, None for none."""
+    return percentiles(values)['p50'] if values else None
 
 
 def mean_ms(values):
@@ -369,6 +376,7 @@ def summarize(args, rounds, failures, clocks, extra):
     return dict({
         'clients': args.clients,
         'rounds': args.rounds,
+        'rounds_run': len(rounds),
         'ok': not failures,
         'start_skew_ms': ms(percentiles(skews)),
         'offset_error_ms': ms(percentiles(errors)),
@@ -389,8 +397,7 @@ def summarize(args, rounds, failures, clocks, extra):
             'expected': int(round(args.dur * args.rate)),
             'min': min((f for r in rounds for f in r.get('frames', [])),
                        default=None),
-            'p50': percentiles([f for r in rounds
-                                for f in r.get('frames', [])])['p50']},
+            'p50': median([f for r in rounds for f in r.get('frames', [])])},
         'str_aft_s': sorted({round(r['str_aft'], 3) for r in rounds
                              if 'str_aft' in r}),
         'rounds_measured': len(skews),
@@ -490,16 +497,22 @@ def clients_ready(master, clients, rec):
                and c in rec.clock_ok for c in clients)
 
 
-def run(args, procs, env, ntp_port, clocks, result):
-    """Start everything and record the rounds into ``result``."""
-    clients = ['c%d' % (i + 1) for i in range(args.clients)]
+def time_budget(args):
+    """The bound on the whole run, s: --timeout or from the setup, the
+    rounds and the window."""
     per_round = (args.ack_timeout + (float(args.str_aft)
                                      if args.str_aft != 'auto' else 2.0)
                  + args.dur + 7.0)
-    setup_time = 30.0 + 6.0 * args.clients
-    budget = args.timeout or setup_time + 20.0 + args.rounds * per_round
+    return args.timeout or (SETUP_TIME + SETUP_PER_CLIENT * args.clients
+                            + 20.0 + args.rounds * per_round)
+
+
+def run(args, procs, env, ntp_port, clocks, result, state):
+    """Start everything and record the rounds (``state``: the bench's
+    Recorder and RoundLog)."""
+    clients = ['c%d' % (i + 1) for i in range(args.clients)]
+    budget = result['timeout_s']
     deadline = time.monotonic() + budget
-    result['timeout_s'] = round(budget, 1)
     rng = random.Random(args.seed)
 
     master_uri = env['ROS_MASTER_URI']
@@ -516,8 +529,8 @@ def run(args, procs, env, ntp_port, clocks, result):
                [('roscore', core)])
     os.environ['ROS_MASTER_URI'] = master_uri
     rospy.init_node('sync_skew_bench', anonymous=True, disable_signals=True)
-    rec = Recorder(clients)
-    rlog = RoundLog(clients, 'hri_sync/Sample')
+    rec = state['rec'] = Recorder(clients)
+    rlog = state['rlog'] = RoundLog(clients, 'hri_sync/Sample')
 
     ts = procs.start('time_server', [
         'roslaunch', '--wait', 'hri_sync', 'timeserver.launch',
@@ -549,7 +562,7 @@ def run(args, procs, env, ntp_port, clocks, result):
             'input:=/reference/samples', 'stamp_source:=arrival'])))
     wait_until('%d clients (CPM synced, DPM reading the reference)'
                % len(clients), lambda: clients_ready(master, clients, rec),
-               setup_time, started)
+               SETUP_TIME + SETUP_PER_CLIENT * args.clients, started)
     for name, p in started:
         if name in clocks:
             t0 = faketime_start(p.pid)
@@ -610,17 +623,29 @@ def run(args, procs, env, ntp_port, clocks, result):
             break
         time.sleep(0.2)
     time.sleep(0.5)
-    rlog.assign_captured()
-    failures = []
-    final = []
-    for n in range(1, args.rounds + 1):
-        with rlog.lock:
-            lr = rlog.rounds.get(n)
-        final.append(analyse_round(n, rec, lr, clocks, failures))
+
+
+def analyse(args, state, clocks, result):
+    """(per-round figures, failure notes) of what was recorded."""
+    rec, rlog = state.get('rec'), state.get('rlog')
+    final, failures, missing = [], [], []
+    if rec is not None:
+        rlog.assign_captured()
+        for n in range(1, args.rounds + 1):
+            with rlog.lock:
+                lr = rlog.rounds.get(n)
+            if n not in rec.sync and n not in rec.status:
+                missing.append(n)
+                continue
+            final.append(analyse_round(n, rec, lr, clocks, failures))
+    if missing:
+        failures.append('%d rounds never started: %s'
+                        % (len(missing), ','.join(map(str, missing))))
     for name, code in result['died'].items():
         failures.append('%s exited early with status %s' % (name, code))
     if result.get('timed_out'):
-        failures.append('run-time bound of %.0f s reached' % budget)
+        failures.append('run-time bound of %.0f s reached'
+                        % result['timeout_s'])
     return final, failures
 
 
@@ -638,7 +663,7 @@ def main():
     os.environ['ROS_HOSTNAME'] = 'localhost'
     procs = Processes(logdir, env)
     clocks = {}
-    result = {'died': {}}
+    result = {'died': {}, 'timeout_s': round(time_budget(args), 1)}
 
     def on_signal(signum, _frame):
         raise Interrupted(signal.Signals(signum).name)
@@ -648,14 +673,11 @@ def main():
     log('N=%d R=%d seed %d; logs in %s', args.clients, args.rounds,
         args.seed, logdir)
     load = os.getloadavg()
-    final, failures, status = [], [], 0
+    failures, status, state = [], 0, {}
     try:
         # Hard bound, should the orderly one in run() not be reached.
-        signal.alarm(int((args.timeout or 30 + 6 * args.clients + 20
-                          + args.rounds * (args.ack_timeout + 9 + args.dur
-                                           + 3)) + 60))
-        final, failures = run(args, procs, env, ntp_port, clocks, result)
-        status = 1 if failures else 0
+        signal.alarm(int(result['timeout_s']) + 30)
+        run(args, procs, env, ntp_port, clocks, result, state)
     except Interrupted as e:
         failures.append('interrupted by %s' % e)
         log('interrupted (%s): cleaning up', e)
@@ -671,6 +693,10 @@ def main():
         if not rospy.core.is_shutdown():
             rospy.signal_shutdown('benchmark done')
         procs.stop()
+    final, notes = analyse(args, state, clocks, result)
+    failures = notes + failures
+    if status == 0 and failures:
+        status = 1
     result.pop('died')
     out = summarize(args, final, failures, clocks, dict(
         result, dur_s=args.dur, rate_hz=args.rate, seed=args.seed,
@@ -685,7 +711,7 @@ def main():
     log('start skew p99 %s ms, offset error p99 %s ms over %d rounds',
         out['start_skew_ms']['p99'], out['offset_error_ms']['p99'],
         out['rounds_measured'])
-    print(json.dumps(out), flush=True)
+    print(json.dumps(out, allow_nan=False), flush=True)
     sys.exit(status)
 
 
