@@ -81,8 +81,8 @@ struct TrackerParams {
   int grid_step = 0;          ///< 0: width / 160
   int calibration_frames = 15;
   int hold_frames = 10;       ///< how long a lost extremity is held
-  double filter_min_cutoff = 2.0;   ///< one-euro filter (Hz)
-  double filter_beta = 1.0;
+  double filter_min_cutoff = 4.0;   ///< one-euro filter (Hz)
+  double filter_beta = 2.0;
 };
 
 struct SkeletonEstimate {

@@ -313,7 +313,7 @@ BodyModel BodyModel::fromHeight(double h) {
   m.height = h;
   m.upper_arm = 0.186 * h;
   m.forearm = 0.146 * h;
-  m.shoulder_width = 0.20 * h;
+  m.shoulder_width = 0.17 * h;
   m.neck_drop = 0.02 * h;
   m.thigh = 0.245 * h;
   m.shin = 0.246 * h;
@@ -412,7 +412,7 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
   for (int i : seg.cells) if (geo.dist[i] < 0.22f) { trunk += g.points[i]; ++nt; }
   trunk = nt ? trunk * (1.0 / nt) : seg.centroid;
   // The centroid sits low (legs are long): a learnt offset along up corrects it.
-  Vec3 torso = behind(trunk, 0.09) + up * torso_bias_;
+  Vec3 torso = behind(trunk, 0.13) + up * torso_bias_;
   Vec3 neck = torso + up * model_.torso_to_neck;
   Vec3 hipc = torso - up * model_.torso_to_hips;
 
@@ -425,7 +425,7 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
   {
     const Vec3 view = trunk.normalized();
     std::vector<uint8_t> front(g.width * g.height, 0);
-    for (int i : seg.cells) front[i] = (trunk - g.points[i]).dot(view) > 0.15;
+    for (int i : seg.cells) front[i] = (trunk - g.points[i]).dot(view) > 0.07;
     std::vector<int> stack;
     for (int s0 : seg.cells) {
       if (front[s0] != 1) continue;
@@ -550,10 +550,10 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
     const Vec3* pn = at_reach(paths[LB_HEAD], model_.head_top + model_.head_to_neck);
     const Vec3* pt = at_reach(paths[LB_HEAD], model_.head_top + model_.head_to_neck + model_.torso_to_neck);
     if (pn && pt) {
-      Vec3 t_new = behind(*pt, 0.09);
+      Vec3 t_new = behind(*pt, 0.13);
       torso_bias_ += 0.2 * (t_new - torso).dot(up);
       torso = t_new;
-      neck = behind(*pn, 0.06);
+      neck = behind(*pn, 0.12);
       hipc = torso - up * model_.torso_to_hips;
     }
   }
@@ -575,11 +575,11 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
     conf[HEAD] = 0.3f;
   }
   // Arms and legs: tip -> end joint; middle joint on the path where both bones fit.
-  struct Limb { int label; Joint root, mid, end; double upper, lower, r_mid, r_end; };
+  struct Limb { int label; Joint root, mid, end; double upper, lower, r_mid, r_end, drop; };
   const Limb limbs[4] = {
-      {LB_LHAND, L_SHOULDER, L_ELBOW, L_HAND, model_.upper_arm, model_.forearm, 0.045, 0.04},
-      {LB_RHAND, R_SHOULDER, R_ELBOW, R_HAND, model_.upper_arm, model_.forearm, 0.045, 0.04},
-      {LB_LFOOT, L_HIP, L_KNEE, L_FOOT, model_.thigh, model_.shin, 0.06, 0.05},
+      {LB_LHAND, L_SHOULDER, L_ELBOW, L_HAND, model_.upper_arm, model_.forearm, 0.045, 0.04, 0.0},
+      {LB_RHAND, R_SHOULDER, R_ELBOW, R_HAND, model_.upper_arm, model_.forearm, 0.045, 0.04, 0.0},
+      {LB_LFOOT, L_HIP, L_KNEE, L_FOOT, model_.thigh, model_.shin, 0.06, 0.05, 0.06},
       {LB_RFOOT, R_HIP, R_KNEE, R_FOOT, model_.thigh, model_.shin, 0.06, 0.05}};
   for (const Limb& lb : limbs) {
     const Vec3 root = j[lb.root];
@@ -589,7 +589,7 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
       Vec3 end = endp ? *endp : path.front();
       double best;
       Vec3 mid = behind(midJoint(path, root, end, lb.upper, lb.lower, &best), lb.r_mid);
-      j[lb.end] = behind(end, lb.r_end);
+      j[lb.end] = behind(end, lb.r_end) - up * lb.drop;
       conf[lb.end] = 0.9f;
       conf[lb.mid] = 0.8f;
       if (best > 0.08) {  // the path skips the limb (held towards the sensor): two-bone fit
