@@ -603,7 +603,7 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
       // An unseen hand rests against the trunk (it would be an extremity otherwise).
       const double side = lb.label == LB_LHAND ? 1.0 : -1.0;
       const Vec3 forward = up.cross(lateral_);
-      j[lb.end] = torso + forward * 0.15 + lateral_ * (0.12 * side) - up * 0.05;
+      j[lb.end] = torso + forward * 0.13 + lateral_ * (0.07 * side);
       j[lb.mid] = twoBone(root, j[lb.end], lb.upper, lb.lower, lateral_ * (0.5 * side) - up);
       conf[lb.end] = conf[lb.mid] = 0.3f;
     } else {  // hanging limb of the model
