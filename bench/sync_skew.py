@@ -35,6 +35,8 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections import Counter
+from xmlrpc.client import ServerProxy
 
 import rosgraph
 import roslib.packages
@@ -72,6 +74,11 @@ def ms(stats):
     """Seconds -> ms in a percentiles dict, NaN -> None (valid JSON)."""
     return {k: round(v * 1e3, 4) if math.isfinite(v) else None
             for k, v in stats.items()}
+
+
+def fail(failures, kind, fmt, *args):
+    """Append a failure (kind, note) to ``failures``."""
+    failures.append((kind, fmt % args))
 
 
 def median(values):
@@ -284,20 +291,22 @@ def analyse_round(n, rec, log_round, clocks, failures):
     decision = log_round['decision'] if log_round else None
     capture = log_round['capture'] if log_round else None
     if aborted:
-        failures.append('round %d aborted: %s' % (n, aborted[-1].reason))
+        fail(failures, 'aborted', 'round %d aborted: %s', n,
+             aborted[-1].reason)
         out['aborted'] = aborted[-1].reason
     if log_round is None or n not in rec.sync:
-        failures.append('round %d never started (no sync_time seen)' % n)
+        fail(failures, 'never_started',
+             'round %d never started (no sync_time seen)', n)
         out['missing'] = True
         return out
     clients = sorted(clocks)
     acks = log_round['acks']
     for c in clients:
         if c not in acks:
-            failures.append('round %d: no ACK from %s' % (n, c))
+            fail(failures, 'missing_ack', 'round %d: no ACK from %s', n, c)
         elif not acks[c].ok:
-            failures.append('round %d: NACK from %s: %s'
-                            % (n, c, acks[c].reason))
+            fail(failures, 'nack', 'round %d: NACK from %s: %s', n, c,
+                 acks[c].reason)
     arrivals = rec.ack_arrival.get(n, {})
     if all(c in arrivals for c in clients):
         out['ack_round'] = max(arrivals.values()) - rec.sync[n][0]
@@ -310,13 +319,14 @@ def analyse_round(n, rec, log_round, clocks, failures):
             out['ack_offset_error'].append(abs(a.offset - injected))
             out.setdefault('ack_offset_signed', {})[c] = a.offset - injected
     if decision is None:
-        failures.append('round %d: no decision' % n)
+        fail(failures, 'no_decision', 'round %d: no decision', n)
     elif decision.outcome == Decision.ABORTED and not aborted:
-        failures.append('round %d: decision aborted: %s'
-                        % (n, decision.reason))
+        fail(failures, 'aborted', 'round %d: decision aborted: %s', n,
+             decision.reason)
     if capture is None:
         if not aborted:
-            failures.append('round %d: no capture_data' % n)
+            fail(failures, 'no_capture_data', 'round %d: no capture_data',
+                 n)
         return out
     out['capture_order'] = (capture.cr_t.to_sec()
                             - rec.sync[n][1].stamp.to_sec())
@@ -327,26 +337,28 @@ def analyse_round(n, rec, log_round, clocks, failures):
     for c in capture.clients:
         r = results.get(c)
         if r is None:
-            failures.append('round %d: no result from %s' % (n, c))
+            fail(failures, 'missing_result', 'round %d: no result from %s',
+                 n, c)
         else:
             if r.status != ClientResult.OK:
                 why = ['%d frames, coverage %.2f' % (r.frames, r.coverage)]
                 why += ['%s=%s' % (kv.key, kv.value) for kv in r.diagnostics
                         if kv.key in ('reason', 'error')]
-                failures.append('round %d: %s result %s (%s)'
-                                % (n, c, r.status, ', '.join(why)))
+                fail(failures, 'result_' + r.status,
+                     'round %d: %s result %s (%s)', n, c, r.status,
+                     ', '.join(why))
             out['frames'].append(r.frames)
             if math.isfinite(r.wake_lateness):
                 out['wake'].append(r.wake_lateness)
         t = client_timing(c, log_round['captured'].get(c, []))
         if not t.samples:
-            failures.append('round %d: no captured samples from %s'
-                            % (n, c))
+            fail(failures, 'no_samples',
+                 'round %d: no captured samples from %s', n, c)
         timings.append(t)
     missing_clients = [c for c in clients if c not in capture.clients]
     if missing_clients:
-        failures.append('round %d: captured without %s (quorum)'
-                        % (n, ','.join(missing_clients)))
+        fail(failures, 'quorum', 'round %d: captured without %s (quorum)',
+             n, ','.join(missing_clients))
     start = capture.cr_t.to_sec() + capture.str_aft
     out['model_errors'] = {}
     for c in capture.clients:
@@ -415,7 +427,8 @@ def summarize(args, rounds, failures, clocks, extra):
                             if c in r.get('ack_offset_signed', {})])}
                    for c, (o, rate, _) in sorted(clocks.items())},
         'failures': len(failures),
-        'failure_notes': failures[:50],
+        'failure_counts': dict(Counter(k for k, _ in failures)),
+        'failure_notes': [note for _, note in failures[:50]],
     }, **extra)
 
 
@@ -497,6 +510,20 @@ def clients_ready(master, clients, rec):
                and c in rec.clock_ok for c in clients)
 
 
+def delivery_order(master, clients):
+    """The clients in the order the reference sensor writes each sample
+    to them (its connections, oldest first), from its getBusInfo."""
+    try:
+        api = ServerProxy(master.lookupNode('/reference'))
+        _, _, bus = api.getBusInfo('/sync_skew_bench')
+    except Exception as e:  # only a diagnostic: say why it is missing
+        return 'unknown: %s' % e
+    dpms = {'/%s/dpm' % c: c for c in clients}
+    return [dpms[b[1]] for b in sorted(bus, key=lambda b: b[0])
+            if b[2] == 'o' and b[4] == '/reference/samples'
+            and b[1] in dpms]
+
+
 def time_budget(args):
     """The bound on the whole run, s: --timeout or from the setup, the
     rounds and the window."""
@@ -571,6 +598,7 @@ def run(args, procs, env, ntp_port, clocks, result, state):
                     ' offset is referred to its launch time', name)
             else:
                 clocks[name] = clocks[name][:2] + (t0,)
+    result['reference_delivery_order'] = delivery_order(master, clients)
     log('%d clients ready; starting the server for %d rounds (dur %g s, '
         'str_aft %s)', len(clients), args.rounds, args.dur, args.str_aft)
 
@@ -615,7 +643,7 @@ def run(args, procs, env, ntp_port, clocks, result, state):
                 ' '.join('%s %+.3f' % (c, e * 1e3)
                          for c, e in sorted(r.get('errors', {}).items())),
                 '/'.join('%.1f' % (w * 1e3) for w in r.get('wake', [])),
-                ''.join('\n    ' + x for x in notes))
+                ''.join('\n    ' + x for _, x in notes))
         if len(reported) >= args.rounds and all(
                 n in reported for n in range(1, args.rounds + 1)):
             break
@@ -639,13 +667,14 @@ def analyse(args, state, clocks, result):
                 continue
             final.append(analyse_round(n, rec, lr, clocks, failures))
     if missing:
-        failures.append('%d rounds never started: %s'
-                        % (len(missing), ','.join(map(str, missing))))
+        fail(failures, 'never_started', '%d rounds never started: %s',
+             len(missing), ','.join(map(str, missing)))
     for name, code in result['died'].items():
-        failures.append('%s exited early with status %s' % (name, code))
+        fail(failures, 'process_died', '%s exited early with status %s',
+             name, code)
     if result.get('timed_out'):
-        failures.append('run-time bound of %.0f s reached'
-                        % result['timeout_s'])
+        fail(failures, 'timed_out', 'run-time bound of %.0f s reached',
+             result['timeout_s'])
     return final, failures
 
 
@@ -679,11 +708,11 @@ def main():
         signal.alarm(int(result['timeout_s']) + 30)
         run(args, procs, env, ntp_port, clocks, result, state)
     except Interrupted as e:
-        failures.append('interrupted by %s' % e)
+        fail(failures, 'interrupted', 'interrupted by %s', e)
         log('interrupted (%s): cleaning up', e)
         status = 130
     except RuntimeError as e:
-        failures.append('setup failed: %s' % e)
+        fail(failures, 'setup_failed', 'setup failed: %s', e)
         log('ERROR: setup failed: %s', e)
         status = 2
     finally:
@@ -706,8 +735,8 @@ def main():
         shutil.rmtree(logdir, ignore_errors=True)
     else:
         out['logs'] = logdir
-    for f in failures:
-        log('FAILURE: %s', f)
+    for _, note in failures:
+        log('FAILURE: %s', note)
     log('start skew p99 %s ms, offset error p99 %s ms over %d rounds',
         out['start_skew_ms']['p99'], out['offset_error_ms']['p99'],
         out['rounds_measured'])
