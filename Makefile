@@ -9,7 +9,7 @@ APT_PACKAGES := $(shell grep -v '^\#' $(ROOT)/scripts/apt-packages.txt)
 PIP_PACKAGES := rosbags
 SOURCE := source $(WS)/devel/setup.bash
 
-.PHONY: setup apt venv build test unit rostest demo bench clean
+.PHONY: setup apt venv build test unit rostest demo bench bench-dj-rob clean
 
 setup: apt venv build
 
@@ -55,6 +55,9 @@ demo: setup
 
 bench: setup
 	@$(SOURCE) && $(ROS_PY) $(ROOT)/bench/sync_skew.py --clients 2 --rounds 20
+
+bench-dj-rob: setup
+	@$(SOURCE) && $(ROS_PY) $(ROOT)/bench/dj_rob_start.py --rounds 10 --dur 3
 
 clean:
 	rm -rf $(WS) $(VENV)
