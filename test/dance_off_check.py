@@ -3,8 +3,11 @@
 
 Listens to /client_result, /decision and both /<client_id>/captured
 streams and, after the round, checks:
-- the decision is ~expect (no_winner, participant1 or participant2), over
-  the clients left and right, with scores equal to the results' values;
+- the decision is ~expect (no_winner, participant1, participant2 or
+  aborted), over the clients left and right, with scores equal to the
+  usable results' values (NaN for a result without data);
+- a client whose result is not usable (~expect_status_<client> no_data)
+  is named in the decision's reason;
 - each result: status ~expect_status_<client> (default ok), frames and
   coverage fitting a ~rate Hz sensor over DUR (a silent sensor: partial
   coverage below 1 and the decision says the result was partial), first
@@ -122,8 +125,8 @@ class DanceOffRound(unittest.TestCase):
     def test_decision(self):
         d = self.decision()
         self.assertEqual(list(d.clients), list(CLIENTS))
-        if self.expect == 'no_winner':
-            self.assertEqual((d.outcome, d.winner), ('no_winner', 0),
+        if self.expect in ('no_winner', 'aborted'):
+            self.assertEqual((d.outcome, d.winner), (self.expect, 0),
                              d.reason)
         else:
             number = int(self.expect[-1])
@@ -131,7 +134,12 @@ class DanceOffRound(unittest.TestCase):
                              d.reason)
         for c, score in zip(CLIENTS, d.scores):
             self.assertIn(c, self.results)
-            self.assertEqual(score, self.results[c].value)
+            if self.statuses[c] in ('ok', 'partial'):
+                self.assertEqual(score, self.results[c].value)
+            else:
+                self.assertTrue(math.isnan(score), (c, score))
+                self.assertIn('%s has no usable result (%s)'
+                              % (c, self.statuses[c]), d.reason)
         if any(s == 'partial' for s in self.statuses.values()):
             self.assertIn('partial', d.reason)
 
@@ -142,6 +150,10 @@ class DanceOffRound(unittest.TestCase):
             r = self.results.get(c)
             self.assertIsNotNone(r, 'no result from %s' % c)
             self.assertEqual(r.status, self.statuses[c], c)
+            if r.status == 'no_data':
+                self.assertEqual((r.frames, r.coverage), (0, 0.0), c)
+                self.assertFalse(self.captured.get(c), c)
+                continue
             self.assertTrue(math.isfinite(r.value), c)
             self.assertGreaterEqual(r.first_frame_offset, 0.0)
             self.assertLess(r.first_frame_offset, period + 0.01, c)
