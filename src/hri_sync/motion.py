@@ -246,6 +246,9 @@ def motion_from_bvh(bvh, height=STANDING_HEIGHT, name=''):
     out[..., 2] += SUBJECT_DISTANCE - torso[:, 2].mean()
 
     rot_sensor = to_sensor @ rot @ np.linalg.inv(to_sensor)
+    if bvh.num_frames < 2:
+        raise bvh_mod.BvhError('%s: %d frame of motion, need at least 2'
+                               % (bvh.path, bvh.num_frames))
     times = np.arange(bvh.num_frames) * bvh.frame_time
     return Motion(times, out, matrix_to_quaternion(rot_sensor), name)
 

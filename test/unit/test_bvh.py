@@ -208,6 +208,14 @@ def test_salsa_names_map_and_sensor_frame():
     np.testing.assert_allclose(np.linalg.norm(mot.orientations, axis=2), 1.0)
 
 
+def test_single_frame_clip_is_refused_naming_the_file():
+    text = figure_text().replace('Frames: 2', 'Frames: 1')
+    text = text[:text.rindex('0 9 0 90')]
+    data = bvh.parse_bvh(text, 'one.bvh')
+    with pytest.raises(bvh.BvhError, match='one.bvh: 1 frame of motion'):
+        motion.motion_from_bvh(data)
+
+
 def test_cmu_and_salsa_files_map():
     for name in ('cmu_60_01_salsa', 'cmu_131_01_walk'):
         path = os.path.join(MOCAP, name + '.bvh')
