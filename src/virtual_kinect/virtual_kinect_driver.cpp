@@ -6,7 +6,9 @@
 //   noise=0.0015 (depth sigma in m at 1 m, grows with z^2; 0 turns it off),
 //   loop=1 (0: stop sending frames at the end of the track), start=0 (s into the track),
 //   offset_us=1000000 (device clock at open), drift_ppm=0 (device clock rate error),
-//   lose_after=0 (s; > 0 simulates the sensor being unplugged after that time).
+//   lose_after=0 (s; > 0: the sensor is unplugged then: no more frames, a disconnect
+//   event, and the device is announced again at once (replugged), so a reader that
+//   reopens it gets a new device clock and the motion from its start).
 // Setting HRI_SYNC_VIRTUAL_KINECT=URI also announces that device at start-up, so
 // tools that open "any device" find it.
 #define XN_NEW(type, ...) new type(__VA_ARGS__)
@@ -322,8 +324,22 @@ class VirtualDriver : public oni::driver::DriverBase {
         auto it = infos_.find(uri);
         if (it != infos_.end()) info = it->second.get();
       }
-      auto on_lost = [this, info] {
-        if (info != nullptr) deviceDisconnected(info);
+      const std::string key = uri;
+      auto on_lost = [this, info, key] {
+        if (info == nullptr) return;
+        deviceDisconnected(info);
+        // Replugged at once: OpenNI forgets a disconnected device, so announce it
+        // anew (with a fresh info; the old one stays alive for OpenNI).
+        OniDeviceInfo* fresh = nullptr;
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          auto copy = std::make_unique<OniDeviceInfo>(*info);
+          fresh = copy.get();
+          auto it = infos_.find(key);
+          if (it != infos_.end()) retired_.push_back(std::move(it->second));
+          infos_[key] = std::move(copy);
+        }
+        deviceConnected(fresh);
       };
       auto dev = std::make_unique<VirtualDevice>(cfg, track, on_lost);
       oni::driver::DeviceBase* raw = dev.get();
@@ -361,6 +377,7 @@ class VirtualDriver : public oni::driver::DriverBase {
   std::mutex mutex_;
   std::map<std::string, std::shared_ptr<const Track>> tracks_;
   std::map<std::string, std::unique_ptr<OniDeviceInfo>> infos_;
+  std::vector<std::unique_ptr<OniDeviceInfo>> retired_;
   std::vector<std::unique_ptr<VirtualDevice>> devices_;
 };
 
