@@ -3,8 +3,10 @@
 
 Runs launch/dance_off.launch on its own ROS master: the left client's
 sensor replays a salsa dancer (cmu_60_01_salsa), the right one a person
-who barely moves (cmu_61_01_salsa at 5 % speed); both clients capture the
-same synchronized window; the round monitor prints both scores, the
+who barely moves (cmu_61_01_salsa at 5 % speed); both clients run with
+wrong, drifting clocks under libfaketime (+1.2 s at +200 ppm, -0.8 s at
+-200 ppm), measure them against the time server and capture the same
+synchronized window; the round monitor prints both scores, the
 decision and the start skew; the round is recorded to a bag, which
 verify_decisions then recomputes. Exits non-zero if the round or the
 verification fails. Options pass on to the launch file as name:=value.
@@ -30,6 +32,7 @@ def main():
     args = ['left_motion:=cmu_60_01_salsa',
             'right_motion:=cmu_61_01_salsa', 'right_speed:=0.05',
             'right_offset:=3.0', 'dur:=10', 'rounds:=1', 'bag:=' + bag,
+            'left_clock:=+1.2s x1.0002', 'right_clock:=-0.8s x0.9998',
             'ntp_port:=%d' % free_port()] + sys.argv[1:]
     port = free_port()
     env = dict(os.environ, ROS_MASTER_URI='http://localhost:%d' % port)
