@@ -36,6 +36,10 @@ build:
 	  catkin_make -DPYTHON_EXECUTABLE=$(ROS_PY) -DCMAKE_BUILD_TYPE=Release \
 	  -DCATKIN_ENABLE_TESTING=ON > $(WS)/build.log 2>&1 \
 	  || { tail -40 $(WS)/build.log; exit 1; }
+	@# rosrun searches the package folder, which holds .ws: keep the devel
+	@# relays the only executable copies of the nodes (nodes/ are not +x).
+	@find $(WS)/build -type f \( -path '*atomic_configure*' -o -path '*installspace*' \) \
+	  -perm /111 -exec chmod a-x {} +
 	@echo "built: source $(WS)/devel/setup.bash"
 
 unit: setup
