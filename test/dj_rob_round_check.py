@@ -10,6 +10,7 @@ process's (unfaked) clock, and after the round checks:
   music's starts (their own raw host-clock readings) fall, within 10 ms of
   the scheduled start in true time (the time server serves this host's
   clock, so global = true);
+- the music's beats come at CR_T+STR_AFT + k * 0.5 s (120 BPM);
 - after the last round, for a winner: the robot's final odometry heading
   points at the winner's bearing within 10 degrees, LEDs and sound were
   used; for no_winner: no motion, LED or sound after the window;
@@ -33,8 +34,8 @@ from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Log
 
 from hri_sync.hostclock import realtime
-from hri_sync.msg import (ActionStart, CaptureData, Decision, Led, Sample,
-                          Sound)
+from hri_sync.msg import (ActionStart, Beat, CaptureData, Decision, Led,
+                          Sample, Sound)
 
 LIMITS = {'linear': 0.7, 'angular': math.pi, 'linear_accel': 0.5,
           'angular_accel': 3.5}
@@ -89,6 +90,9 @@ class DjRobRound(unittest.TestCase):
             sub(topic, Led, cls.rec, ('leds', lambda m: m.value))
         sub('/mobile_base/commands/sound', Sound, cls.rec,
             ('sounds', lambda m: m.value))
+        cls.beats, cls.sim_leds = [], []
+        sub('/music/beat', Beat, cls.rec, ('beats', lambda m: m))
+        sub('/kobuki_sim/led1', Led, cls.rec, ('sim_leds', lambda m: m.value))
         sub('/capture_data', CaptureData, cls.on_capture)
         sub('/decision', Decision, cls.on_decision)
         sub('/diagnostics', DiagnosticArray, cls.on_diag)
@@ -229,6 +233,22 @@ class DjRobRound(unittest.TestCase):
                 self.assertLess(abs(m.offset), START_TOLERANCE,
                                 'round %d %s' % (n, action))
 
+    def test_2b_beats(self):
+        for n, c in sorted(self.captures.items()):
+            start = c.cr_t.to_sec() + c.str_aft
+            with self.lock:
+                beats = [(t, b) for t, b in self.beats if b.round == n]
+            self.assertEqual([b.index for _, b in beats],
+                             list(range(int(round(c.dur / 0.5)))),
+                             'round %d: one beat each 0.5 s of the window' % n)
+            for t, b in beats:
+                self.assertAlmostEqual(b.stamp.to_sec(),
+                                       start + 0.5 * b.index, places=6)
+                self.assertEqual(b.bar_beat, b.index % 4)
+                self.assertEqual(b.bpm, 120.0)
+                self.assertLess(abs(t - b.stamp.to_sec()), 0.05,
+                                'beat %d published late' % b.index)
+
     def test_3_outcome_motion(self):
         _, end = self.window()
         with self.lock:
@@ -263,6 +283,10 @@ class DjRobRound(unittest.TestCase):
         self.assertIn(Led.GREEN, leds)
         self.assertEqual(leds[-1], Led.BLACK)
         self.assertIn(Sound.CLEANINGEND, sounds)
+        with self.lock:                   # the base's republished state
+            sim_leds = [v for _, v in self.sim_leds]
+        self.assertIn(Led.GREEN, sim_leds)
+        self.assertEqual(sim_leds[-1], Led.BLACK)
 
     def test_5_bad_decisions_ignored(self):
         if self.expect != 'no_winner':
