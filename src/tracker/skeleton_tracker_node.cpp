@@ -79,6 +79,10 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
         openDevice();
         continue;
       }
+      if (nite_) {  // NiTE reads the device itself and blocks until its next frame
+        handleFrame();
+        continue;
+      }
       openni::VideoStream* streams[] = {depth_.get()};
       int ready = -1;
       openni::Status st = openni::OpenNI::waitForAnyStream(streams, 1, &ready, 200);
@@ -98,7 +102,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
         }
         continue;
       }
-      handleFrame(now);
+      handleFrame();
     }
   }
 
@@ -214,13 +218,15 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     tracker_.reset();
   }
 
-  void handleFrame(double host) {
+  void handleFrame() {
     SkeletonEstimate est;
+    double host = 0;
     unsigned long long device_us = 0;
     int index = 0;
     if (nite_) {
       try {
         est = nite_->read(&device_us, &index);
+        host = hostNow();
       } catch (const std::exception& e) {
         setError(e.what());
         return;
@@ -231,6 +237,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
         setError("readFrame failed: " + std::string(openni::OpenNI::getExtendedError()));
         return;
       }
+      host = hostNow();  // arrival: the fit uses the earliest arrivals only
       device_us = f.getTimestamp();
       index = f.getFrameIndex();
       est = tracker_->update(static_cast<const uint16_t*>(f.getData()), device_us * 1e-6);
