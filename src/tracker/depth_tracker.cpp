@@ -416,9 +416,6 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
   Vec3 neck = torso + up * model_.torso_to_neck;
   Vec3 hipc = torso - up * model_.torso_to_hips;
 
-  // Label the extremities (head, hands, feet) by the cheapest assignment that obeys
-  // the body's shape; extra extrema (knees, elbows) stay unlabelled. The cost adds
-  // the distance to the label's last position, while it is recent.
   // Candidates: the geodesic extrema, plus the tips of parts held out in front of the
   // trunk towards the sensor (a hand reaching forward), which are no geodesic extrema.
   std::vector<int> ext_cells = geo.extremities;
@@ -458,6 +455,9 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
   for (int c : ext_cells) ext.push_back(g.points[c]);
   out.extremity_points = ext;
   const int m = static_cast<int>(ext.size());
+  // Label the extremities (head, hands, feet) by the cheapest assignment that obeys
+  // the body's shape; extra extrema (knees, elbows) stay unlabelled. The cost adds
+  // the distance to the label's last position, while it is recent.
   const double arm = model_.upper_arm + model_.forearm + 0.05;
   auto label_cost = [&](int l, int k) -> double {  // < 0: impossible
     const Vec3& e = ext[k];
@@ -580,7 +580,7 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
       {LB_LHAND, L_SHOULDER, L_ELBOW, L_HAND, model_.upper_arm, model_.forearm, 0.045, 0.04, 0.0},
       {LB_RHAND, R_SHOULDER, R_ELBOW, R_HAND, model_.upper_arm, model_.forearm, 0.045, 0.04, 0.0},
       {LB_LFOOT, L_HIP, L_KNEE, L_FOOT, model_.thigh, model_.shin, 0.06, 0.05, 0.06},
-      {LB_RFOOT, R_HIP, R_KNEE, R_FOOT, model_.thigh, model_.shin, 0.06, 0.05}};
+      {LB_RFOOT, R_HIP, R_KNEE, R_FOOT, model_.thigh, model_.shin, 0.06, 0.05, 0.06}};
   for (const Limb& lb : limbs) {
     const Vec3 root = j[lb.root];
     const auto& path = paths[lb.label];
