@@ -19,8 +19,8 @@ the sample), each client's clock error at the window start
 Progress goes to stderr; the last stdout line is one JSON object.  Every
 process it started (and their descendants, each in its own process group)
 is stopped on exit, on Ctrl-C and when --timeout runs out.  Exit status 0
-when every round produced a full set of results, 1 otherwise (the JSON
-says what failed), 2 when the setup failed.
+when every round produced a full set of OK results, 1 otherwise (the JSON
+says what failed), 2 when the setup failed, 130 when interrupted.
 """
 import argparse
 import ctypes
@@ -111,6 +111,7 @@ def _proc_table():
 
 
 def _cmdline(pid):
+    """The first words of a process's command line, for messages."""
     try:
         with open('/proc/%d/cmdline' % pid, 'rb') as f:
             argv = f.read().split(b'\0')
@@ -212,9 +213,7 @@ class Processes:
     def stop(self, grace=6.0):
         """SIGINT the launchers (skewed_client kills its client 3 s
         later), then SIGTERM and SIGKILL what is left."""
-        if not self.children:
-            return
-        for name, p in reversed(self.children):
+        for _, p in reversed(self.children):
             if p.poll() is None:
                 try:
                     os.killpg(p.pid, signal.SIGINT)
@@ -381,6 +380,7 @@ def analyse_round(n, rec, log_round, clocks, failures):
 
 
 def summarize(args, rounds, failures, clocks, extra):
+    """The JSON object of the run: ``extra`` merged into the figures."""
     skews = [r['skew'] for r in rounds if 'skew' in r]
     errors = [abs(e) for r in rounds for e in r.get('errors', {}).values()]
     signed = {c: [r['errors'][c] for r in rounds
@@ -452,8 +452,8 @@ def parse_args():
     p.add_argument('--seed', type=int, default=None,
                    help='random seed of the clocks (default: random)')
     p.add_argument('--timeout', type=float, default=None,
-                   help='bound on the whole run, s (default: from the '
-                   'rounds, the window and the clients)')
+                   help='bound on the run before cleanup, s (default: '
+                   'from the rounds, the window and the clients)')
     p.add_argument('--keep-logs', action='store_true',
                    help='keep the processes\' logs even on success')
     args = p.parse_args()
@@ -473,6 +473,7 @@ def parse_args():
 
 
 def node(name):
+    """The path of an executable of hri_sync (the catkin one first)."""
     path = roslib.packages.find_node('hri_sync', name)
     if not path:
         raise RuntimeError('node hri_sync/%s not found: build and source the '
@@ -714,6 +715,10 @@ def main():
     except RuntimeError as e:
         fail(failures, 'setup_failed', 'setup failed: %s', e)
         log('ERROR: setup failed: %s', e)
+        status = 2
+    except Exception as e:  # a bench bug: still clean up and report it
+        fail(failures, 'error', 'bench error: %r', e)
+        log('ERROR: %r', e)
         status = 2
     finally:
         signal.alarm(0)
