@@ -290,8 +290,9 @@ def analyse_round(n, rec, log_round, clocks, failures):
     decision = log_round['decision'] if log_round else None
     capture = log_round['capture'] if log_round else None
     if aborted:
-        fail(failures, 'aborted', 'round %d aborted: %s', n,
-             aborted[-1].reason)
+        reason = aborted[-1].reason
+        fail(failures, 'aborted', '%s', reason if reason.startswith(
+            'round %d ' % n) else 'round %d aborted: %s' % (n, reason))
         out['aborted'] = aborted[-1].reason
     if log_round is None or n not in rec.sync:
         fail(failures, 'never_started',
