@@ -451,49 +451,6 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
       if (size >= 3 && !known && ext_cells.size() < 10) ext_cells.push_back(tip);
     }
   }
-  // ... and the tips of arm parts outside the trunk's (elliptic) cylinder: the point
-  // of each such part farthest from the shoulders.
-  {
-    const Vec3 axis = (neck - hipc).normalized();
-    const Vec3 lat = (lateral_ - axis * lateral_.dot(axis)).normalized();
-    const Vec3 fwd = axis.cross(lat);
-    std::vector<uint8_t> armc(g.width * g.height, 0);
-    for (int i : seg.cells) {
-      Vec3 off = behind(g.points[i], 0.06) - hipc;
-      double h = off.dot(axis);
-      if (h < 0.1 || h > (neck - hipc).norm() + 0.4) continue;
-      double a = off.dot(lat) / 0.22, b = off.dot(fwd) / 0.14;
-      armc[i] = a * a + b * b > 1.0;
-    }
-    const Vec3 sh[2] = {neck + lat * (model_.shoulder_width / 2), neck - lat * (model_.shoulder_width / 2)};
-    std::vector<int> stack;
-    for (int s0 : seg.cells) {
-      if (armc[s0] != 1) continue;
-      int tip = s0, size = 0;
-      double best = -1;
-      armc[s0] = 2;
-      stack.assign(1, s0);
-      while (!stack.empty()) {
-        int i = stack.back();
-        stack.pop_back();
-        ++size;
-        double d = std::min((g.points[i] - sh[0]).norm(), (g.points[i] - sh[1]).norm());
-        if (d > best) { best = d; tip = i; }
-        int x = i % g.width, y = i / g.width;
-        for (int k = 0; k < 8; ++k) {
-          int nx = x + kDx[k], ny = y + kDy[k];
-          if (nx < 0 || ny < 0 || nx >= g.width || ny >= g.height) continue;
-          int jn = ny * g.width + nx;
-          if (armc[jn] != 1 || std::fabs(g.points[jn].z - g.points[i].z) > maxJump(g.points[i].z)) continue;
-          armc[jn] = 2;
-          stack.push_back(jn);
-        }
-      }
-      bool known = false;
-      for (int c : ext_cells) known |= (g.points[c] - g.points[tip]).norm() < 0.12;
-      if (size >= 5 && best > 0.2 && !known && ext_cells.size() < 12) ext_cells.push_back(tip);
-    }
-  }
   std::vector<Vec3> ext;
   for (int c : ext_cells) ext.push_back(g.points[c]);
   out.extremity_points = ext;
