@@ -1,0 +1,61 @@
+#!/usr/bin/python3
+"""Checks rounds where client c hears the server with a delay (issue 2).
+
+~expect 'late': STR_AFT (fixed) is shorter than the delay, so c's order
+arrives after the window start: c reports status late, with its lateness,
+and the decision is over the others, flagged as partial.
+~expect 'on_time': STR_AFT is auto: it measures c's dispatch latency from
+the ACKs (sync_time went through the same delay) and exceeds it, so every
+client captures.
+"""
+import time
+import unittest
+
+import rospy
+import rostest
+
+from hri_sync.rosutil import RoundLog, csv_list
+
+
+class LateCheck(unittest.TestCase):
+    """LATE instead of capturing out of step; auto STR_AFT adapts."""
+
+    def test_rounds(self):
+        clients = csv_list(rospy.get_param('~clients'))
+        delayed = rospy.get_param('~delayed')
+        delay = rospy.get_param('~delay')
+        expect = rospy.get_param('~expect')
+        log = RoundLog(clients)
+        deadline = time.monotonic() + 75.0
+        while time.monotonic() < deadline and not all(
+                log.rounds.get(n, {}).get('decision') for n in (1, 2)):
+            time.sleep(0.1)
+        time.sleep(0.5)
+        for n in (1, 2):
+            r = log.rounds.get(n)
+            self.assertIsNotNone(r and r['decision'], 'round %d: no decision'
+                                 % n)
+            self.assertEqual(sorted(r['capture'].clients), sorted(clients))
+            rospy.loginfo('round %d: STR_AFT %.3f s; %s result %s',
+                          n, r['capture'].str_aft, delayed,
+                          r['results'][delayed].status)
+            res = r['results'][delayed]
+            for c in clients:
+                if c != delayed:
+                    self.assertEqual(r['results'][c].status, 'ok')
+            if expect == 'late':
+                self.assertLess(r['capture'].str_aft, delay)
+                self.assertEqual(res.status, 'late')
+                self.assertGreater(res.wake_lateness, 0.0)
+                self.assertLess(abs(res.wake_lateness -
+                                    (delay - r['capture'].str_aft)), 0.15)
+                self.assertIn('%s has no usable result (late)' % delayed,
+                              r['decision'].reason)
+            else:
+                self.assertGreater(r['capture'].str_aft, delay)
+                self.assertEqual(res.status, 'ok')
+
+
+if __name__ == '__main__':
+    rospy.init_node('late_check')
+    rostest.rosrun('hri_sync', 'late_check', LateCheck)
