@@ -1,0 +1,537 @@
+#!/usr/bin/python3
+"""Start skew of N clients on separate network namespaces ("hosts") (JSON).
+
+    source <ws>/devel/setup.bash
+    sudo /usr/bin/python3 bench/multihost.py --clients 2 --rounds 10
+
+The multi-host variant of ``bench/sync_skew.py`` (whose helpers it reuses):
+every "host" is a Linux network namespace of its own, with its own
+loopback and one veth link to a bridge in a switch namespace, addresses in
+``--net`` (default 10.77.0.0/24; nothing leaves the namespaces it creates):
+
+- the server namespace (first address, ``.1``): a roscore, chronyd
+  (``timeserver.launch`` bound to the server's address, ``allow`` = the
+  subnet), the reference ``synthetic_sensor`` on the true clock, the
+  server (``server.launch``, ``ntp_server`` = the server's address), and
+  this bench itself (it enters the server namespace to record the rounds);
+- one namespace per client (``.11``, ``.12``, ...): ``client.launch``
+  under one libfaketime clock with a random offset and drift
+  (``skewed_client``), ``ROS_MASTER_URI`` and ``ntp_server`` pointing at
+  the server across the link, its DPM reading the reference across the
+  link with ``stamp_source: arrival``.
+
+``--shape c1`` puts a ``tc tbf`` (``--shape-rate``, ``--shape-latency``)
+on both directions of that client's link, and ``--load-kbit`` sends a UDP
+flow from the server to that client through it, to add queueing.
+
+Needs root (``ip netns``).  Progress goes to stderr; the last stdout line
+is one JSON object with the figures of ``sync_skew.py`` plus the network.
+Every process it started is stopped and every namespace it made is deleted
+on exit, on Ctrl-C and when --timeout runs out (namespaces left by a
+killed earlier run are deleted at start).  Exit status 0 when every round
+produced a full set of OK results, 1 otherwise, 2 when the setup failed,
+130 when interrupted.
+"""
+import argparse
+import ctypes
+import ipaddress
+import json
+import os
+import random
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+import rosgraph
+import rospy
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import sync_skew as ss  # noqa: E402  (the one-host bench's helpers)
+from hri_sync import ntp  # noqa: E402
+from hri_sync.rosutil import RoundLog  # noqa: E402
+from hri_sync.skew import percentiles  # noqa: E402
+
+CLONE_NEWNET = 0x40000000
+MASTER_PORT = 11311     # each namespace has its own ports
+NTP_PORT = 11123
+NETNS_SETUP = 15.0      # s more for the namespaces
+NS_PREFIX = 'hrims'     # namespaces are hrims<bench pid>-<host>
+NS_RE = re.compile(r'^%s(\d+)-' % NS_PREFIX)
+
+# A paced UDP flow: argv destination, kbit/s.  Port 9 (discard): the
+# client's kernel drops it, after it crossed the shaped link.
+LOAD_PROGRAM = r'''
+import socket, sys, time
+dst, rate = (sys.argv[1], 9), float(sys.argv[2]) * 1000 / 8
+size = 1000
+s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+t = time.monotonic()
+while True:
+    try:
+        s.sendto(b'\0' * size, dst)
+    except OSError:
+        pass
+    t += size / rate
+    d = t - time.monotonic()
+    if d > 0:
+        time.sleep(d)
+'''
+
+
+def log(fmt, *args):
+    print('multihost: ' + (fmt % args if args else fmt), file=sys.stderr,
+          flush=True)
+
+
+ss.log = log    # the shared process cleanup reports under this name
+
+
+def ip(*argv):
+    """Run ``ip ARGV`` (or ``tc`` when argv[0] == 'tc'); RuntimeError with
+    its message on failure."""
+    cmd = list(argv) if argv[0] == 'tc' else ['ip'] + list(argv)
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=10)
+    if r.returncode != 0:
+        raise RuntimeError('%s: %s' % (' '.join(cmd),
+                                       (r.stderr or r.stdout).strip()))
+    return r.stdout
+
+
+def pid_alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        pass
+    return True
+
+
+def remove_stale_namespaces():
+    """Delete the namespaces of earlier runs whose bench is dead."""
+    for line in ip('netns', 'list').splitlines():
+        name = line.split()[0] if line.strip() else ''
+        m = NS_RE.match(name)
+        if m and not pid_alive(int(m.group(1))):
+            log('deleting namespace %s of a dead earlier run', name)
+            try:
+                ip('netns', 'del', name)
+            except RuntimeError as e:
+                log('WARNING: %s', e)
+
+
+class Network:
+    """A switch namespace with a bridge, and hosts: each a namespace with
+    ``eth0`` (veth to the bridge) at an address of the subnet."""
+
+    def __init__(self, net):
+        self.net = net
+        self.tag = '%s%d' % (NS_PREFIX, os.getpid())
+        self.switch = self.tag + '-sw'
+        self.made = []          # namespaces, in creation order
+        self.hosts = {}         # host -> (namespace, address)
+        self.shaped = None
+
+    def _netns(self, name):
+        ip('netns', 'add', name)
+        self.made.append(name)
+        ip('-n', name, 'link', 'set', 'lo', 'up')
+
+    def create_switch(self):
+        self._netns(self.switch)
+        ip('-n', self.switch, 'link', 'add', 'br0', 'type', 'bridge')
+        ip('-n', self.switch, 'link', 'set', 'br0', 'up')
+
+    def add_host(self, host, address):
+        ns = '%s-%s' % (self.tag, host)
+        self._netns(ns)
+        port = 'p-' + host
+        ip('-n', self.switch, 'link', 'add', port, 'type', 'veth', 'peer',
+           'name', 'eth0', 'netns', ns)
+        ip('-n', self.switch, 'link', 'set', port, 'master', 'br0', 'up')
+        ip('-n', ns, 'addr', 'add', '%s/%d' % (address, self.net.prefixlen),
+           'dev', 'eth0')
+        ip('-n', ns, 'link', 'set', 'eth0', 'up')
+        self.hosts[host] = (ns, str(address))
+        return ns
+
+    def shape(self, host, rate, latency):
+        """tbf on both directions of ``host``'s link."""
+        ns = self.hosts[host][0]
+        for where, dev in ((ns, 'eth0'), (self.switch, 'p-' + host)):
+            ip('tc', '-n', where, 'qdisc', 'add', 'dev', dev, 'root', 'tbf',
+               'rate', rate, 'burst', '4kb', 'latency', latency)
+        self.shaped = {'host': host, 'rate': rate, 'latency': latency}
+
+    def qdisc_stats(self):
+        """tc -s of the shaped link (drops, backlog), for the report."""
+        if not self.shaped:
+            return None
+        host = self.shaped['host']
+        out = {}
+        for side, (where, dev) in (('to_server', (self.hosts[host][0],
+                                                  'eth0')),
+                                   ('to_client', (self.switch,
+                                                  'p-' + host))):
+            try:
+                text = ip('tc', '-s', '-n', where, 'qdisc', 'show', 'dev',
+                          dev)
+            except RuntimeError as e:
+                out[side] = str(e)
+                continue
+            m = re.search(r'Sent (\d+) bytes (\d+) pkt \(dropped (\d+), '
+                          r'overlimits (\d+)', text)
+            out[side] = ({'bytes': int(m.group(1)), 'packets': int(m.group(2)),
+                          'dropped': int(m.group(3)),
+                          'overlimits': int(m.group(4))} if m else text)
+        return out
+
+    def destroy(self):
+        for name in reversed(self.made):
+            try:
+                ip('netns', 'del', name)
+            except RuntimeError as e:
+                log('WARNING: %s', e)
+        left = [n for n in self.made
+                if n in ip('netns', 'list').split()]
+        if left:
+            log('WARNING: namespaces left: %s', ', '.join(left))
+        self.made = []
+
+
+def enter_netns(name):
+    """Move this (still single-threaded) process into namespace ``name``:
+    the threads and sockets rospy makes afterwards live there."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    fd = os.open('/run/netns/' + name, os.O_RDONLY)
+    try:
+        if libc.setns(fd, CLONE_NEWNET) != 0:
+            err = ctypes.get_errno()
+            raise RuntimeError('setns into %s: %s' % (name,
+                                                      os.strerror(err)))
+    finally:
+        os.close(fd)
+
+
+def in_ns(net, host, argv):
+    """``argv`` run in ``host``'s namespace with ROS_IP = its address
+    (``ip netns exec`` and ``env`` exec, so the pid stays the process's)."""
+    ns, address = net.hosts[host]
+    return ['ip', 'netns', 'exec', ns, 'env', 'ROS_IP=%s' % address] + argv
+
+
+def run(args, procs, net, clocks, result, state):
+    """Make the hosts, start everything and record the rounds."""
+    clients = ['c%d' % (i + 1) for i in range(args.clients)]
+    budget = result['timeout_s']
+    deadline = time.monotonic() + budget
+    rng = random.Random(args.seed)
+    addresses = list(args.net.hosts())
+    server_ip = str(addresses[0])
+
+    net.create_switch()
+    net.add_host('server', addresses[0])
+    for i, c in enumerate(clients):
+        net.add_host(c, addresses[10 + i])
+    if args.shape:
+        net.shape(args.shape, args.shape_rate, args.shape_latency)
+    result['network'] = {
+        'subnet': str(args.net), 'switch': net.switch,
+        'hosts': {h: {'netns': ns, 'address': a}
+                  for h, (ns, a) in net.hosts.items()},
+        'shaped': net.shaped, 'load_kbit': args.load_kbit if args.shape
+        else 0}
+    log('namespaces: %s', ', '.join('%s %s' % (ns, a) for ns, a in
+                                    net.hosts.values()))
+    enter_netns(net.hosts['server'][0])
+
+    master_uri = procs.env['ROS_MASTER_URI']
+    core = procs.start('roscore', in_ns(
+        net, 'server', ['roscore', '-p', str(MASTER_PORT)]))
+    master = rosgraph.Master('/multihost_bench', master_uri=master_uri)
+
+    def master_up():
+        try:
+            master.getPid()
+            return True
+        except Exception:
+            return False
+    ss.wait_until('the roscore at %s' % master_uri, master_up, 30,
+                  [('roscore', core)])
+    rospy.init_node('multihost_bench', anonymous=True, disable_signals=True)
+    rec = state['rec'] = ss.Recorder(clients)
+    rlog = state['rlog'] = RoundLog(clients, 'hri_sync/Sample')
+
+    ts = procs.start('time_server', in_ns(net, 'server', [
+        'roslaunch', '--wait', 'hri_sync', 'timeserver.launch',
+        'ntp_port:=%d' % NTP_PORT, 'bind_address:=%s' % server_ip,
+        'allow:=%s' % args.net]))
+
+    def ntp_up():
+        try:
+            ntp.measure(server_ip, NTP_PORT, 1, 0.2)
+            return True
+        except ntp.NtpError:
+            return False
+    ss.wait_until('chronyd on %s:%d' % (server_ip, NTP_PORT), ntp_up, 30,
+                  [('time_server', ts)])
+    log('roscore %s, chronyd on %s:%d', master_uri, server_ip, NTP_PORT)
+
+    sensor = procs.start('reference', in_ns(net, 'server', [
+        ss.node('synthetic_sensor'), '__name:=reference',
+        '_rate:=%g' % args.rate, '_phase:=0.5', '_signal:=true_time']))
+    started = [('time_server', ts), ('reference', sensor)]
+    if args.shape and args.load_kbit > 0:
+        started.append(('load', procs.start('load', in_ns(net, 'server', [
+            sys.executable, '-c', LOAD_PROGRAM, net.hosts[args.shape][1],
+            str(args.load_kbit)]))))
+    for c in clients:
+        if args.max_offset or args.max_drift:
+            offset = rng.uniform(-args.max_offset, args.max_offset)
+            rate = 1.0 + rng.uniform(-args.max_drift, args.max_drift) * 1e-6
+            spec = '%+.6fs x%.9f' % (offset, rate)
+            clocks[c] = (offset, rate, time.time())
+            launcher = [ss.node('skewed_client'), '--clock', spec]
+            log('client %s (%s): faketime %r', c, net.hosts[c][1], spec)
+        else:
+            clocks[c] = (0.0, 1.0, time.time())
+            launcher = ['roslaunch', '--wait', 'hri_sync']
+            log('client %s (%s): true clock', c, net.hosts[c][1])
+        started.append((c, procs.start(c, in_ns(net, c, launcher + [
+            'client.launch', 'client_id:=%s' % c,
+            'ntp_server:=%s' % server_ip, 'ntp_port:=%d' % NTP_PORT,
+            'input:=/reference/samples', 'stamp_source:=arrival']))))
+    ss.wait_until('%d clients (CPM synced, DPM reading the reference)'
+                  % len(clients),
+                  lambda: ss.clients_ready(master, clients, rec),
+                  ss.SETUP_TIME + ss.SETUP_PER_CLIENT * args.clients,
+                  started)
+    for name, p in started:
+        if name in clocks and clocks[name][1] != 1.0:
+            t0 = ss.faketime_start(p.pid)
+            if t0 is None:
+                log('WARNING: no faketime process of %s found: the injected'
+                    ' offset is referred to its launch time', name)
+            else:
+                clocks[name] = clocks[name][:2] + (t0,)
+    result['reference_delivery_order'] = ss.delivery_order(master, clients)
+    log('%d clients ready; starting the server for %d rounds (dur %g s, '
+        'str_aft %s)', len(clients), args.rounds, args.dur, args.str_aft)
+
+    server = procs.start('server', in_ns(net, 'server', [
+        'roslaunch', '--wait', 'hri_sync', 'server.launch',
+        'clients:=%s' % ','.join(clients), 'rounds:=%d' % args.rounds,
+        'dur:=%g' % args.dur, 'str_aft:=%s' % args.str_aft,
+        'ack_timeout:=%g' % args.ack_timeout, 'ntp_server:=%s' % server_ip,
+        'ntp_port:=%d' % NTP_PORT]))
+    started.append(('server', server))
+
+    reported, server_done = set(), None
+    while True:
+        now = time.monotonic()
+        if now > deadline:
+            result['timed_out'] = True
+            log('run-time bound of %.0f s reached', budget)
+            break
+        for name, p in started:
+            if name != 'server' and p.poll() is not None \
+                    and name not in result['died']:
+                result['died'][name] = p.returncode
+                log('ERROR: %s exited with status %s', name, p.returncode)
+        if server.poll() is not None and server_done is None:
+            server_done = now
+            log('server exited (status %s)', server.returncode)
+        for n, t in sorted(rec.decided_at.items()):
+            if n in reported or time.time() - t < 0.7:
+                continue
+            rlog.assign_captured()
+            with rlog.lock:
+                lr = rlog.rounds.get(n)
+            notes = []
+            r = ss.analyse_round(n, rec, lr, clocks, notes)
+            reported.add(n)
+            log('round %d: ack %s ms, str_aft %s, start skew %s ms, clock '
+                'errors [%s] ms%s', n,
+                '%.1f' % (r['ack_round'] * 1e3) if 'ack_round' in r else '-',
+                '%.3f' % r['str_aft'] if 'str_aft' in r else '-',
+                '%.3f' % (r['skew'] * 1e3) if 'skew' in r else '-',
+                ' '.join('%s %+.3f' % (c, e * 1e3)
+                         for c, e in sorted(r.get('errors', {}).items())),
+                ''.join('\n    ' + x for _, x in notes))
+        if all(n in reported for n in range(1, args.rounds + 1)):
+            break
+        if server_done is not None and now - server_done > 3.0:
+            break
+        time.sleep(0.2)
+    time.sleep(0.5)
+
+
+def ack_uncertainties(state, clients):
+    """{client: [ACK uncertainty, s]} over the rounds (half the best NTP
+    round trip across the link, plus the fit's residual)."""
+    out = {c: [] for c in clients}
+    rlog = state.get('rlog')
+    if rlog is None:
+        return out
+    with rlog.lock:
+        for r in rlog.rounds.values():
+            for c, a in r['acks'].items():
+                if c in out and a.ok:
+                    out[c].append(a.uncertainty)
+    return out
+
+
+def parse_args():
+    p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    p.add_argument('--clients', type=int, default=2)
+    p.add_argument('--rounds', type=int, default=10)
+    p.add_argument('--dur', type=float, default=2.0,
+                   help='capture window, s (default 2)')
+    p.add_argument('--str-aft', default='auto',
+                   help="STR_AFT in s, or 'auto' (default)")
+    p.add_argument('--rate', type=float, default=100.0,
+                   help='reference sensor rate, Hz (default 100)')
+    p.add_argument('--max-offset', type=float, default=3.0,
+                   help='clock offsets within +/- this, s (default 3; 0 '
+                   'with --max-drift 0: clients on the true clock)')
+    p.add_argument('--max-drift', type=float, default=200.0,
+                   help='clock drifts within +/- this, ppm (default 200)')
+    p.add_argument('--ack-timeout', type=float, default=3.0)
+    p.add_argument('--net', type=ipaddress.ip_network,
+                   default=ipaddress.ip_network('10.77.0.0/24'),
+                   help='subnet of the hosts (default 10.77.0.0/24)')
+    p.add_argument('--shape', metavar='CLIENT', default=None,
+                   help='put a tbf on both directions of this client\'s '
+                   'link (e.g. c1)')
+    p.add_argument('--shape-rate', default='1mbit',
+                   help='tbf rate (default 1mbit)')
+    p.add_argument('--shape-latency', default='20ms',
+                   help='tbf latency: the most a packet queues (default '
+                   '20ms)')
+    p.add_argument('--load-kbit', type=float, default=0.0,
+                   help='UDP flow server -> the shaped client, kbit/s '
+                   '(default 0)')
+    p.add_argument('--seed', type=int, default=None,
+                   help='random seed of the clocks (default: random)')
+    p.add_argument('--timeout', type=float, default=None,
+                   help='bound on the run before cleanup, s (default: '
+                   'from the rounds, the window and the clients)')
+    p.add_argument('--keep-logs', action='store_true',
+                   help='keep the processes\' logs even on success')
+    args = p.parse_args()
+    if args.clients < 1 or args.rounds < 1:
+        p.error('--clients and --rounds must be >= 1')
+    if args.net.version != 4 or args.net.num_addresses < 16 + args.clients:
+        p.error('--net must be an IPv4 subnet with room for %d hosts'
+                % (11 + args.clients))
+    if args.shape and args.shape not in ['c%d' % (i + 1)
+                                         for i in range(args.clients)]:
+        p.error('--shape must name a client, c1 .. c%d' % args.clients)
+    if args.load_kbit < 0 or (args.load_kbit and not args.shape):
+        p.error('--load-kbit needs --shape and must be >= 0')
+    if not (args.dur > 0 and args.rate > 0):
+        p.error('--dur and --rate must be > 0')
+    if args.max_offset < 0 or args.max_drift < 0:
+        p.error('--max-offset and --max-drift must be >= 0')
+    if args.str_aft != 'auto':
+        try:
+            if float(args.str_aft) <= 0:
+                raise ValueError
+        except ValueError:
+            p.error("--str-aft must be a number of seconds > 0 or 'auto'")
+    if args.seed is None:
+        args.seed = random.SystemRandom().randrange(1 << 31)
+    return args
+
+
+def main():
+    args = parse_args()
+    if os.geteuid() != 0:
+        sys.exit('multihost: needs root (ip netns); run it with sudo')
+    for tool in ('ip', 'tc', 'roscore', 'roslaunch', 'faketime'):
+        if shutil.which(tool) is None:
+            sys.exit('multihost: %s is not installed' % tool)
+    started = time.monotonic()
+    logdir = tempfile.mkdtemp(prefix='hri_sync_multihost_')
+    server_ip = str(next(args.net.hosts()))
+    master_uri = 'http://%s:%d' % (server_ip, MASTER_PORT)
+    env = dict(os.environ, ROS_MASTER_URI=master_uri, ROS_LOG_DIR=logdir,
+               ROS_HOME=logdir, PYTHONUNBUFFERED='1')
+    env.pop('ROS_HOSTNAME', None)
+    env.pop('ROS_IP', None)
+    os.environ.update(ROS_MASTER_URI=master_uri, ROS_LOG_DIR=logdir,
+                      ROS_IP=server_ip)
+    os.environ.pop('ROS_HOSTNAME', None)
+    procs = ss.Processes(logdir, env)
+    net = Network(args.net)
+    clocks = {}
+    result = {'died': {}, 'timeout_s': round(ss.time_budget(args)
+                                             + NETNS_SETUP, 1)}
+
+    def on_signal(signum, _frame):
+        raise ss.Interrupted(signal.Signals(signum).name)
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP,
+                signal.SIGALRM):
+        signal.signal(sig, on_signal)
+    log('N=%d R=%d seed %d; logs in %s', args.clients, args.rounds,
+        args.seed, logdir)
+    load = os.getloadavg()
+    failures, status, state = [], 0, {}
+    try:
+        signal.alarm(int(result['timeout_s']) + 30)
+        remove_stale_namespaces()
+        run(args, procs, net, clocks, result, state)
+    except ss.Interrupted as e:
+        ss.fail(failures, 'interrupted', 'interrupted by %s', e)
+        log('interrupted (%s): cleaning up', e)
+        status = 130
+    except RuntimeError as e:
+        ss.fail(failures, 'setup_failed', 'setup failed: %s', e)
+        log('ERROR: setup failed: %s', e)
+        status = 2
+    except Exception as e:  # a bench bug: still clean up and report it
+        ss.fail(failures, 'error', 'bench error: %r', e)
+        log('ERROR: %r', e)
+        status = 2
+    finally:
+        signal.alarm(0)
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+            signal.signal(sig, lambda *_: log('cleaning up, please wait'))
+        if not rospy.core.is_shutdown():
+            rospy.signal_shutdown('benchmark done')
+        qdisc = net.qdisc_stats()
+        procs.stop()
+        net.destroy()
+    if qdisc:
+        result['network']['shaped_link_stats'] = qdisc
+    final, notes = ss.analyse(args, state, clocks, result)
+    failures = notes + failures
+    if status == 0 and failures:
+        status = 1
+    result.pop('died')
+    unc = ack_uncertainties(state, clocks)
+    out = ss.summarize(args, final, failures, clocks, dict(
+        result, dur_s=args.dur, rate_hz=args.rate, seed=args.seed,
+        ack_uncertainty_ms={c: ss.ms(percentiles(v)) if v else None
+                            for c, v in sorted(unc.items())},
+        elapsed_s=round(time.monotonic() - started, 1),
+        loadavg_1min=[round(load[0], 2), round(os.getloadavg()[0], 2)]))
+    if status == 0 and not args.keep_logs:
+        shutil.rmtree(logdir, ignore_errors=True)
+    else:
+        out['logs'] = logdir
+    for _, note in failures:
+        log('FAILURE: %s', note)
+    log('start skew p99 %s ms, offset error p99 %s ms over %d rounds',
+        out['start_skew_ms']['p99'], out['offset_error_ms']['p99'],
+        out['rounds_measured'])
+    print(json.dumps(out, allow_nan=False), flush=True)
+    sys.exit(status)
+
+
+if __name__ == '__main__':
+    main()
