@@ -58,7 +58,8 @@ def best_offset(samples):
     if not samples:
         raise ValueError('no NTP sample answered')
     for s in samples:
-        if s.delay < 0 or not all(map(math.isfinite, (s.t1, s.t2, s.t3, s.t4))):
+        stamps = (s.t1, s.t2, s.t3, s.t4)
+        if s.delay < 0 or not all(map(math.isfinite, stamps)):
             raise ValueError('inconsistent NTP sample %r (delay %.6f s)'
                              % (s, s.delay))
     best = min(samples, key=lambda s: s.delay)

@@ -35,7 +35,8 @@ class Processor:
     def __init__(self, **params):
         if params:
             raise ValueError('%s takes no parameters, got %s'
-                             % (type(self).__name__, ', '.join(sorted(params))))
+                             % (type(self).__name__,
+                                ', '.join(sorted(params))))
 
     def device_stamp(self, msg):
         """The sample's own device time in s, or None to stamp at arrival."""

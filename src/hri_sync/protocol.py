@@ -107,7 +107,8 @@ class ControlRound:
     ``clients`` must all ACK ok, unless ``min_clients`` allows a quorum.
     """
 
-    def __init__(self, round_id, clients, dur, str_aft_policy, min_clients=None):
+    def __init__(self, round_id, clients, dur, str_aft_policy,
+                 min_clients=None):
         if not clients:
             raise ProtocolError('~clients is empty: name at least one client')
         if len(set(clients)) != len(clients):

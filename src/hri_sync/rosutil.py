@@ -239,9 +239,11 @@ class ClientProcess:
         order = self.schedule.on_capture(capture, self.clock.now(), self.clock)
         if order is None:
             why = ', '.join(self.schedule.ignored - before)
-            log = rospy.loginfo if why == 'not_a_participant' else rospy.logwarn
-            log('%s: capture_data of round %d ignored (%s); ignored so far: %s',
-                self.client_id, msg.round, why, dict(self.schedule.ignored))
+            log = (rospy.loginfo if why == 'not_a_participant'
+                   else rospy.logwarn)
+            log('%s: capture_data of round %d ignored (%s); ignored so far: '
+                '%s', self.client_id, msg.round, why,
+                dict(self.schedule.ignored))
             return
         if isinstance(order, Late):
             rospy.logerr('%s: %s', self.client_id, order.reason)

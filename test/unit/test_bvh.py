@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hri_sync import bvh, motion
-from hri_sync.joints import INDEX, JOINTS
+from hri_sync.joints import INDEX
 
 MOCAP = os.path.join(os.path.dirname(__file__), '..', '..', '..', 'shared',
                      'data', 'mocap')

@@ -74,7 +74,7 @@ def test_no_capture_no_decision(round_msgs):
     text, timings = round_report(2, acks, None, {}, {}, None)
     lines = text.split('\n')
     assert lines[0] == 'round 2'
-    assert [l.split()[0] for l in lines[2:4]] == ['alice', 'bob']
+    assert [line.split()[0] for line in lines[2:4]] == ['alice', 'bob']
     assert lines[2].split()[4:] == ['-'] * 5     # no results, no samples
     assert lines[-1] == '  decision: none received'
     assert 'start skew' not in text              # nobody kept samples
