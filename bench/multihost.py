@@ -112,12 +112,20 @@ def pid_alive(pid):
 
 
 def remove_stale_namespaces():
-    """Delete the namespaces of earlier runs whose bench is dead."""
+    """Delete the namespaces of earlier runs whose bench is dead (killed
+    with SIGKILL), and kill the processes still running in them."""
     for line in ip('netns', 'list').splitlines():
         name = line.split()[0] if line.strip() else ''
         m = NS_RE.match(name)
         if m and not pid_alive(int(m.group(1))):
-            log('deleting namespace %s of a dead earlier run', name)
+            pids = [int(p) for p in ip('netns', 'pids', name).split()]
+            log('deleting namespace %s of a dead earlier run%s', name,
+                ' and killing its processes %s' % pids if pids else '')
+            for pid in pids:
+                try:
+                    os.kill(pid, signal.SIGKILL)
+                except ProcessLookupError:
+                    pass
             try:
                 ip('netns', 'del', name)
             except RuntimeError as e:
