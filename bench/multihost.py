@@ -393,6 +393,16 @@ def ack_uncertainties(state, clients):
     return out
 
 
+def clock_uncertainties(state):
+    """{client: [ClockState uncertainty, s]} in the order published (every
+    resync; the model's bound: best half round trip + largest residual)."""
+    rec = state.get('rec')
+    if rec is None:
+        return {}
+    return {c: [m.uncertainty for _, m in v]
+            for c, v in sorted(rec.clock_states.items())}
+
+
 def parse_args():
     p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     p.add_argument('--clients', type=int, default=2)
@@ -526,6 +536,9 @@ def main():
         result, dur_s=args.dur, rate_hz=args.rate, seed=args.seed,
         ack_uncertainty_ms={c: ss.ms(percentiles(v)) if v else None
                             for c, v in sorted(unc.items())},
+        clock_state_uncertainty_ms={
+            c: [round(u * 1e3, 3) for u in v]
+            for c, v in clock_uncertainties(state).items()},
         elapsed_s=round(time.monotonic() - started, 1),
         loadavg_1min=[round(load[0], 2), round(os.getloadavg()[0], 2)]))
     if status == 0 and not args.keep_logs:
