@@ -22,7 +22,9 @@ loopback and one veth link to a bridge in a switch namespace, addresses in
 
 ``--shape c1`` puts a ``tc tbf`` (``--shape-rate``, ``--shape-latency``)
 on both directions of that client's link, and ``--load-kbit`` sends a UDP
-flow from the server to that client through it, to add queueing.
+flow from the server to that client through it, to add queueing (from
+when the clients are synced, or with ``--load-at start`` from before they
+start).
 
 Needs root (``ip netns``).  Progress goes to stderr; the last stdout line
 is one JSON object with the figures of ``sync_skew.py`` plus the network.
@@ -251,8 +253,8 @@ def run(args, procs, net, clocks, result, state):
         'subnet': str(args.net), 'switch': net.switch,
         'hosts': {h: {'netns': ns, 'address': a}
                   for h, (ns, a) in net.hosts.items()},
-        'shaped': net.shaped, 'load_kbit': args.load_kbit if args.shape
-        else 0}
+        'shaped': net.shaped, 'load_kbit': args.load_kbit,
+        'load_at': args.load_at if args.load_kbit else None}
     log('namespaces: %s', ', '.join('%s %s' % (ns, a) for ns, a in
                                     net.hosts.values()))
     enter_netns(net.hosts['server'][0])
@@ -293,10 +295,13 @@ def run(args, procs, net, clocks, result, state):
         ss.node('synthetic_sensor'), '__name:=reference',
         '_rate:=%g' % args.rate, '_phase:=0.5', '_signal:=true_time']))
     started = [('time_server', ts), ('reference', sensor)]
-    if args.shape and args.load_kbit > 0:
+
+    def start_load():
         started.append(('load', procs.start('load', in_ns(net, 'server', [
             sys.executable, '-c', LOAD_PROGRAM, net.hosts[args.shape][1],
             str(args.load_kbit)]))))
+    if args.load_kbit > 0 and args.load_at == 'start':
+        start_load()
     for c in clients:
         if args.max_offset or args.max_drift:
             offset = rng.uniform(-args.max_offset, args.max_offset)
@@ -327,6 +332,8 @@ def run(args, procs, net, clocks, result, state):
             else:
                 clocks[name] = clocks[name][:2] + (t0,)
     result['reference_delivery_order'] = ss.delivery_order(master, clients)
+    if args.load_kbit > 0 and args.load_at == 'rounds':
+        start_load()
     log('%d clients ready; starting the server for %d rounds (dur %g s, '
         'str_aft %s)', len(clients), args.rounds, args.dur, args.str_aft)
 
@@ -403,6 +410,21 @@ def clock_uncertainties(state):
             for c, v in sorted(rec.clock_states.items())}
 
 
+def stamp_errors(state):
+    """{client: [global stamp - true time, s]} of every sample the client
+    kept: its clock error plus that sample's transport delay (queueing
+    included; ``start_skew`` takes the minimum of the first ten)."""
+    rlog = state.get('rlog')
+    if rlog is None:
+        return {}
+    out = {}
+    with rlog.lock:
+        for r in rlog.rounds.values():
+            for c, kept in r['captured'].items():
+                out.setdefault(c, []).extend(g - t for g, t, _ in kept)
+    return dict(sorted(out.items()))
+
+
 def parse_args():
     p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     p.add_argument('--clients', type=int, default=2)
@@ -433,6 +455,11 @@ def parse_args():
     p.add_argument('--load-kbit', type=float, default=0.0,
                    help='UDP flow server -> the shaped client, kbit/s '
                    '(default 0)')
+    p.add_argument('--load-at', choices=('start', 'rounds'),
+                   default='rounds',
+                   help='start the load before the clients start (their '
+                   'first NTP bursts cross the queue) or once they are '
+                   'synced, before round 1 (default)')
     p.add_argument('--seed', type=int, default=None,
                    help='random seed of the clocks (default: random)')
     p.add_argument('--timeout', type=float, default=None,
@@ -536,6 +563,9 @@ def main():
         result, dur_s=args.dur, rate_hz=args.rate, seed=args.seed,
         ack_uncertainty_ms={c: ss.ms(percentiles(v)) if v else None
                             for c, v in sorted(unc.items())},
+        sample_stamp_error_ms={c: ss.ms(dict(percentiles(v), min=min(v)))
+                               for c, v in stamp_errors(state).items()
+                               if v},
         clock_state_uncertainty_ms={
             c: [round(u * 1e3, 3) for u in v]
             for c, v in clock_uncertainties(state).items()},
