@@ -12,12 +12,17 @@ verify_decisions then recomputes. Exits non-zero if the round or the
 verification fails. Options pass on to the launch file as name:=value.
 """
 import os
+import re
 import socket
 import subprocess
 import sys
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+# The round reports of round_monitor and dj_rob_monitor (a header, then
+# indented lines), and any error.
+HEADER = re.compile(r'round \d+$|DJ Rob, round ')
+ERROR = re.compile(r'.*\[(ERROR|FATAL)\]')
 
 
 def free_port():
@@ -36,10 +41,24 @@ def main():
             'ntp_port:=%d' % free_port()] + sys.argv[1:]
     port = free_port()
     env = dict(os.environ, ROS_MASTER_URI='http://localhost:%d' % port)
-    print('dance-off demo: roslaunch hri_sync dance_off.launch %s'
-          % ' '.join(args), flush=True)
-    launch = subprocess.run(['roslaunch', '-p', str(port), 'hri_sync',
-                             'dance_off.launch'] + args, env=env)
+    log_path = bag[:-len('.bag')] + '.log'
+    print('dance-off demo: roslaunch hri_sync dance_off.launch %s\n'
+          '(the full roslaunch output goes to %s)\n'
+          % (' '.join(args), log_path), flush=True)
+    with open(log_path, 'w') as log:
+        launch = subprocess.Popen(
+            ['roslaunch', '-p', str(port), 'hri_sync', 'dance_off.launch']
+            + args, env=env, stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT, text=True)
+        in_report = False
+        for line in launch.stdout:
+            log.write(line)
+            in_report = bool(HEADER.match(line)) or (
+                in_report and line.startswith('  '))
+            if in_report or ERROR.match(line):
+                sys.stdout.write(line)
+                sys.stdout.flush()
+        launch.wait()
     if launch.returncode != 0:
         sys.exit('dance-off demo: roslaunch failed (exit %d)'
                  % launch.returncode)
