@@ -32,7 +32,7 @@ $(VENV)/.done:
 build:
 	@mkdir -p $(WS)/src $(WS)/devel/lib/python3/dist-packages
 	@[ -e $(WS)/src/hri_sync ] || ln -s $(ROOT) $(WS)/src/hri_sync
-	cd $(WS) && source /usr/share/catkin/setup.bash 2>/dev/null; \
+	@cd $(WS) && source /usr/share/catkin/setup.bash 2>/dev/null; \
 	  catkin_make -DPYTHON_EXECUTABLE=$(ROS_PY) -DCMAKE_BUILD_TYPE=Release \
 	  -DCATKIN_ENABLE_TESTING=ON > $(WS)/build.log 2>&1 \
 	  || { tail -40 $(WS)/build.log; exit 1; }
