@@ -514,8 +514,8 @@ def main():
     procs = ss.Processes(logdir, env)
     net = Network(args.net)
     clocks = {}
-    result = {'died': {}, 'timeout_s': round(ss.time_budget(args)
-                                             + NETNS_SETUP, 1)}
+    result = {'died': {}, 'timeout_s': round(
+        args.timeout or ss.time_budget(args) + NETNS_SETUP, 1)}
 
     def on_signal(signum, _frame):
         raise ss.Interrupted(signal.Signals(signum).name)
