@@ -106,12 +106,13 @@ class GlobalClock(ClockModel):
     """
 
     def __init__(self, local_clock=time.time, window=120.0, min_span=2.0,
-                 max_drift=1e-3):
+                 max_drift=1e-3, delay_slack=0.0005):
         super().__init__()
         self._local_clock = local_clock
         self.window = window
         self.min_span = min_span
         self.max_drift = max_drift
+        self.delay_slack = delay_slack
         self.measurements = []
 
     @property
@@ -149,9 +150,13 @@ class GlobalClock(ClockModel):
         drift = max(-self.max_drift, min(self.max_drift, drift))
         self.drift = drift
         self.offset = my - drift * mx
-        residuals = [abs(x.offset - self.offset_at(x.local)) for x in ms]
-        best = min(x.uncertainty for x in ms)
-        self.uncertainty = best + max(residuals)
+        # The residual spread counts only bursts whose round trip was near
+        # the best one (NTP's clock filter): one burst caught in a queue
+        # must not inflate the uncertainty for the whole window.
+        best = min(x.delay for x in ms)
+        near = [x for x in ms if x.delay <= 2 * best + self.delay_slack]
+        residuals = [abs(x.offset - self.offset_at(x.local)) for x in near]
+        self.uncertainty = best / 2.0 + max(residuals)
 
     def now(self):
         """The current global time."""

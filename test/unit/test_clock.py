@@ -156,6 +156,19 @@ def test_fit_weights_low_delay_measurements():
     assert abs(unweighted.drift - 1e-4) > 1e-4
 
 
+def test_a_queued_burst_does_not_inflate_the_uncertainty():
+    # One burst caught in a queue (9 ms round trip, offset 4 ms off), then
+    # clean ones: the uncertainty is that of the clean bursts only.
+    c = GlobalClock()
+    c.add(meas(0.0, 0.5 + 0.004, delay=0.009))
+    for t in (5.0, 10.0, 15.0):
+        c.add(meas(t, 0.5, delay=1e-4))
+    assert c.uncertainty < 1e-4
+    # A clean burst far off the line still counts.
+    c.add(meas(20.0, 0.5 + 0.002, delay=1e-4))
+    assert c.uncertainty > 1e-3
+
+
 def test_old_measurements_leave_the_window():
     c = GlobalClock(window=20.0)
     c.add(meas(0.0, 9.0))        # a stale, very different offset
