@@ -459,6 +459,14 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
   // the body's shape; extra extrema (knees, elbows) stay unlabelled. The cost adds
   // the distance to the label's last position, while it is recent.
   const double arm = model_.upper_arm + model_.forearm + 0.05;
+  std::vector<Vec3> thigh(ext);  // per candidate: its path's point 0.2 m below the hip centre
+  for (int k = 0; k < m; ++k) {
+    double best = 1e9;
+    for (int c : pathToSource(geo, ext_cells[k])) {
+      double off = std::fabs((g.points[c] - hipc).dot(up) + 0.2);
+      if (off < best) { best = off; thigh[k] = g.points[c]; }
+    }
+  }
   auto label_cost = [&](int l, int k) -> double {  // < 0: impossible
     const Vec3& e = ext[k];
     const double rise = (e - torso).dot(up);
@@ -470,7 +478,9 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
     } else if (l == LB_LFOOT || l == LB_RFOOT) {
       if (above_floor > 0.45 || rise > -0.3) return -1;
       c = 0.5 * above_floor;
-      double side = (e - hipc).dot(lateral_) * (l == LB_LFOOT ? 1 : -1);
+      // The leg's side where it joins the pelvis (its path just below the hips):
+      // feet cross in a dance step, legs stay on their own side up there.
+      double side = (thigh[k] - hipc).dot(lateral_) * (l == LB_LFOOT ? 1 : -1);
       c += side < -0.04 ? 0.3 : 0;
     } else {
       if ((e - neck).norm() > arm + 0.25 || above_floor < 0.25) return -1;
