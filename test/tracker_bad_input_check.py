@@ -25,31 +25,47 @@ class TrackerBadInputTest(unittest.TestCase):
         client = rospy.get_param('~client_id')
         diags, skeletons = [], []
         rospy.Subscriber('/diagnostics', DiagnosticArray,
-                         lambda m: diags.extend((time.time(), s) for s in m.status
-                                                if s.name.endswith(client)))
+                         lambda m: diags.extend(
+                             (time.time(), s) for s in m.status
+                             if s.name.endswith(client)))
         rospy.Subscriber('/%s/skeleton' % client, Skeleton,
-                         lambda m: skeletons.append((time.time(), m.header.stamp.to_sec())))
+                         lambda m: skeletons.append(
+                             (time.time(), m.header.stamp.to_sec())))
         time.sleep(3.0)
         self.assertEqual(skeletons, [], 'skeletons published without a clock')
-        self.assertTrue(any(s.level == DiagnosticStatus.WARN and 'no valid global clock' in s.message
-                            for _, s in diags), [s.message for _, s in diags])
-        pub = rospy.Publisher('/%s/clock_state' % client, ClockState, queue_size=1, latch=True)
-        pub.publish(ClockState(client_id=client, ok=True, local_ref=time.time(), offset=0.25,
+        self.assertTrue(any(s.level == DiagnosticStatus.WARN
+                            and 'no valid global clock' in s.message
+                            for _, s in diags),
+                        [s.message for _, s in diags])
+        pub = rospy.Publisher(
+            '/%s/clock_state' %
+            client,
+            ClockState,
+            queue_size=1,
+            latch=True)
+        pub.publish(ClockState(client_id=client, ok=True,
+                               local_ref=time.time(), offset=0.25,
                                drift=0.0, uncertainty=0.001, samples=4))
         deadline = time.time() + rospy.get_param('~duration', 20.0)
         while time.time() < deadline and not rospy.is_shutdown():
             time.sleep(0.1)
-        self.assertGreater(len(skeletons), 30, 'no skeletons once the clock was there')
-        errors = [(t, s) for t, s in diags if s.level == DiagnosticStatus.ERROR]
+        self.assertGreater(
+            len(skeletons),
+            30,
+            'no skeletons once the clock was there')
+        errors = [(t, s)
+                  for t, s in diags if s.level == DiagnosticStatus.ERROR]
         self.assertTrue(errors, 'no ERROR after the unplug')
         self.assertIn('disconnected', errors[0][1].message)
         arrivals = [a for a, _ in skeletons]
         gaps = [b - a for a, b in zip(arrivals, arrivals[1:])]
         self.assertGreater(max(gaps), 2.0, 'no gap in the skeleton stream')
         t_gap = arrivals[gaps.index(max(gaps))]
-        self.assertTrue(any(t > t_gap for t in arrivals), 'no frames after the reopen')
+        self.assertTrue(any(t > t_gap for t in arrivals),
+                        'no frames after the reopen')
         stamps = [s for _, s in skeletons]
-        self.assertTrue(all(b > a for a, b in zip(stamps, stamps[1:])), 'stamps go back')
+        self.assertTrue(all(b > a for a, b in zip(
+            stamps, stamps[1:])), 'stamps go back')
 
 
 if __name__ == '__main__':

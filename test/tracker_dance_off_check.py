@@ -30,7 +30,8 @@ class TrackerDanceOffTest(unittest.TestCase):
                          lambda m: cls.results.__setitem__(m.client_id, m))
         rospy.Subscriber('/decision', Decision, cls.decisions.append)
         deadline = time.time() + rospy.get_param('~timeout', 90.0)
-        while not cls.decisions and time.time() < deadline and not rospy.is_shutdown():
+        while (not cls.decisions and time.time() < deadline
+               and not rospy.is_shutdown()):
             time.sleep(0.2)
         time.sleep(0.5)
 
@@ -39,7 +40,8 @@ class TrackerDanceOffTest(unittest.TestCase):
         d = self.decisions[0]
         expect = rospy.get_param('~expect')
         self.assertEqual('%s%d' % ('participant', d.winner), expect,
-                         'outcome %s winner %d: %s' % (d.outcome, d.winner, d.reason))
+                         'outcome %s winner %d: %s'
+                         % (d.outcome, d.winner, d.reason))
 
     def test_tracker_result(self):
         tracker = rospy.get_param('~tracker_client')
@@ -48,18 +50,21 @@ class TrackerDanceOffTest(unittest.TestCase):
         for client in ('left', 'right'):
             r = self.results.get(client)
             self.assertIsNotNone(r, 'no result from %s' % client)
-            expect = rospy.get_param('~expect_status_' + client, ClientResult.OK)
+            expect = rospy.get_param(
+                '~expect_status_' + client, ClientResult.OK)
             self.assertEqual(r.status, expect, '%s: %s' % (client, r.status))
             self.assertTrue(math.isfinite(r.value), client)
         r = self.results[tracker]
-        rospy.loginfo('tracker client %s: %s, %d frames, %d rejected, %d dropped, coverage %.2f, '
-                      'value %.2f', tracker, r.status, r.frames, r.frames_rejected,
+        rospy.loginfo('tracker client %s: %s, %d frames, %d rejected, '
+                      '%d dropped, coverage %.2f, value %.2f',
+                      tracker, r.status, r.frames, r.frames_rejected,
                       r.frames_dropped, r.coverage, r.value)
         self.assertLessEqual(r.frames + r.frames_rejected, 30 * dur + 1)
         if r.status == ClientResult.OK:
-            self.assertGreaterEqual(r.frames + r.frames_rejected, 0.9 * 30 * dur)
+            self.assertGreaterEqual(
+                r.frames + r.frames_rejected, 0.9 * 30 * dur)
             self.assertGreaterEqual(r.coverage, 0.9)
-        else:  # the sensor was unplugged in the window: the result shows the gap
+        else:  # sensor unplugged in the window: the result shows the gap
             self.assertLess(r.coverage, 0.9)
             self.assertGreater(r.coverage, 0.0)
 

@@ -35,12 +35,17 @@ class TrackerOniTest(unittest.TestCase):
         self.drift = rospy.get_param('~clock_drift', 5e-5)
         self.local_ref = time.time()
         self.msgs = []
-        self.pub = rospy.Publisher('/%s/clock_state' % self.client, ClockState, queue_size=1,
-                                   latch=True)
-        self.pub.publish(ClockState(client_id=self.client, ok=True, local_ref=self.local_ref,
-                                    offset=self.offset, drift=self.drift, uncertainty=0.001,
-                                    samples=5))
-        rospy.Subscriber('/%s/skeleton' % self.client, Skeleton, self.on_skeleton)
+        self.pub = rospy.Publisher('/%s/clock_state' % self.client,
+                                   ClockState, queue_size=1, latch=True)
+        self.pub.publish(ClockState(client_id=self.client, ok=True,
+                                    local_ref=self.local_ref,
+                                    offset=self.offset, drift=self.drift,
+                                    uncertainty=0.001, samples=5))
+        rospy.Subscriber(
+            '/%s/skeleton' %
+            self.client,
+            Skeleton,
+            self.on_skeleton)
 
     def to_global(self, local):
         return local + self.offset + self.drift * (local - self.local_ref)
@@ -54,40 +59,65 @@ class TrackerOniTest(unittest.TestCase):
         while time.time() < deadline and not rospy.is_shutdown():
             time.sleep(0.1)
         msgs = self.msgs
-        self.assertGreaterEqual(len(msgs), 30, 'only %d skeletons from the recording' % len(msgs))
+        self.assertGreaterEqual(
+            len(msgs),
+            30,
+            'only %d skeletons from the recording' %
+            len(msgs))
 
         arrival = np.array([a for a, _ in msgs])
         stamp = np.array([m.header.stamp.to_sec() for _, m in msgs])
         device = np.array([m.device_stamp.to_sec() for _, m in msgs])
         latency = arrival - stamp
-        self.assertTrue(np.all(latency > -0.005), 'stamps in the future: %s' % latency.min())
-        self.assertLess(np.median(latency), 0.15, 'stamps are not global time (latency %.3f s)'
+        self.assertTrue(
+            np.all(
+                latency > -
+                0.005),
+            'stamps in the future: %s' %
+            latency.min())
+        self.assertLess(np.median(latency), 0.15,
+                        'stamps are not global time (latency %.3f s)'
                         % np.median(latency))
         gap = stamp - device * (1 + self.drift)
-        self.assertLess(np.ptp(gap), 0.010, 'stamp - device_stamp varies by %.4f s' % np.ptp(gap))
+        self.assertLess(
+            np.ptp(gap),
+            0.010,
+            'stamp - device_stamp varies by %.4f s' %
+            np.ptp(gap))
         for _, m in msgs:
             self.assertEqual(m.client_id, self.client)
             self.assertTrue(all(0.0 <= c <= 1.0 for c in m.confidence))
 
-        track = np.loadtxt(os.path.join(os.path.dirname(__file__), '..', 'data', 'motion',
-                                        rospy.get_param('~motion', 'cmu_60_01_salsa') + '.track'))
+        motion = rospy.get_param('~motion', 'cmu_60_01_salsa')
+        track = np.loadtxt(os.path.join(os.path.dirname(__file__), '..',
+                                        'data', 'motion', motion + '.track'))
         times, truth = track[:, 0], track[:, 1:].reshape(len(track), 15, 3)
-        est = np.array([[[p.x, p.y, p.z] for p in m.positions] for _, m in msgs])
+        est = np.array([[[p.x, p.y, p.z] for p in m.positions]
+                       for _, m in msgs])
 
         def errors(lag):
             t = device + lag
-            true = np.stack([np.stack([np.interp(t, times, truth[:, j, k]) for k in range(3)], -1)
+            true = np.stack([np.stack([np.interp(t, times, truth[:, j, k])
+                                       for k in range(3)], -1)
                              for j in range(15)], 1)
             return np.linalg.norm(est - true, axis=2)
         # The recorder may start a frame late: allow a lag of a few frames.
-        err = min((errors(lag) for lag in np.arange(-0.1, 0.1001, 1.0 / 120)), key=np.mean)
+        err = min((errors(lag)
+                  for lag in np.arange(-0.1, 0.1001, 1.0 / 120)), key=np.mean)
         mean, hands_p95 = err.mean(), np.percentile(err[:, HANDS], 95)
-        rospy.loginfo('tracker_oni: %d skeletons, mean error %.3f m, hands p95 %.3f m, '
-                      'median latency %.1f ms', len(msgs), mean, hands_p95,
+        rospy.loginfo('tracker_oni: %d skeletons, mean error %.3f m, '
+                      'hands p95 %.3f m, median latency %.1f ms',
+                      len(msgs), mean, hands_p95,
                       1e3 * np.median(latency))
-        self.assertLessEqual(mean, 0.10, 'mean joint error %.3f m > 0.10 m' % mean)
-        self.assertLessEqual(hands_p95, 0.35, 'hands p95 error %.3f m > 0.35 m '
-                             '(sanity bound; the 0.25 m target is not met)' % hands_p95)
+        self.assertLessEqual(
+            mean,
+            0.10,
+            'mean joint error %.3f m > 0.10 m' %
+            mean)
+        self.assertLessEqual(hands_p95, 0.35,
+                             'hands p95 error %.3f m > 0.35 m '
+                             '(sanity bound; the 0.25 m target is not met)'
+                             % hands_p95)
 
 
 if __name__ == '__main__':
