@@ -36,8 +36,8 @@ produced a full set of OK results, 1 otherwise, 2 when the setup failed,
 """
 import argparse
 import ctypes
+import functools
 import ipaddress
-import json
 import os
 import random
 import re
@@ -48,13 +48,8 @@ import sys
 import tempfile
 import time
 
-import rosgraph
-import rospy
-
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import sync_skew as ss  # noqa: E402  (the one-host bench's helpers)
-from hri_sync import ntp  # noqa: E402
-from hri_sync.rosutil import RoundLog  # noqa: E402
 from hri_sync.skew import percentiles  # noqa: E402
 
 CLONE_NEWNET = 0x40000000
@@ -237,8 +232,7 @@ def in_ns(net, host, argv):
 def run(args, procs, net, clocks, result, state):
     """Make the hosts, start everything and record the rounds."""
     clients = ['c%d' % (i + 1) for i in range(args.clients)]
-    budget = result['timeout_s']
-    deadline = time.monotonic() + budget
+    deadline = time.monotonic() + result['timeout_s']
     rng = random.Random(args.seed)
     addresses = list(args.net.hosts())
     server_ip = str(addresses[0])
@@ -259,54 +253,30 @@ def run(args, procs, net, clocks, result, state):
                                     net.hosts.values()))
     enter_netns(net.hosts['server'][0])
 
+    on_server = functools.partial(in_ns, net, 'server')
     master_uri = procs.env['ROS_MASTER_URI']
-    core = procs.start('roscore', in_ns(
-        net, 'server', ['roscore', '-p', str(MASTER_PORT)]))
-    master = rosgraph.Master('/multihost_bench', master_uri=master_uri)
-
-    def master_up():
-        try:
-            master.getPid()
-            return True
-        except Exception:
-            return False
-    ss.wait_until('the roscore at %s' % master_uri, master_up, 30,
-                  [('roscore', core)])
-    rospy.init_node('multihost_bench', anonymous=True, disable_signals=True)
-    rec = state['rec'] = ss.Recorder(clients)
-    rlog = state['rlog'] = RoundLog(clients, 'hri_sync/Sample')
-
-    ts = procs.start('time_server', in_ns(net, 'server', [
-        'roslaunch', '--wait', 'hri_sync', 'timeserver.launch',
-        'ntp_port:=%d' % NTP_PORT, 'bind_address:=%s' % server_ip,
-        'allow:=%s' % args.net]))
-
-    def ntp_up():
-        try:
-            ntp.measure(server_ip, NTP_PORT, 1, 0.2)
-            return True
-        except ntp.NtpError:
-            return False
-    ss.wait_until('chronyd on %s:%d' % (server_ip, NTP_PORT), ntp_up, 30,
-                  [('time_server', ts)])
+    master = ss.start_ros(procs, 'multihost_bench',
+                          on_server(['roscore', '-p', str(MASTER_PORT)]),
+                          master_uri, clients, state)
+    ts = ss.start_time_server(procs, server_ip, NTP_PORT,
+                              'chronyd on %s:%d' % (server_ip, NTP_PORT),
+                              ['bind_address:=%s' % server_ip,
+                               'allow:=%s' % args.net], on_server)
     log('roscore %s, chronyd on %s:%d', master_uri, server_ip, NTP_PORT)
 
-    sensor = procs.start('reference', in_ns(net, 'server', [
-        ss.node('synthetic_sensor'), '__name:=reference',
-        '_rate:=%g' % args.rate, '_phase:=0.5', '_signal:=true_time']))
-    started = [('time_server', ts), ('reference', sensor)]
+    started = [('time_server', ts),
+               ('reference', ss.start_reference(procs, args, on_server))]
 
     def start_load():
-        started.append(('load', procs.start('load', in_ns(net, 'server', [
+        started.append(('load', procs.start('load', on_server([
             sys.executable, '-c', LOAD_PROGRAM, net.hosts[args.shape][1],
             str(args.load_kbit)]))))
     if args.load_kbit > 0 and args.load_at == 'start':
         start_load()
+    ntp_args = ['ntp_server:=%s' % server_ip, 'ntp_port:=%d' % NTP_PORT]
     for c in clients:
         if args.max_offset or args.max_drift:
-            offset = rng.uniform(-args.max_offset, args.max_offset)
-            rate = 1.0 + rng.uniform(-args.max_drift, args.max_drift) * 1e-6
-            spec = '%+.6fs x%.9f' % (offset, rate)
+            offset, rate, spec = ss.random_clock(rng, args)
             clocks[c] = (offset, rate, time.time())
             launcher = [ss.node('skewed_client'), '--clock', spec]
             log('client %s (%s): faketime %r', c, net.hosts[c][1], spec)
@@ -314,75 +284,16 @@ def run(args, procs, net, clocks, result, state):
             clocks[c] = (0.0, 1.0, time.time())
             launcher = ['roslaunch', '--wait', 'hri_sync']
             log('client %s (%s): true clock', c, net.hosts[c][1])
-        started.append((c, procs.start(c, in_ns(net, c, launcher + [
-            'client.launch', 'client_id:=%s' % c,
-            'ntp_server:=%s' % server_ip, 'ntp_port:=%d' % NTP_PORT,
-            'input:=/reference/samples', 'stamp_source:=arrival']))))
-    ss.wait_until('%d clients (CPM synced, DPM reading the reference)'
-                  % len(clients),
-                  lambda: ss.clients_ready(master, clients, rec),
-                  ss.SETUP_TIME + ss.SETUP_PER_CLIENT * args.clients,
-                  started)
-    for name, p in started:
-        if name in clocks and clocks[name][1] != 1.0:
-            t0 = ss.faketime_start(p.pid)
-            if t0 is None:
-                log('WARNING: no faketime process of %s found: the injected'
-                    ' offset is referred to its launch time', name)
-            else:
-                clocks[name] = clocks[name][:2] + (t0,)
+        started.append((c, ss.start_client(
+            procs, c, launcher, ntp_args, functools.partial(in_ns, net, c))))
+    ss.wait_clients(master, clients, state, started, clocks,
+                    [c for c in clients if clocks[c][1] != 1.0])
     result['reference_delivery_order'] = ss.delivery_order(master, clients)
     if args.load_kbit > 0 and args.load_at == 'rounds':
         start_load()
-    log('%d clients ready; starting the server for %d rounds (dur %g s, '
-        'str_aft %s)', len(clients), args.rounds, args.dur, args.str_aft)
-
-    server = procs.start('server', in_ns(net, 'server', [
-        'roslaunch', '--wait', 'hri_sync', 'server.launch',
-        'clients:=%s' % ','.join(clients), 'rounds:=%d' % args.rounds,
-        'dur:=%g' % args.dur, 'str_aft:=%s' % args.str_aft,
-        'ack_timeout:=%g' % args.ack_timeout, 'ntp_server:=%s' % server_ip,
-        'ntp_port:=%d' % NTP_PORT]))
-    started.append(('server', server))
-
-    reported, server_done = set(), None
-    while True:
-        now = time.monotonic()
-        if now > deadline:
-            result['timed_out'] = True
-            log('run-time bound of %.0f s reached', budget)
-            break
-        for name, p in started:
-            if name != 'server' and p.poll() is not None \
-                    and name not in result['died']:
-                result['died'][name] = p.returncode
-                log('ERROR: %s exited with status %s', name, p.returncode)
-        if server.poll() is not None and server_done is None:
-            server_done = now
-            log('server exited (status %s)', server.returncode)
-        for n, t in sorted(rec.decided_at.items()):
-            if n in reported or time.time() - t < 0.7:
-                continue
-            rlog.assign_captured()
-            with rlog.lock:
-                lr = rlog.rounds.get(n)
-            notes = []
-            r = ss.analyse_round(n, rec, lr, clocks, notes)
-            reported.add(n)
-            log('round %d: ack %s ms, str_aft %s, start skew %s ms, clock '
-                'errors [%s] ms%s', n,
-                '%.1f' % (r['ack_round'] * 1e3) if 'ack_round' in r else '-',
-                '%.3f' % r['str_aft'] if 'str_aft' in r else '-',
-                '%.3f' % (r['skew'] * 1e3) if 'skew' in r else '-',
-                ' '.join('%s %+.3f' % (c, e * 1e3)
-                         for c, e in sorted(r.get('errors', {}).items())),
-                ''.join('\n    ' + x for _, x in notes))
-        if all(n in reported for n in range(1, args.rounds + 1)):
-            break
-        if server_done is not None and now - server_done > 3.0:
-            break
-        time.sleep(0.2)
-    time.sleep(0.5)
+    ss.start_server(procs, args, clients, started, ntp_args, on_server)
+    ss.record_rounds(args, state, clocks, started, result, deadline,
+                     wake=False)
 
 
 def ack_uncertainties(state, clients):
@@ -427,20 +338,8 @@ def stamp_errors(state):
 
 def parse_args():
     p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    p.add_argument('--clients', type=int, default=2)
-    p.add_argument('--rounds', type=int, default=10)
-    p.add_argument('--dur', type=float, default=2.0,
-                   help='capture window, s (default 2)')
-    p.add_argument('--str-aft', default='auto',
-                   help="STR_AFT in s, or 'auto' (default)")
-    p.add_argument('--rate', type=float, default=100.0,
-                   help='reference sensor rate, Hz (default 100)')
-    p.add_argument('--max-offset', type=float, default=3.0,
-                   help='clock offsets within +/- this, s (default 3; 0 '
-                   'with --max-drift 0: clients on the true clock)')
-    p.add_argument('--max-drift', type=float, default=200.0,
-                   help='clock drifts within +/- this, ppm (default 200)')
-    p.add_argument('--ack-timeout', type=float, default=3.0)
+    ss.add_args(p, 10, 'clock offsets within +/- this, s (default 3; 0 '
+                'with --max-drift 0: clients on the true clock)')
     p.add_argument('--net', type=ipaddress.ip_network,
                    default=ipaddress.ip_network('10.77.0.0/24'),
                    help='subnet of the hosts (default 10.77.0.0/24)')
@@ -460,16 +359,9 @@ def parse_args():
                    help='start the load before the clients start (their '
                    'first NTP bursts cross the queue) or once they are '
                    'synced, before round 1 (default)')
-    p.add_argument('--seed', type=int, default=None,
-                   help='random seed of the clocks (default: random)')
-    p.add_argument('--timeout', type=float, default=None,
-                   help='bound on the run before cleanup, s (default: '
-                   'from the rounds, the window and the clients)')
-    p.add_argument('--keep-logs', action='store_true',
-                   help='keep the processes\' logs even on success')
+    ss.add_run_args(p)
     args = p.parse_args()
-    if args.clients < 1 or args.rounds < 1:
-        p.error('--clients and --rounds must be >= 1')
+    ss.check_args(p, args)
     if args.net.version != 4 or args.net.num_addresses < 16 + args.clients:
         p.error('--net must be an IPv4 subnet with room for %d hosts'
                 % (11 + args.clients))
@@ -478,18 +370,8 @@ def parse_args():
         p.error('--shape must name a client, c1 .. c%d' % args.clients)
     if args.load_kbit < 0 or (args.load_kbit and not args.shape):
         p.error('--load-kbit needs --shape and must be >= 0')
-    if not (args.dur > 0 and args.rate > 0):
-        p.error('--dur and --rate must be > 0')
     if args.max_offset < 0 or args.max_drift < 0:
         p.error('--max-offset and --max-drift must be >= 0')
-    if args.str_aft != 'auto':
-        try:
-            if float(args.str_aft) <= 0:
-                raise ValueError
-        except ValueError:
-            p.error("--str-aft must be a number of seconds > 0 or 'auto'")
-    if args.seed is None:
-        args.seed = random.SystemRandom().randrange(1 << 31)
     return args
 
 
@@ -517,71 +399,30 @@ def main():
     result = {'died': {}, 'timeout_s': round(
         args.timeout or ss.time_budget(args) + NETNS_SETUP, 1)}
 
-    def on_signal(signum, _frame):
-        raise ss.Interrupted(signal.Signals(signum).name)
-    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP,
-                signal.SIGALRM):
-        signal.signal(sig, on_signal)
-    log('N=%d R=%d seed %d; logs in %s', args.clients, args.rounds,
-        args.seed, logdir)
-    load = os.getloadavg()
-    failures, status, state = [], 0, {}
-    try:
-        signal.alarm(int(result['timeout_s']) + 30)
+    def setup_and_run(state):
         remove_stale_namespaces()
         run(args, procs, net, clocks, result, state)
-    except ss.Interrupted as e:
-        ss.fail(failures, 'interrupted', 'interrupted by %s', e)
-        log('interrupted (%s): cleaning up', e)
-        status = 130
-    except RuntimeError as e:
-        ss.fail(failures, 'setup_failed', 'setup failed: %s', e)
-        log('ERROR: setup failed: %s', e)
-        status = 2
-    except Exception as e:  # a bench bug: still clean up and report it
-        ss.fail(failures, 'error', 'bench error: %r', e)
-        log('ERROR: %r', e)
-        status = 2
-    finally:
-        signal.alarm(0)
-        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-            signal.signal(sig, lambda *_: log('cleaning up, please wait'))
-        if not rospy.core.is_shutdown():
-            rospy.signal_shutdown('benchmark done')
+
+    def stop():
         qdisc = net.qdisc_stats()
         procs.stop()
         net.destroy()
-    if qdisc:
-        result['network']['shaped_link_stats'] = qdisc
-    final, notes = ss.analyse(args, state, clocks, result)
-    failures = notes + failures
-    if status == 0 and failures:
-        status = 1
-    result.pop('died')
-    unc = ack_uncertainties(state, clocks)
-    out = ss.summarize(args, final, failures, clocks, dict(
-        result, dur_s=args.dur, rate_hz=args.rate, seed=args.seed,
-        ack_uncertainty_ms={c: ss.ms(percentiles(v)) if v else None
-                            for c, v in sorted(unc.items())},
-        sample_stamp_error_ms={c: ss.ms(dict(percentiles(v), min=min(v)))
-                               for c, v in stamp_errors(state).items()
-                               if v},
-        clock_state_uncertainty_ms={
-            c: [round(u * 1e3, 3) for u in v]
-            for c, v in clock_uncertainties(state).items()},
-        elapsed_s=round(time.monotonic() - started, 1),
-        loadavg_1min=[round(load[0], 2), round(os.getloadavg()[0], 2)]))
-    if status == 0 and not args.keep_logs:
-        shutil.rmtree(logdir, ignore_errors=True)
-    else:
-        out['logs'] = logdir
-    for _, note in failures:
-        log('FAILURE: %s', note)
-    log('start skew p99 %s ms, offset error p99 %s ms over %d rounds',
-        out['start_skew_ms']['p99'], out['offset_error_ms']['p99'],
-        out['rounds_measured'])
-    print(json.dumps(out, allow_nan=False), flush=True)
-    sys.exit(status)
+        if qdisc:
+            result['network']['shaped_link_stats'] = qdisc
+
+    def more(state):
+        unc = ack_uncertainties(state, clocks)
+        return dict(
+            ack_uncertainty_ms={c: ss.ms(percentiles(v)) if v else None
+                                for c, v in sorted(unc.items())},
+            sample_stamp_error_ms={
+                c: ss.ms(dict(percentiles(v), min=min(v)))
+                for c, v in stamp_errors(state).items() if v},
+            clock_state_uncertainty_ms={
+                c: [round(u * 1e3, 3) for u in v]
+                for c, v in clock_uncertainties(state).items()})
+    ss.bench_main(args, started, logdir, result, clocks, setup_and_run,
+                  stop, more)
 
 
 if __name__ == '__main__':

@@ -435,10 +435,11 @@ def summarize(args, rounds, failures, clocks, extra):
 
 # ------------------------------------------------------------------- main
 
-def parse_args():
-    p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+def add_args(p, rounds, max_offset_help):
+    """The flags of both benches up to --ack-timeout (``rounds``: the
+    default of --rounds)."""
     p.add_argument('--clients', type=int, default=2)
-    p.add_argument('--rounds', type=int, default=20)
+    p.add_argument('--rounds', type=int, default=rounds)
     p.add_argument('--dur', type=float, default=2.0,
                    help='capture window, s (default 2)')
     p.add_argument('--str-aft', default='auto',
@@ -446,10 +447,14 @@ def parse_args():
     p.add_argument('--rate', type=float, default=100.0,
                    help='reference sensor rate, Hz (default 100)')
     p.add_argument('--max-offset', type=float, default=3.0,
-                   help='clock offsets within +/- this, s (default 3)')
+                   help=max_offset_help)
     p.add_argument('--max-drift', type=float, default=200.0,
                    help='clock drifts within +/- this, ppm (default 200)')
     p.add_argument('--ack-timeout', type=float, default=3.0)
+
+
+def add_run_args(p):
+    """The last flags of both benches: --seed, --timeout, --keep-logs."""
     p.add_argument('--seed', type=int, default=None,
                    help='random seed of the clocks (default: random)')
     p.add_argument('--timeout', type=float, default=None,
@@ -457,7 +462,11 @@ def parse_args():
                    'from the rounds, the window and the clients)')
     p.add_argument('--keep-logs', action='store_true',
                    help='keep the processes\' logs even on success')
-    args = p.parse_args()
+
+
+def check_args(p, args):
+    """``p.error`` on a bad value of the flags of ``add_args``; a random
+    --seed when none was given."""
     if args.clients < 1 or args.rounds < 1:
         p.error('--clients and --rounds must be >= 1')
     if not (args.dur > 0 and args.rate > 0):
@@ -470,6 +479,14 @@ def parse_args():
             p.error("--str-aft must be a number of seconds > 0 or 'auto'")
     if args.seed is None:
         args.seed = random.SystemRandom().randrange(1 << 31)
+
+
+def parse_args():
+    p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    add_args(p, 20, 'clock offsets within +/- this, s (default 3)')
+    add_run_args(p)
+    args = p.parse_args()
+    check_args(p, args)
     return args
 
 
@@ -536,17 +553,12 @@ def time_budget(args):
                             + 20.0 + args.rounds * per_round)
 
 
-def run(args, procs, env, ntp_port, clocks, result, state):
-    """Start everything and record the rounds (``state``: the bench's
-    Recorder and RoundLog)."""
-    clients = ['c%d' % (i + 1) for i in range(args.clients)]
-    budget = result['timeout_s']
-    deadline = time.monotonic() + budget
-    rng = random.Random(args.seed)
-
-    master_uri = env['ROS_MASTER_URI']
-    core = procs.start('roscore', ['roscore', '-p', master_uri.split(':')[-1]])
-    master = rosgraph.Master('/sync_skew_bench', master_uri=master_uri)
+def start_ros(procs, name, core_argv, master_uri, clients, state):
+    """Start the roscore (``core_argv``), make this process the ROS node
+    ``name`` recording the rounds (``state``: its Recorder and RoundLog);
+    the master."""
+    core = procs.start('roscore', core_argv)
+    master = rosgraph.Master('/' + name, master_uri=master_uri)
 
     def master_up():
         try:
@@ -557,67 +569,95 @@ def run(args, procs, env, ntp_port, clocks, result, state):
     wait_until('the roscore at %s' % master_uri, master_up, 30,
                [('roscore', core)])
     os.environ['ROS_MASTER_URI'] = master_uri
-    rospy.init_node('sync_skew_bench', anonymous=True, disable_signals=True)
-    rec = state['rec'] = Recorder(clients)
-    rlog = state['rlog'] = RoundLog(clients, 'hri_sync/Sample')
+    rospy.init_node(name, anonymous=True, disable_signals=True)
+    state['rec'] = Recorder(clients)
+    state['rlog'] = RoundLog(clients, 'hri_sync/Sample')
+    return master
 
-    ts = procs.start('time_server', [
+
+def start_time_server(procs, host, port, what, extra=(), wrap=list):
+    """Start chronyd (``timeserver.launch`` with ``extra`` arguments, run
+    by ``wrap(argv)``) and wait until it answers on ``host``:``port``."""
+    ts = procs.start('time_server', wrap([
         'roslaunch', '--wait', 'hri_sync', 'timeserver.launch',
-        'ntp_port:=%d' % ntp_port])
+        'ntp_port:=%d' % port] + list(extra)))
 
     def ntp_up():
         try:
-            ntp.measure('127.0.0.1', ntp_port, 1, 0.2)
+            ntp.measure(host, port, 1, 0.2)
             return True
         except ntp.NtpError:
             return False
-    wait_until('chronyd on NTP port %d' % ntp_port, ntp_up, 30,
-               [('time_server', ts)])
-    log('roscore %s, chronyd on 127.0.0.1:%d', master_uri, ntp_port)
+    wait_until(what, ntp_up, 30, [('time_server', ts)])
+    return ts
 
-    sensor = procs.start('reference', [
+
+def start_reference(procs, args, wrap=list):
+    """Start the reference sensor on the true clock."""
+    return procs.start('reference', wrap([
         node('synthetic_sensor'), '__name:=reference',
-        '_rate:=%g' % args.rate, '_phase:=0.5', '_signal:=true_time'])
-    started = [('time_server', ts), ('reference', sensor)]
-    for c in clients:
-        offset = rng.uniform(-args.max_offset, args.max_offset)
-        rate = 1.0 + rng.uniform(-args.max_drift, args.max_drift) * 1e-6
-        spec = '%+.6fs x%.9f' % (offset, rate)
-        clocks[c] = (offset, rate, time.time())
-        log('client %s: faketime %r', c, spec)
-        started.append((c, procs.start(c, [
-            node('skewed_client'), '--clock', spec, 'client.launch',
-            'client_id:=%s' % c, 'ntp_port:=%d' % ntp_port,
-            'input:=/reference/samples', 'stamp_source:=arrival'])))
+        '_rate:=%g' % args.rate, '_phase:=0.5', '_signal:=true_time']))
+
+
+def random_clock(rng, args):
+    """(offset s, rate, faketime spec) of a client, from ``rng``."""
+    offset = rng.uniform(-args.max_offset, args.max_offset)
+    rate = 1.0 + rng.uniform(-args.max_drift, args.max_drift) * 1e-6
+    return offset, rate, '%+.6fs x%.9f' % (offset, rate)
+
+
+def start_client(procs, client, launcher, ntp_args, wrap=list):
+    """Start ``client.launch`` by ``launcher`` (its ``ntp_args``), its DPM
+    reading the reference."""
+    return procs.start(client, wrap(launcher + [
+        'client.launch', 'client_id:=%s' % client] + ntp_args + [
+        'input:=/reference/samples', 'stamp_source:=arrival']))
+
+
+def wait_clients(master, clients, state, started, clocks, faked):
+    """Wait until the clients are ready, then refer the injected clock of
+    each client in ``faked`` to its faketime process's start."""
     wait_until('%d clients (CPM synced, DPM reading the reference)'
-               % len(clients), lambda: clients_ready(master, clients, rec),
-               SETUP_TIME + SETUP_PER_CLIENT * args.clients, started)
+               % len(clients),
+               lambda: clients_ready(master, clients, state['rec']),
+               SETUP_TIME + SETUP_PER_CLIENT * len(clients), started)
     for name, p in started:
-        if name in clocks:
+        if name in faked:
             t0 = faketime_start(p.pid)
             if t0 is None:
                 log('WARNING: no faketime process of %s found: the injected'
                     ' offset is referred to its launch time', name)
             else:
                 clocks[name] = clocks[name][:2] + (t0,)
-    result['reference_delivery_order'] = delivery_order(master, clients)
+
+
+def start_server(procs, args, clients, started, ntp_args, wrap=list):
+    """Start the server for the rounds (its ``ntp_args``); the process,
+    also appended to ``started``."""
     log('%d clients ready; starting the server for %d rounds (dur %g s, '
         'str_aft %s)', len(clients), args.rounds, args.dur, args.str_aft)
-
-    server = procs.start('server', [
+    server = procs.start('server', wrap([
         'roslaunch', '--wait', 'hri_sync', 'server.launch',
         'clients:=%s' % ','.join(clients), 'rounds:=%d' % args.rounds,
         'dur:=%g' % args.dur, 'str_aft:=%s' % args.str_aft,
-        'ack_timeout:=%g' % args.ack_timeout, 'ntp_port:=%d' % ntp_port])
+        'ack_timeout:=%g' % args.ack_timeout] + ntp_args))
     started.append(('server', server))
+    return server
 
-    rounds, reported = {}, set()
-    server_done = None
+
+def record_rounds(args, state, clocks, started, result, deadline,
+                  wake=True):
+    """Log each round once decided, until all are, the server has been
+    gone 3 s or ``deadline`` (monotonic) passed; note in ``result`` the
+    processes that died (``wake``: log the wake lateness too)."""
+    rec, rlog = state['rec'], state['rlog']
+    server = dict(started)['server']
+    reported, server_done = set(), None
     while True:
         now = time.monotonic()
         if now > deadline:
             result['timed_out'] = True
-            log('run-time bound of %.0f s reached', budget)
+            log('run-time bound of %.0f s reached', result['timeout_s'])
             break
         for name, p in started:
             if name != 'server' and p.poll() is not None \
@@ -634,25 +674,55 @@ def run(args, procs, env, ntp_port, clocks, result, state):
             with rlog.lock:
                 lr = rlog.rounds.get(n)
             notes = []
-            rounds[n] = analyse_round(n, rec, lr, clocks, notes)
+            r = analyse_round(n, rec, lr, clocks, notes)
             reported.add(n)
-            r = rounds[n]
             log('round %d: ack %s ms, str_aft %s, start skew %s ms, clock '
-                'errors [%s] ms, wake %s ms%s', n,
+                'errors [%s] ms%s%s', n,
                 '%.1f' % (r['ack_round'] * 1e3) if 'ack_round' in r else '-',
                 '%.3f' % r['str_aft'] if 'str_aft' in r else '-',
                 '%.3f' % (r['skew'] * 1e3) if 'skew' in r else '-',
                 ' '.join('%s %+.3f' % (c, e * 1e3)
                          for c, e in sorted(r.get('errors', {}).items())),
-                '/'.join('%.1f' % (w * 1e3) for w in r.get('wake', [])),
+                ', wake %s ms' % '/'.join('%.1f' % (w * 1e3)
+                                          for w in r.get('wake', []))
+                if wake else '',
                 ''.join('\n    ' + x for _, x in notes))
-        if len(reported) >= args.rounds and all(
-                n in reported for n in range(1, args.rounds + 1)):
+        if all(n in reported for n in range(1, args.rounds + 1)):
             break
         if server_done is not None and now - server_done > 3.0:
             break
         time.sleep(0.2)
     time.sleep(0.5)
+
+
+def run(args, procs, env, ntp_port, clocks, result, state):
+    """Start everything and record the rounds (``state``: the bench's
+    Recorder and RoundLog)."""
+    clients = ['c%d' % (i + 1) for i in range(args.clients)]
+    deadline = time.monotonic() + result['timeout_s']
+    rng = random.Random(args.seed)
+
+    master_uri = env['ROS_MASTER_URI']
+    master = start_ros(procs, 'sync_skew_bench',
+                       ['roscore', '-p', master_uri.split(':')[-1]],
+                       master_uri, clients, state)
+    ntp_args = ['ntp_port:=%d' % ntp_port]
+    ts = start_time_server(procs, '127.0.0.1', ntp_port,
+                           'chronyd on NTP port %d' % ntp_port)
+    log('roscore %s, chronyd on 127.0.0.1:%d', master_uri, ntp_port)
+
+    started = [('time_server', ts),
+               ('reference', start_reference(procs, args))]
+    for c in clients:
+        offset, rate, spec = random_clock(rng, args)
+        clocks[c] = (offset, rate, time.time())
+        log('client %s: faketime %r', c, spec)
+        started.append((c, start_client(
+            procs, c, [node('skewed_client'), '--clock', spec], ntp_args)))
+    wait_clients(master, clients, state, started, clocks, clients)
+    result['reference_delivery_order'] = delivery_order(master, clients)
+    start_server(procs, args, clients, started, ntp_args)
+    record_rounds(args, state, clocks, started, result, deadline)
 
 
 def analyse(args, state, clocks, result):
@@ -680,22 +750,12 @@ def analyse(args, state, clocks, result):
     return final, failures
 
 
-def main():
-    args = parse_args()
-    started = time.monotonic()
-    logdir = tempfile.mkdtemp(prefix='hri_sync_bench_')
-    master_uri = 'http://127.0.0.1:%d' % free_port(socket.SOCK_STREAM)
-    ntp_port = free_port(socket.SOCK_DGRAM)
-    env = dict(os.environ, ROS_MASTER_URI=master_uri, ROS_LOG_DIR=logdir,
-               ROS_HOME=logdir, PYTHONUNBUFFERED='1')
-    env.pop('ROS_IP', None)
-    env['ROS_HOSTNAME'] = 'localhost'
-    os.environ['ROS_LOG_DIR'] = logdir
-    os.environ['ROS_HOSTNAME'] = 'localhost'
-    procs = Processes(logdir, env)
-    clocks = {}
-    result = {'died': {}, 'timeout_s': round(time_budget(args), 1)}
-
+def bench_main(args, started, logdir, result, clocks, run, stop,
+               more=lambda state: {}):
+    """Run ``run(state)`` under the signal handlers and the hard bound,
+    then ``stop()`` whatever happened; print the JSON of what ``state``
+    recorded (plus ``more(state)``, the bench's own keys) and exit with
+    the status.  ``started``: monotonic start of the bench."""
     def on_signal(signum, _frame):
         raise Interrupted(signal.Signals(signum).name)
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP,
@@ -708,7 +768,7 @@ def main():
     try:
         # Hard bound, should the orderly one in run() not be reached.
         signal.alarm(int(result['timeout_s']) + 30)
-        run(args, procs, env, ntp_port, clocks, result, state)
+        run(state)
     except Interrupted as e:
         fail(failures, 'interrupted', 'interrupted by %s', e)
         log('interrupted (%s): cleaning up', e)
@@ -727,7 +787,7 @@ def main():
             signal.signal(sig, lambda *_: log('cleaning up, please wait'))
         if not rospy.core.is_shutdown():
             rospy.signal_shutdown('benchmark done')
-        procs.stop()
+        stop()
     final, notes = analyse(args, state, clocks, result)
     failures = notes + failures
     if status == 0 and failures:
@@ -735,7 +795,7 @@ def main():
     result.pop('died')
     out = summarize(args, final, failures, clocks, dict(
         result, dur_s=args.dur, rate_hz=args.rate, seed=args.seed,
-        elapsed_s=round(time.monotonic() - started, 1),
+        **more(state), elapsed_s=round(time.monotonic() - started, 1),
         loadavg_1min=[round(load[0], 2), round(os.getloadavg()[0], 2)]))
     if status == 0 and not args.keep_logs:
         shutil.rmtree(logdir, ignore_errors=True)
@@ -748,6 +808,27 @@ def main():
         out['rounds_measured'])
     print(json.dumps(out, allow_nan=False), flush=True)
     sys.exit(status)
+
+
+def main():
+    args = parse_args()
+    started = time.monotonic()
+    logdir = tempfile.mkdtemp(prefix='hri_sync_bench_')
+    master_uri = 'http://127.0.0.1:%d' % free_port(socket.SOCK_STREAM)
+    ntp_port = free_port(socket.SOCK_DGRAM)
+    env = dict(os.environ, ROS_MASTER_URI=master_uri, ROS_LOG_DIR=logdir,
+               ROS_HOME=logdir, PYTHONUNBUFFERED='1')
+    env.pop('ROS_IP', None)
+    env['ROS_HOSTNAME'] = 'localhost'
+    os.environ['ROS_LOG_DIR'] = logdir
+    os.environ['ROS_HOSTNAME'] = 'localhost'
+    procs = Processes(logdir, env)
+    clocks = {}
+    result = {'died': {}, 'timeout_s': round(time_budget(args), 1)}
+    bench_main(args, started, logdir, result, clocks,
+               lambda state: run(args, procs, env, ntp_port, clocks,
+                                 result, state),
+               procs.stop)
 
 
 if __name__ == '__main__':
