@@ -63,9 +63,7 @@ class SyncCheck(unittest.TestCase):
                 kept = r['captured'].get(c, [])
                 self.assertEqual(len(kept), res.frames)
                 start = client_timing(c, kept)
-                end = client_timing(c, [(g, -t, i) for g, t, i in kept])
-                end.clock_error = min(g - t for g, t, _ in
-                                      sorted(kept, key=lambda k: k[1])[-10:])
+                end = client_timing(c, kept, at_end=True)
                 rospy.loginfo('round %d %s: ACK offset %+.6f s; clock error '
                               'at start %+.3f ms, at end %+.3f ms; first '
                               'sample %d; wake-up %.2f ms late', n, c,

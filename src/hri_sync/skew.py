@@ -17,17 +17,19 @@ class ClientTiming:
 
     client_id: str
     first_index: int        # the sensor's index of the first kept sample
-    clock_error: float      # global stamp minus true time at the start, s
+    clock_error: float      # global stamp minus true time, s (start or end)
     samples: int
 
 
-def client_timing(client_id, kept, head=10):
+def client_timing(client_id, kept, head=10, at_end=False):
     """Timing of one client from ``kept``: (global_stamp, true_time, index)
-    tuples of the samples it kept, in any order."""
+    tuples of the samples it kept, in any order.  The clock error is taken
+    over the first ``head`` samples, or the last ones with ``at_end``."""
     if not kept:
         return ClientTiming(client_id, -1, math.nan, 0)
     kept = sorted(kept, key=lambda k: k[1])
-    error = min(g - t for g, t, _ in kept[:head])
+    edge = kept[-head:] if at_end else kept[:head]
+    error = min(g - t for g, t, _ in edge)
     return ClientTiming(client_id, kept[0][2], error, len(kept))
 
 

@@ -20,6 +20,15 @@ def test_clock_error_is_the_minimum_over_the_first_samples():
     assert t.clock_error == pytest.approx(0.0015, abs=1e-12)
 
 
+def test_clock_error_at_the_end_uses_the_last_samples():
+    kept = [(10.0 + 0.004, 10.0, 2),      # outside the last head=2
+            (10.5 + 0.003, 10.5, 12),     # 3 ms
+            (11.0 + 0.0025, 11.0, 20)]    # 2.5 ms: the minimum
+    t = client_timing('a', kept, head=2, at_end=True)
+    assert t.first_index == 2
+    assert t.clock_error == pytest.approx(0.0025, abs=1e-12)
+
+
 def test_no_samples_kept():
     t = client_timing('b', [])
     assert (t.first_index, t.samples) == (-1, 0)
