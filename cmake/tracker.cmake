@@ -42,6 +42,7 @@ add_library(hri_sync_tracker_core STATIC
   src/tracker/body.cpp
   src/tracker/render.cpp
   src/tracker/depth_tracker.cpp
+  src/tracker/pose_fit.cpp
   src/tracker/clock_map.cpp)
 set_target_properties(hri_sync_tracker_core PROPERTIES POSITION_INDEPENDENT_CODE ON)
 

@@ -77,6 +77,14 @@ struct CalibrationSample {
 };
 BodyModel calibrateBody(const std::vector<CalibrationSample>& samples);
 
+/// One frame kept for calibration: the user's points and a first pose.
+struct FitFrame {
+  PointGrid grid;
+  Segmentation seg;
+  Plane floor;
+  Joints init;
+};
+
 struct TrackerParams {
   int grid_step = 0;          ///< 0: width / 160
   int calibration_frames = 15;
@@ -125,6 +133,9 @@ class DepthTracker {
   Vec3 lateral_{1, 0, 0};
   Vec3 facing_{1, 0, 0};        ///< smoothed lateral axis measured from the knees' bend
   double torso_bias_ = 0;
+  std::vector<FitFrame> calib_frames_;  ///< frames kept to fit the bone lengths
+  bool have_fit_ = false;
+  Joints prev_fit_;             ///< last frame's fitted pose, before smoothing
   std::array<std::array<OneEuro, 3>, NUM_JOINTS> filters_;
 };
 

@@ -7,6 +7,8 @@
 #include <queue>
 #include <random>
 
+#include "hri_sync/pose_fit.h"
+
 namespace hri_sync {
 
 namespace {
@@ -378,11 +380,13 @@ void DepthTracker::reset() {
   frames_ = 0;
   model_ = BodyModel();
   calib_.clear();
+  calib_frames_.clear();
   have_prev_ = false;
   tip_age_.fill(1 << 20);
   lateral_ = Vec3(1, 0, 0);
   facing_ = Vec3(1, 0, 0);
   torso_bias_ = 0;
+  have_fit_ = false;
   for (auto& f : filters_) f = {};
 }
 
@@ -396,7 +400,7 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
   ++frames_;
   Segmentation seg = segmentUser(g, floor_, have_prev_ ? &prev_centroid_ : nullptr);
   if (!seg.found) {
-    have_prev_ = false;
+    have_prev_ = have_fit_ = false;
     out.state = "searching: " + seg.reason;
     return out;
   }
@@ -632,12 +636,32 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
     for (int l : {LB_LFOOT, LB_RFOOT})
       if (assign[l] >= 0) s.leg_reach.push_back((tips_[l] - j[l == LB_LFOOT ? L_HIP : R_HIP]).norm());
     calib_.push_back(s);
+    if (calib_.size() % 2 == 0) calib_frames_.push_back({g, seg, floor_, j});
     if (static_cast<int>(calib_.size()) >= params_.calibration_frames) {
       model_ = calibrateBody(calib_);
-      if (!model_.calibrated) calib_.clear();  // no head seen yet: start over
+      if (model_.calibrated) model_ = refineModel(cam_, calib_frames_, model_);
+      calib_.clear();  // done (or no head seen yet: start over)
+      calib_frames_.clear();
     }
   }
 
+  // The model fit refines both this frame's estimate and last frame's pose; the
+  // one that explains the depth better wins.
+  if (model_.calibrated) {
+    PoseFitter fitter(cam_, g, seg, floor_, model_);
+    PoseFit best = fitter.fit(j);
+    if (have_fit_) {
+      PoseFit cont = fitter.fit(prev_fit_);
+      if (cont.energy < best.energy) {
+        best = fitter.fitMixed(cont.joints, {&j});
+      } else {
+        best = fitter.fitMixed(best.joints, {&prev_fit_});
+      }
+    }
+    j = best.joints;
+    prev_fit_ = j;
+    have_fit_ = true;
+  }
   for (int k = 0; k < NUM_JOINTS; ++k) {
     out.joints[k] = Vec3(filters_[k][0].filter(j[k].x, t, params_.filter_min_cutoff, params_.filter_beta),
                          filters_[k][1].filter(j[k].y, t, params_.filter_min_cutoff, params_.filter_beta),

@@ -1,0 +1,61 @@
+// Generative refinement of a skeleton: move the joints so that a body made of
+// capsules around the bones explains the user's depth points, keeps out of the
+// space the sensor sees through, and keeps its calibrated bone lengths.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "hri_sync/body.h"
+#include "hri_sync/depth_tracker.h"
+
+namespace hri_sync {
+
+struct PoseFitParams {
+  int iterations = 12;
+  double outlier = 0.10;       ///< residuals (m) beyond this pull no harder (Huber)
+  double free_space = 1.0;     ///< weight of model surface seen in free space
+  double margin = 0.03;        ///< depth tolerance of the free-space test (m)
+  double stiffness = 2.0;      ///< points' worth of inertia per joint per iteration
+};
+
+struct PoseFit {
+  Joints joints;
+  double energy = 0;                    ///< robust residual per depth point (m^2)
+  std::array<int, NUM_JOINTS> support{};  ///< depth points explained next to each joint
+};
+
+/// Fits poses to one frame's user; the torso keeps the model's shape, the limbs
+/// its bone lengths, every joint stays above the floor.
+class PoseFitter {
+ public:
+  PoseFitter(const Camera& cam, const PointGrid& g, const Segmentation& seg, const Plane& floor,
+             const BodyModel& m, const PoseFitParams& p = PoseFitParams());
+  /// The pose reached from init.
+  PoseFit fit(const Joints& init) const;
+  /// fit, then each limb tried again from where each alternative pose holds it.
+  PoseFit fitMixed(const Joints& init, const std::vector<const Joints*>& alternatives) const;
+
+ private:
+  struct Bone {
+    int a, b;
+    double length, wa;  ///< wa: the first joint's share of a correction
+  };
+  /// One iteration (move) or only the energy; support counts points per joint.
+  double step(Joints* j, std::array<int, NUM_JOINTS>* support, bool move) const;
+  void constrain(Joints* j) const;
+
+  Camera cam_;
+  const PointGrid& g_;
+  const Segmentation& seg_;
+  Plane floor_;
+  PoseFitParams p_;
+  std::vector<int> nearest_;   ///< per grid cell: the nearest user cell
+  std::vector<Bone> bones_;
+};
+
+/// The bone lengths and trunk proportions with which the model explains the
+/// frames best: a local search over each length's scale, starting from m.
+BodyModel refineModel(const Camera& cam, const std::vector<FitFrame>& frames, BodyModel m);
+
+}  // namespace hri_sync

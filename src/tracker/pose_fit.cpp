@@ -1,0 +1,286 @@
+#include "hri_sync/pose_fit.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace hri_sync {
+
+namespace {
+
+// A capsule end: J[i] + (J[k] - J[i]) * w.
+struct End {
+  int i, k;
+  double w;
+  Vec3 at(const Joints& j) const { return j[i] + (j[k] - j[i]) * w; }
+};
+struct Part {
+  End a, b;
+  double r;
+};
+constexpr End at(int i) { return {i, i, 0.0}; }
+
+// The body shape: capsules of an average adult around the bones.
+const Part kParts[] = {
+    {{HEAD, NECK, -0.4}, {HEAD, NECK, -0.4}, 0.10},
+    {at(NECK), at(HEAD), 0.055},
+    {at(NECK), at(TORSO), 0.12},
+    {at(TORSO), {L_HIP, R_HIP, 0.5}, 0.12},
+    {at(L_SHOULDER), at(R_SHOULDER), 0.06},
+    {at(L_SHOULDER), at(L_HIP), 0.09},
+    {at(R_SHOULDER), at(R_HIP), 0.09},
+    {at(L_HIP), at(R_HIP), 0.09},
+    {at(L_SHOULDER), at(L_ELBOW), 0.05},
+    {at(R_SHOULDER), at(R_ELBOW), 0.05},
+    {at(L_ELBOW), at(L_HAND), 0.04},
+    {at(R_ELBOW), at(R_HAND), 0.04},
+    {at(L_HAND), at(L_HAND), 0.05},
+    {at(R_HAND), at(R_HAND), 0.05},
+    {at(L_HIP), at(L_KNEE), 0.075},
+    {at(R_HIP), at(R_KNEE), 0.075},
+    {at(L_KNEE), at(L_FOOT), 0.055},
+    {at(R_KNEE), at(R_FOOT), 0.055},
+    {at(L_FOOT), at(L_FOOT), 0.06},
+    {at(R_FOOT), at(R_FOOT), 0.06},
+};
+constexpr int kNumParts = sizeof(kParts) / sizeof(kParts[0]);
+constexpr double kLengthPrior = 1e-3;  // energy of a length off by e (per frame, per log scale^2)
+constexpr double kFloorBand = 0.06;  // segmentUser drops points this near the floor
+
+// Closest point parameter of p on segment a-b (0..1).
+double closestT(const Vec3& p, const Vec3& a, const Vec3& b) {
+  Vec3 ab = b - a;
+  double l2 = ab.dot(ab);
+  return l2 < 1e-12 ? 0.0 : std::clamp((p - a).dot(ab) / l2, 0.0, 1.0);
+}
+
+// Per-joint weighted sums of displacements.
+struct Pull {
+  std::array<Vec3, NUM_JOINTS> sum;
+  std::array<double, NUM_JOINTS> weight{};
+  void add(const Part& part, double t, const Vec3& delta, double w) {
+    addEnd(part.a, delta, w * (1 - t));
+    addEnd(part.b, delta, w * t);
+  }
+  void addEnd(const End& end, const Vec3& delta, double w) {
+    if (w <= 0) return;  // a share outside 0..1 (the head sphere beyond the head) moves one joint
+    addJoint(end.i, delta, w * std::clamp(1 - end.w, 0.0, 1.0));
+    addJoint(end.k, delta, w * std::clamp(end.w, 0.0, 1.0));
+  }
+  void addJoint(int j, const Vec3& delta, double w) {
+    sum[j] += delta * w;
+    weight[j] += std::fabs(w);
+  }
+};
+
+}  // namespace
+
+PoseFitter::PoseFitter(const Camera& cam, const PointGrid& g, const Segmentation& seg, const Plane& floor,
+                       const BodyModel& m, const PoseFitParams& p)
+    : cam_(cam), g_(g), seg_(seg), floor_(floor), p_(p) {
+  // Nearest user cell of every grid cell (multi-source breadth-first search).
+  nearest_.assign(g.width * g.height, -1);
+  std::vector<int> queue(seg.cells.begin(), seg.cells.end());
+  for (int c : seg.cells) nearest_[c] = c;
+  for (size_t q = 0; q < queue.size(); ++q) {
+    int i = queue[q], x = i % g.width, y = i / g.width;
+    const int nb[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+    for (const auto& d : nb) {
+      int nx = x + d[0], ny = y + d[1];
+      if (nx < 0 || ny < 0 || nx >= g.width || ny >= g.height) continue;
+      int j = ny * g.width + nx;
+      if (nearest_[j] >= 0) continue;
+      nearest_[j] = nearest_[i];
+      queue.push_back(j);
+    }
+  }
+  // The torso is rigid in the model's shape; limbs keep their bone lengths.
+  Joints rest;
+  rest[TORSO] = Vec3(0, 0, 0);
+  rest[NECK] = Vec3(0, m.torso_to_neck, 0);
+  rest[L_SHOULDER] = Vec3(m.shoulder_width / 2, m.torso_to_neck - m.neck_drop, 0);
+  rest[R_SHOULDER] = Vec3(-m.shoulder_width / 2, m.torso_to_neck - m.neck_drop, 0);
+  rest[L_HIP] = Vec3(m.hip_width / 2, -m.torso_to_hips, 0);
+  rest[R_HIP] = Vec3(-m.hip_width / 2, -m.torso_to_hips, 0);
+  const int trunk[] = {NECK, TORSO, L_SHOULDER, R_SHOULDER, L_HIP, R_HIP};
+  for (int a = 0; a < 6; ++a)
+    for (int b = a + 1; b < 6; ++b)
+      bones_.push_back({trunk[a], trunk[b], (rest[trunk[a]] - rest[trunk[b]]).norm(), 0.5});
+  bones_.push_back({NECK, HEAD, m.head_to_neck, 0.2});
+  bones_.push_back({L_SHOULDER, L_ELBOW, m.upper_arm, 0.2});
+  bones_.push_back({R_SHOULDER, R_ELBOW, m.upper_arm, 0.2});
+  bones_.push_back({L_ELBOW, L_HAND, m.forearm, 0.5});
+  bones_.push_back({R_ELBOW, R_HAND, m.forearm, 0.5});
+  bones_.push_back({L_HIP, L_KNEE, m.thigh, 0.2});
+  bones_.push_back({R_HIP, R_KNEE, m.thigh, 0.2});
+  bones_.push_back({L_KNEE, L_FOOT, m.shin, 0.5});
+  bones_.push_back({R_KNEE, R_FOOT, m.shin, 0.5});
+}
+
+double PoseFitter::step(Joints* j, std::array<int, NUM_JOINTS>* support, bool move) const {
+  const Joints& pose = *j;
+  std::array<Vec3, kNumParts * 2> ends;
+  std::array<Vec3, kNumParts> centre;
+  std::array<double, kNumParts> reach;  // bounding sphere: no surface point is farther from centre
+  for (int c = 0; c < kNumParts; ++c) {
+    ends[2 * c] = kParts[c].a.at(pose);
+    ends[2 * c + 1] = kParts[c].b.at(pose);
+    centre[c] = (ends[2 * c] + ends[2 * c + 1]) * 0.5;
+    reach[c] = (ends[2 * c + 1] - ends[2 * c]).norm() * 0.5 + kParts[c].r;
+  }
+  Pull pull;
+  double energy = 0;
+  const double tau = p_.outlier;
+  // Data: every user point lies on the surface of its nearest capsule.
+  for (int cell : seg_.cells) {
+    const Vec3& pt = g_.points[cell];
+    int best = -1;
+    double best_d = 1e18, best_t = 0;
+    for (int c = 0; c < kNumParts; ++c) {
+      if ((pt - centre[c]).norm() - reach[c] >= best_d) continue;  // cannot be nearer
+      double t = closestT(pt, ends[2 * c], ends[2 * c + 1]);
+      double d = (pt - (ends[2 * c] + (ends[2 * c + 1] - ends[2 * c]) * t)).norm() - kParts[c].r;
+      if (d < best_d) { best_d = d; best = c; best_t = t; }
+    }
+    energy += std::min(best_d * best_d, tau * tau);
+    if (support) {
+      const Part& part = kParts[best];
+      ++(*support)[best_t < 0.5 ? part.a.i : part.b.i];
+    }
+    if (!move) continue;
+    Vec3 axis = ends[2 * best] + (ends[2 * best + 1] - ends[2 * best]) * best_t;
+    Vec3 dir = (pt - axis).normalized();
+    double w = std::fabs(best_d) < tau ? 1.0 : tau / std::fabs(best_d);
+    pull.add(kParts[best], best_t, dir * best_d, w);
+  }
+  const double n_points = std::max<size_t>(1, seg_.cells.size());
+  // Free space: the model's surface facing the sensor must not lie in front of
+  // what the sensor sees, nor off the user's silhouette.
+  double fs_energy = 0;
+  for (int c = 0; c < kNumParts; ++c) {
+    const Part& part = kParts[c];
+    const Vec3 &a = ends[2 * c], &b = ends[2 * c + 1];
+    const int samples = std::clamp(static_cast<int>((b - a).norm() / 0.06), 1, 8);
+    for (int s = 0; s <= samples; ++s) {
+      double t = samples ? static_cast<double>(s) / samples : 0.0;
+      Vec3 q = a + (b - a) * t;
+      Vec3 ax = (b - a).normalized();
+      Vec3 view = (q * -1.0).normalized();
+      Vec3 toward = (view - ax * view.dot(ax)).normalized();
+      Vec3 across = ax.norm() > 0 ? ax.cross(view).normalized() : Vec3(1, 0, 0).cross(view).normalized();
+      for (const Vec3& off : {toward * part.r, across * (0.8 * part.r), across * (-0.8 * part.r)}) {
+        Vec3 sp = q + off;
+        if (sp.z < 0.3) continue;
+        double u, v;
+        cam_.project(sp, &u, &v);
+        int x = static_cast<int>(std::floor((u + 0.5) / g_.step)), y = static_cast<int>(std::floor((v + 0.5) / g_.step));
+        if (x < 0 || y < 0 || x >= g_.width || y >= g_.height) continue;
+        int i = y * g_.width + x;
+        Vec3 delta;
+        if (seg_.mask[i]) {
+          double z = g_.points[i].z;
+          if (sp.z > z - p_.margin) continue;  // on or behind the seen surface
+          delta = sp * (z / sp.z) - sp;
+        } else {
+          if (g_.ok(i) && g_.points[i].z < sp.z - p_.margin) continue;  // hidden behind something else
+          // The floor band: the segmentation removed the user's points there too.
+          if (g_.ok(i) && floor_.found && floor_.height(g_.points[i]) < kFloorBand) continue;
+          if (nearest_[i] < 0) continue;
+          const Vec3& n = g_.points[nearest_[i]];
+          delta = n * (sp.z / n.z) - sp;  // to the silhouette, at the model's depth
+        }
+        double d = delta.norm();
+        fs_energy += std::min(d * d, tau * tau);
+        if (move) pull.add(part, t, delta, p_.free_space * (d < tau ? 1.0 : tau / d));
+      }
+    }
+  }
+  energy = (energy + p_.free_space * fs_energy) / n_points;
+  if (!move) return energy;
+  for (int k = 0; k < NUM_JOINTS; ++k) (*j)[k] += pull.sum[k] * (1.0 / (pull.weight[k] + p_.stiffness));
+  constrain(j);
+  return energy;
+}
+
+void PoseFitter::constrain(Joints* j) const {
+  for (int pass = 0; pass < 4; ++pass) {
+    for (const Bone& b : bones_) {
+      Vec3 d = (*j)[b.b] - (*j)[b.a];
+      double l = d.norm();
+      if (l < 1e-9) continue;
+      Vec3 corr = d * ((l - b.length) / l);
+      (*j)[b.a] += corr * b.wa;
+      (*j)[b.b] += corr * -(1 - b.wa);
+    }
+  }
+  if (!floor_.found) return;
+  for (Vec3& p : *j) {
+    double h = floor_.height(p);
+    if (h < 0.05) p += floor_.n * (0.05 - h);
+  }
+}
+
+PoseFit PoseFitter::fit(const Joints& init) const {
+  PoseFit out;
+  out.joints = init;
+  constrain(&out.joints);
+  for (int it = 0; it < p_.iterations; ++it) step(&out.joints, nullptr, true);
+  out.energy = step(&out.joints, &out.support, false);
+  return out;
+}
+
+PoseFit PoseFitter::fitMixed(const Joints& init, const std::vector<const Joints*>& alternatives) const {
+  PoseFit best = fit(init);
+  const int limbs[4][3] = {{L_SHOULDER, L_ELBOW, L_HAND}, {R_SHOULDER, R_ELBOW, R_HAND},
+                           {L_HIP, L_KNEE, L_FOOT}, {R_HIP, R_KNEE, R_FOOT}};
+  for (const auto& limb : limbs) {
+    for (const Joints* alt : alternatives) {
+      const Vec3 shift = best.joints[limb[0]] - (*alt)[limb[0]];
+      if (((*alt)[limb[2]] + shift - best.joints[limb[2]]).norm() < 0.1) continue;  // the same limb
+      Joints cand = best.joints;
+      cand[limb[1]] = (*alt)[limb[1]] + shift;
+      cand[limb[2]] = (*alt)[limb[2]] + shift;
+      PoseFit f = fit(cand);
+      if (f.energy < best.energy) best = f;
+    }
+  }
+  return best;
+}
+
+BodyModel refineModel(const Camera& cam, const std::vector<FitFrame>& frames, BodyModel m) {
+  if (frames.empty()) return m;
+  PoseFitParams p;
+  p.iterations = 8;
+  double* const lengths[] = {&m.thigh, &m.shin, &m.upper_arm, &m.forearm, &m.torso_to_neck,
+                             &m.torso_to_hips, &m.shoulder_width, &m.hip_width, &m.head_to_neck};
+  const BodyModel prior = m;
+  // Fit energy plus a prior that keeps each length near the body proportions.
+  auto energy = [&](const BodyModel& model) {
+    double e = 0;
+    for (const FitFrame& f : frames) e += PoseFitter(cam, f.grid, f.seg, f.floor, model, p).fit(f.init).energy;
+    for (double* len : lengths) {
+      double s = std::log(*len / *(&prior.thigh + (len - &m.thigh)));
+      e += kLengthPrior * frames.size() * s * s;
+    }
+    return e;
+  };
+  double best = energy(m);
+  for (double step : {0.08, 0.04}) {
+    for (int round = 0; round < 3; ++round) {
+      bool moved = false;
+      for (double* len : lengths) {
+        const double keep = *len;
+        for (double f : {1 + step, 1 - step}) {
+          *len = keep * f;
+          double e = energy(m);
+          if (e < best) { best = e; moved = true; break; }
+          *len = keep;
+        }
+      }
+      if (!moved) break;
+    }
+  }
+  return m;
+}
+
+}  // namespace hri_sync
