@@ -5,8 +5,10 @@ Renders the motion through the virtual Kinect (OpenNI2, in real time), tracks
 every frame with the depth backend and compares with the motion's true
 joints. The last line printed is one JSON object:
 {"mean_error_m", "joints": {name: {"mean_m", "p95_m"}}, "hands_p95_error_m",
- "tracked_share", "fps", ...}; fps is frames tracked per CPU second of the
-tracker (one core).
+ "seen_hands_p95_error_m", "seen_hands_share", "tracked_share", "fps", ...};
+"seen_hands" are the hands the tracker gives a confidence of at least 0.5 (the
+DPM's threshold; the others are hidden and inferred); fps is frames tracked
+per CPU second of the tracker (one core).
 
     bench/tracker_accuracy.py \
         --motion /work/shared/data/mocap/cmu_60_01_salsa.bvh

@@ -114,10 +114,8 @@ class TrackerOniTest(unittest.TestCase):
             0.10,
             'mean joint error %.3f m > 0.10 m' %
             mean)
-        self.assertLessEqual(hands_p95, 0.35,
-                             'hands p95 error %.3f m > 0.35 m '
-                             '(sanity bound; the 0.25 m target is not met)'
-                             % hands_p95)
+        self.assertLessEqual(hands_p95, 0.25,
+                             'hands p95 error %.3f m > 0.25 m' % hands_p95)
 
 
 if __name__ == '__main__':

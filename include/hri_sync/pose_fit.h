@@ -31,8 +31,8 @@ class PoseFitter {
  public:
   PoseFitter(const Camera& cam, const PointGrid& g, const Segmentation& seg, const Plane& floor,
              const BodyModel& m, const PoseFitParams& p = PoseFitParams());
-  /// The pose reached from init.
-  PoseFit fit(const Joints& init) const;
+  /// The pose reached from init (iterations: 0 = the parameters').
+  PoseFit fit(const Joints& init, int iterations = 0) const;
   /// fit, then each limb tried again from where each alternative pose holds it.
   PoseFit fitMixed(const Joints& init, const std::vector<const Joints*>& alternatives) const;
 

@@ -5,6 +5,7 @@ the window keeps exactly those with ``start <= stamp < end``, whenever
 the process happened to wake up.
 """
 import math
+import statistics
 from collections import deque
 
 from hri_sync.processors import Frame
@@ -79,12 +80,15 @@ class DeviceClockMapper:
     the lower envelope of those values, fitted with drift over a sliding
     window: the minimum-delay idea of NTP, applied to one-way samples.  A
     device clock that goes back (a restarted sensor) starts the fit over
-    and is counted in ``resets``.
+    and is counted in ``resets``.  Until a fit holds ``settle`` samples it
+    is not ``ready``: alone, a sample that arrived late (a reader that
+    stalled) would set the offset that late.
     """
 
-    def __init__(self, window=30.0, min_span=5.0):
+    def __init__(self, window=30.0, min_span=5.0, settle=5):
         self.window = window
         self.min_span = min_span
+        self.settle = settle
         self._points = deque()   # (device, arrival - device)
         self.offset = None
         self.drift = 0.0
@@ -109,29 +113,34 @@ class DeviceClockMapper:
             self.offset = min(d for _, d in pts)
             self.drift = 0.0
             return
-        # Lower envelope: minimum of each of 4 bins of the window, then a
-        # line through the bins' minima (robust to delay spikes).
-        bins = 4
-        mins = []
-        for k in range(bins):
-            lo = pts[0][0] + span * k / bins
-            hi = pts[0][0] + span * (k + 1) / bins
-            sel = [p for p in pts if lo <= p[0] <= hi]
-            if sel:
-                mins.append(min(sel, key=lambda p: p[1]))
+        # Lower envelope: the minimum of each bin (about 1 s wide, at least
+        # 4 bins), then the Theil-Sen line through the minima: the median of
+        # their pairwise slopes, so a bin holding only late samples (a
+        # sensor or reader that stalled) cannot tilt it.
+        bins = min(30, max(4, int(span)))
+        mins = {}
+        for t, d in pts:
+            k = min(bins - 1, int((t - pts[0][0]) / span * bins))
+            if k not in mins or d < mins[k][1]:
+                mins[k] = (t - self.ref, d)
+        mins = list(mins.values())
         if len(mins) < 2:
             self.offset = min(d for _, d in pts)
             self.drift = 0.0
             return
-        mx = sum(p[0] - self.ref for p in mins) / len(mins)
-        my = sum(p[1] for p in mins) / len(mins)
-        sxx = sum((p[0] - self.ref - mx) ** 2 for p in mins)
-        sxy = sum((p[0] - self.ref - mx) * (p[1] - my) for p in mins)
-        self.drift = sxy / sxx if sxx > 0 else 0.0
-        base = my - self.drift * mx
+        slopes = [(b[1] - a[1]) / (b[0] - a[0])
+                  for i, a in enumerate(mins) for b in mins[i + 1:]
+                  if b[0] != a[0]]
+        self.drift = statistics.median(slopes) if slopes else 0.0
+        base = statistics.median(d - self.drift * t for t, d in mins)
         # Shift the line down onto the envelope (no point below it).
         self.offset = base + min(d - (base + self.drift * (t - self.ref))
                                  for t, d in pts)
+
+    @property
+    def ready(self):
+        """Whether the fit holds enough samples to map stamps."""
+        return len(self._points) >= self.settle
 
     def to_global(self, device):
         """Global time of a device stamp (call observe first)."""

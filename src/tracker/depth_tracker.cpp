@@ -14,6 +14,7 @@ namespace hri_sync {
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
+constexpr int kSeenPoints = 5;  // depth points a fitted joint needs to count as seen
 
 // Neighbouring points belong to one object when their depths differ by less than this.
 double maxJump(double z) { return 0.05 + 0.02 * z; }
@@ -31,8 +32,17 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-const int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1};
-const int kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
+// Calls f(j) for each grid neighbour j of cell i (8-neighbourhood).
+template <typename F>
+void forNeighbours(const PointGrid& g, int i, F f) {
+  static const int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1};
+  static const int kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
+  const int x = i % g.width, y = i / g.width;
+  for (int k = 0; k < 8; ++k) {
+    const int nx = x + kDx[k], ny = y + kDy[k];
+    if (nx >= 0 && ny >= 0 && nx < g.width && ny < g.height) f(ny * g.width + nx);
+  }
+}
 
 // Dijkstra over the user's cells from the cells already holding a finite distance in queue.
 void relax(const PointGrid& g, const std::vector<uint8_t>& mask, std::vector<float>* dist,
@@ -43,22 +53,18 @@ void relax(const PointGrid& g, const std::vector<uint8_t>& mask, std::vector<flo
     auto [d, i] = q->top();
     q->pop();
     if (d > (*dist)[i]) continue;
-    int x = i % g.width, y = i / g.width;
     const Vec3& p = g.points[i];
-    for (int k = 0; k < 8; ++k) {
-      int nx = x + kDx[k], ny = y + kDy[k];
-      if (nx < 0 || ny < 0 || nx >= g.width || ny >= g.height) continue;
-      int j = ny * g.width + nx;
-      if (!mask[j]) continue;
+    forNeighbours(g, i, [&](int j) {
+      if (!mask[j]) return;
       const Vec3& r = g.points[j];
-      if (std::fabs(r.z - p.z) > maxStep(p.z)) continue;
+      if (std::fabs(r.z - p.z) > maxStep(p.z)) return;
       float nd = d + static_cast<float>((r - p).norm());
       if (nd < (*dist)[j]) {
         (*dist)[j] = nd;
         if (parent) (*parent)[j] = i;
         q->push({nd, j});
       }
-    }
+    });
   }
 }
 
@@ -192,17 +198,12 @@ Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* pre
       int i = stack.back();
       stack.pop_back();
       part.cells.push_back(i);
-      int x = i % g.width, y = i / g.width;
       const Vec3& p = g.points[i];
-      for (int k = 0; k < 8; ++k) {
-        int nx = x + kDx[k], ny = y + kDy[k];
-        if (nx < 0 || ny < 0 || nx >= g.width || ny >= g.height) continue;
-        int j = ny * g.width + nx;
-        if (!cand[j] || comp[j] >= 0) continue;
-        if (std::fabs(g.points[j].z - p.z) > maxJump(p.z)) continue;
+      forNeighbours(g, i, [&](int j) {
+        if (!cand[j] || comp[j] >= 0 || std::fabs(g.points[j].z - p.z) > maxJump(p.z)) return;
         comp[j] = comp[s];
         stack.push_back(j);
-      }
+      });
     }
     for (int i : part.cells) {
       const Vec3& p = g.points[i];
@@ -440,15 +441,11 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
         ++size;
         double ahead = (trunk - g.points[i]).dot(view);
         if (ahead > best) { best = ahead; tip = i; }
-        int x = i % g.width, y = i / g.width;
-        for (int k = 0; k < 8; ++k) {
-          int nx = x + kDx[k], ny = y + kDy[k];
-          if (nx < 0 || ny < 0 || nx >= g.width || ny >= g.height) continue;
-          int jn = ny * g.width + nx;
-          if (front[jn] != 1 || std::fabs(g.points[jn].z - g.points[i].z) > maxJump(g.points[i].z)) continue;
+        forNeighbours(g, i, [&](int jn) {
+          if (front[jn] != 1 || std::fabs(g.points[jn].z - g.points[i].z) > maxJump(g.points[i].z)) return;
           front[jn] = 2;
           stack.push_back(jn);
-        }
+        });
       }
       bool known = false;
       for (int c : ext_cells) known |= (g.points[c] - g.points[tip]).norm() < 0.15;
@@ -652,15 +649,16 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
     PoseFit best = fitter.fit(j);
     if (have_fit_) {
       PoseFit cont = fitter.fit(prev_fit_);
-      if (cont.energy < best.energy) {
-        best = fitter.fitMixed(cont.joints, {&j});
-      } else {
-        best = fitter.fitMixed(best.joints, {&prev_fit_});
-      }
+      if (cont.energy < best.energy) best = cont;
+      best = fitter.fitMixed(best.joints, {&j, &prev_fit_});
     }
     j = best.joints;
     prev_fit_ = j;
     have_fit_ = true;
+    // A joint whose capsules explain depth points is measured; one explaining
+    // none is hidden and only inferred.
+    for (int k : {HEAD, L_ELBOW, R_ELBOW, L_HAND, R_HAND, L_KNEE, R_KNEE, L_FOOT, R_FOOT})
+      conf[k] = best.support[k] >= kSeenPoints ? std::max(conf[k], 0.6f) : std::min(conf[k], 0.3f);
   }
   for (int k = 0; k < NUM_JOINTS; ++k) {
     out.joints[k] = Vec3(filters_[k][0].filter(j[k].x, t, params_.filter_min_cutoff, params_.filter_beta),

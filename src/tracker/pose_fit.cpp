@@ -220,11 +220,11 @@ void PoseFitter::constrain(Joints* j) const {
   }
 }
 
-PoseFit PoseFitter::fit(const Joints& init) const {
+PoseFit PoseFitter::fit(const Joints& init, int iterations) const {
   PoseFit out;
   out.joints = init;
   constrain(&out.joints);
-  for (int it = 0; it < p_.iterations; ++it) step(&out.joints, nullptr, true);
+  for (int it = 0; it < (iterations > 0 ? iterations : p_.iterations); ++it) step(&out.joints, nullptr, true);
   out.energy = step(&out.joints, &out.support, false);
   return out;
 }
@@ -240,7 +240,7 @@ PoseFit PoseFitter::fitMixed(const Joints& init, const std::vector<const Joints*
       Joints cand = best.joints;
       cand[limb[1]] = (*alt)[limb[1]] + shift;
       cand[limb[2]] = (*alt)[limb[2]] + shift;
-      PoseFit f = fit(cand);
+      PoseFit f = fit(cand, p_.iterations / 2);
       if (f.energy < best.energy) best = f;
     }
   }

@@ -33,6 +33,7 @@ double threadCpu() {
 
 struct Stats {
   std::vector<std::vector<double>> err = std::vector<std::vector<double>>(NUM_JOINTS);
+  std::vector<double> hands_seen;  ///< hand errors where the tracker's confidence is >= 0.5
   int frames = 0, tracked = 0, dropped = 0;
   double cpu = 0;
 };
@@ -60,6 +61,8 @@ void account(Stats* s, const SkeletonEstimate& est, const Joints& truth) {
   if (!est.tracked) return;
   ++s->tracked;
   for (int k = 0; k < NUM_JOINTS; ++k) s->err[k].push_back((est.joints[k] - truth[k]).norm());
+  for (int k : {L_HAND, R_HAND})
+    if (est.confidence[k] >= 0.5f) s->hands_seen.push_back(s->err[k].back());
 }
 
 }  // namespace
@@ -183,10 +186,12 @@ int main(int argc, char** argv) {
   double mean = 0;
   for (double e : all) mean += e;
   mean = all.empty() ? -1 : mean / all.size();
-  std::printf("{\"mean_error_m\": %.4f, \"joints\": {%s}, \"hands_p95_error_m\": %.4f, \"tracked_share\": %.4f, "
+  std::printf("{\"mean_error_m\": %.4f, \"joints\": {%s}, \"hands_p95_error_m\": %.4f, "
+              "\"seen_hands_p95_error_m\": %.4f, \"seen_hands_share\": %.4f, \"tracked_share\": %.4f, "
               "\"fps\": %.1f, \"frames\": %d, \"dropped_frames\": %d, \"resolution\": \"%dx%d\", "
               "\"height_m\": %.3f}\n",
-              mean, joints.c_str(), pct(hands, 0.95), st.frames ? double(st.tracked) / st.frames : 0.0,
+              mean, joints.c_str(), pct(hands, 0.95), pct(st.hands_seen, 0.95),
+              hands.empty() ? 0.0 : double(st.hands_seen.size()) / hands.size(), st.frames ? double(st.tracked) / st.frames : 0.0,
               st.cpu > 0 ? st.frames / st.cpu : 0.0, st.frames, st.dropped, cam.width, cam.height,
               tracker.model().height);
   return st.frames > 0 ? 0 : 1;

@@ -198,6 +198,33 @@ def test_mapper_robust_to_delay_spikes():
     assert m.drift == pytest.approx(-ppm / (1 + ppm), abs=20e-6)
 
 
+def test_mapper_robust_to_a_reader_stall():
+    # The reader stalls 1.8 s (a tracker calibrating): the frame it held
+    # arrives 1.8 s late, the device's frames meanwhile are lost.  That one
+    # late frame alone in its part of the window must not tilt the map.
+    ppm = 80e-6
+    m = DeviceClockMapper()
+    worst = 0.0
+    for device, arrival, true in device_stream(3, ppm, 50.0, dur=20.0):
+        if 3.0 <= true - T0 < 4.8:
+            continue                              # lost while stalled
+        if abs(true - T0 - 2.97) < 0.02:
+            arrival = T0 + 4.8                    # held through the stall
+        m.observe(device, arrival)
+        if device - 50.0 > 5.0:
+            worst = max(worst, abs(m.to_global(device) - true))
+    assert worst < 2e-3
+
+
+def test_mapper_is_ready_after_settle_samples_of_each_fit():
+    m = DeviceClockMapper(settle=3)
+    for k, ready in enumerate([False, False, True, True]):
+        m.observe(10.0 + k * 0.1, 11.0 + k * 0.1)
+        assert m.ready is ready
+    m.observe(0.0, 12.0)                         # the device restarted
+    assert not m.ready
+
+
 def test_mapper_starts_over_when_the_device_clock_goes_back():
     # A sensor restarted: its clock starts again from 0.  The old points
     # must not pull the new stamps 100 s off.
