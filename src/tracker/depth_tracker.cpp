@@ -650,7 +650,12 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
     if (have_fit_) {
       PoseFit cont = fitter.fit(prev_fit_);
       if (cont.energy < best.energy) best = cont;
-      best = fitter.fitMixed(best.joints, {&j, &prev_fit_});
+      Joints swapped = best.joints;  // left and right arms exchanged
+      for (auto [a, b] : {std::pair<int, int>{L_ELBOW, R_ELBOW}, {L_HAND, R_HAND}}) {
+        swapped[a] = best.joints[b] - best.joints[R_SHOULDER] + best.joints[L_SHOULDER];
+        swapped[b] = best.joints[a] - best.joints[L_SHOULDER] + best.joints[R_SHOULDER];
+      }
+      best = fitter.fitMixed(best.joints, {&j, &prev_fit_, &swapped});
     }
     j = best.joints;
     prev_fit_ = j;

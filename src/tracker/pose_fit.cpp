@@ -45,6 +45,7 @@ const Part kParts[] = {
 };
 constexpr int kNumParts = sizeof(kParts) / sizeof(kParts[0]);
 constexpr double kLengthPrior = 1e-3;  // energy of a length off by e (per frame, per log scale^2)
+constexpr double kOverRelax = 2.0;  // steps beyond the mean pull converge in fewer iterations
 constexpr double kFloorBand = 0.06;  // segmentUser drops points this near the floor
 
 // Closest point parameter of p on segment a-b (0..1).
@@ -197,7 +198,7 @@ double PoseFitter::step(Joints* j, std::array<int, NUM_JOINTS>* support, bool mo
   }
   energy = (energy + p_.free_space * fs_energy) / n_points;
   if (!move) return energy;
-  for (int k = 0; k < NUM_JOINTS; ++k) (*j)[k] += pull.sum[k] * (1.0 / (pull.weight[k] + p_.stiffness));
+  for (int k = 0; k < NUM_JOINTS; ++k) (*j)[k] += pull.sum[k] * (kOverRelax / (pull.weight[k] + p_.stiffness));
   constrain(j);
   return energy;
 }
