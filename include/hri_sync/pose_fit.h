@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <vector>
 
 #include "hri_sync/body.h"
@@ -41,8 +42,9 @@ class PoseFitter {
     int a, b;
     double length, wa;  ///< wa: the first joint's share of a correction
   };
-  /// One iteration (move) or only the energy; support counts points per joint.
-  double step(Joints* j, std::array<int, NUM_JOINTS>* support, bool move) const;
+  /// One iteration (move) or only the energy; support counts points per joint;
+  /// hint: per user cell, the capsule that explained it last (-1: none yet).
+  double step(Joints* j, std::vector<int8_t>* hint, std::array<int, NUM_JOINTS>* support, bool move) const;
   void constrain(Joints* j) const;
 
   Camera cam_;

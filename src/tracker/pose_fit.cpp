@@ -118,7 +118,8 @@ PoseFitter::PoseFitter(const Camera& cam, const PointGrid& g, const Segmentation
   bones_.push_back({R_KNEE, R_FOOT, m.shin, 0.5});
 }
 
-double PoseFitter::step(Joints* j, std::array<int, NUM_JOINTS>* support, bool move) const {
+double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NUM_JOINTS>* support,
+                        bool move) const {
   const Joints& pose = *j;
   std::array<Vec3, kNumParts * 2> ends;
   std::array<Vec3, kNumParts> centre;
@@ -133,16 +134,26 @@ double PoseFitter::step(Joints* j, std::array<int, NUM_JOINTS>* support, bool mo
   double energy = 0;
   const double tau = p_.outlier;
   // Data: every user point lies on the surface of its nearest capsule.
-  for (int cell : seg_.cells) {
-    const Vec3& pt = g_.points[cell];
+  for (size_t n = 0; n < seg_.cells.size(); ++n) {
+    const Vec3& pt = g_.points[seg_.cells[n]];
     int best = -1;
     double best_d = 1e18, best_t = 0;
-    for (int c = 0; c < kNumParts; ++c) {
-      if ((pt - centre[c]).norm() - reach[c] >= best_d) continue;  // cannot be nearer
+    auto consider = [&](int c) {
       double t = closestT(pt, ends[2 * c], ends[2 * c + 1]);
       double d = (pt - (ends[2 * c] + (ends[2 * c + 1] - ends[2 * c]) * t)).norm() - kParts[c].r;
       if (d < best_d) { best_d = d; best = c; best_t = t; }
+    };
+    // Last iteration's capsule first: its distance prunes most others.
+    const int first = (*hint)[n];
+    if (first >= 0) consider(first);
+    for (int c = 0; c < kNumParts; ++c) {
+      if (c == first) continue;
+      const double bound = best_d + reach[c];  // nearer than best_d only within this of the centre
+      const Vec3 off = pt - centre[c];
+      if (bound < 1e9 && (bound <= 0 || off.dot(off) >= bound * bound)) continue;
+      consider(c);
     }
+    (*hint)[n] = static_cast<int8_t>(best);
     energy += std::min(best_d * best_d, tau * tau);
     if (support) {
       const Part& part = kParts[best];
@@ -225,8 +236,9 @@ PoseFit PoseFitter::fit(const Joints& init, int iterations) const {
   PoseFit out;
   out.joints = init;
   constrain(&out.joints);
-  for (int it = 0; it < (iterations > 0 ? iterations : p_.iterations); ++it) step(&out.joints, nullptr, true);
-  out.energy = step(&out.joints, &out.support, false);
+  std::vector<int8_t> hint(seg_.cells.size(), -1);
+  for (int it = 0; it < (iterations > 0 ? iterations : p_.iterations); ++it) step(&out.joints, &hint, nullptr, true);
+  out.energy = step(&out.joints, &hint, &out.support, false);
   return out;
 }
 
