@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -85,6 +86,8 @@ struct FitFrame {
   Joints init;
 };
 
+class ModelSearch;
+
 struct TrackerParams {
   int grid_step = 0;          ///< 0: width / 160
   int calibration_frames = 15;
@@ -106,6 +109,7 @@ struct SkeletonEstimate {
 class DepthTracker {
  public:
   explicit DepthTracker(const Camera& cam, TrackerParams params = TrackerParams());
+  ~DepthTracker();
   /// One depth frame (millimetres) taken at time t (s, device clock).
   SkeletonEstimate update(const uint16_t* depth_mm, double t);
   const BodyModel& model() const { return model_; }
@@ -134,6 +138,7 @@ class DepthTracker {
   Vec3 facing_{1, 0, 0};        ///< smoothed lateral axis measured from the knees' bend
   double torso_bias_ = 0;
   std::vector<FitFrame> calib_frames_;  ///< frames kept to fit the bone lengths
+  std::unique_ptr<ModelSearch> search_;  ///< the bone-length search under way
   bool have_fit_ = false;
   Joints prev_fit_;             ///< last frame's fitted pose, before smoothing
   std::array<std::array<OneEuro, 3>, NUM_JOINTS> filters_;

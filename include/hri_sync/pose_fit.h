@@ -56,8 +56,28 @@ class PoseFitter {
   std::vector<Bone> bones_;
 };
 
-/// The bone lengths and trunk proportions with which the model explains the
-/// frames best: a local search over each length's scale, starting from m.
-BodyModel refineModel(const Camera& cam, const std::vector<FitFrame>& frames, BodyModel m);
+/// The search for the bone lengths and trunk proportions with which the model
+/// explains kept frames best: coordinate descent over each length's scale from
+/// a start, a few pose fits at a time so that tracking goes on meanwhile.
+class ModelSearch {
+ public:
+  ModelSearch(const Camera& cam, std::vector<FitFrame> frames, const BodyModel& start);
+  /// Runs up to fits pose fits; true once the search is over.
+  bool advance(int fits);
+  /// The best model so far.
+  const BodyModel& best() const { return best_; }
+
+ private:
+  void next(double energy);
+
+  Camera cam_;
+  std::vector<FitFrame> frames_;
+  BodyModel prior_, best_, cand_;
+  double best_e_ = 0, cand_e_ = 0;
+  size_t frame_ = 0;
+  int step_ = 0, round_ = 0, param_ = 0;
+  int dir_ = -1;  ///< -1: evaluating the start; 0: scaling up; 1: scaling down
+  bool moved_ = false, done_ = false;
+};
 
 }  // namespace hri_sync

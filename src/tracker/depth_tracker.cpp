@@ -14,6 +14,7 @@ namespace hri_sync {
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
+constexpr int kSearchFitsPerFrame = 2;  // pose fits of the bone-length search per frame
 constexpr int kSeenPoints = 5;  // depth points a fitted joint needs to count as seen
 
 // Neighbouring points belong to one object when their depths differ by less than this.
@@ -376,12 +377,15 @@ DepthTracker::DepthTracker(const Camera& cam, TrackerParams params) : cam_(cam),
   reset();
 }
 
+DepthTracker::~DepthTracker() = default;
+
 void DepthTracker::reset() {
   floor_ = Plane();
   frames_ = 0;
   model_ = BodyModel();
   calib_.clear();
   calib_frames_.clear();
+  search_.reset();
   have_prev_ = false;
   tip_age_.fill(1 << 20);
   lateral_ = Vec3(1, 0, 0);
@@ -636,12 +640,18 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
     if (calib_.size() % 2 == 0) calib_frames_.push_back({g, seg, floor_, j});
     if (static_cast<int>(calib_.size()) >= params_.calibration_frames) {
       model_ = calibrateBody(calib_);
-      if (model_.calibrated) model_ = refineModel(cam_, calib_frames_, model_);
+      if (model_.calibrated) search_ = std::make_unique<ModelSearch>(cam_, std::move(calib_frames_), model_);
       calib_.clear();  // done (or no head seen yet: start over)
       calib_frames_.clear();
     }
   }
 
+  // The bone lengths are refined on the kept frames, a few fits per frame.
+  if (search_) {
+    const bool over = search_->advance(kSearchFitsPerFrame);
+    model_ = search_->best();
+    if (over) search_.reset();
+  }
   // The model fit refines both this frame's estimate and last frame's pose; the
   // one that explains the depth better wins.
   if (model_.calibrated) {

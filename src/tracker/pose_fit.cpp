@@ -260,40 +260,73 @@ PoseFit PoseFitter::fitMixed(const Joints& init, const std::vector<const Joints*
   return best;
 }
 
-BodyModel refineModel(const Camera& cam, const std::vector<FitFrame>& frames, BodyModel m) {
-  if (frames.empty()) return m;
+namespace {
+
+// The lengths the search scales, in order.
+double BodyModel::* const kLengths[] = {&BodyModel::thigh,         &BodyModel::shin,
+                                        &BodyModel::upper_arm,     &BodyModel::forearm,
+                                        &BodyModel::torso_to_neck, &BodyModel::torso_to_hips,
+                                        &BodyModel::shoulder_width, &BodyModel::hip_width,
+                                        &BodyModel::head_to_neck};
+constexpr int kNumLengths = sizeof(kLengths) / sizeof(kLengths[0]);
+constexpr double kSearchSteps[] = {0.08, 0.04};  // relative scale steps, coarse then fine
+constexpr int kSearchRounds = 3;                  // passes over the lengths per step
+
+}  // namespace
+
+ModelSearch::ModelSearch(const Camera& cam, std::vector<FitFrame> frames, const BodyModel& start)
+    : cam_(cam), frames_(std::move(frames)), prior_(start), best_(start), cand_(start) {
+  done_ = frames_.empty();
+}
+
+bool ModelSearch::advance(int fits) {
   PoseFitParams p;
   p.iterations = 8;
-  double* const lengths[] = {&m.thigh, &m.shin, &m.upper_arm, &m.forearm, &m.torso_to_neck,
-                             &m.torso_to_hips, &m.shoulder_width, &m.hip_width, &m.head_to_neck};
-  const BodyModel prior = m;
-  // Fit energy plus a prior that keeps each length near the body proportions.
-  auto energy = [&](const BodyModel& model) {
-    double e = 0;
-    for (const FitFrame& f : frames) e += PoseFitter(cam, f.grid, f.seg, f.floor, model, p).fit(f.init).energy;
-    for (double* len : lengths) {
-      double s = std::log(*len / *(&prior.thigh + (len - &m.thigh)));
-      e += kLengthPrior * frames.size() * s * s;
+  for (int k = 0; k < fits && !done_; ++k) {
+    const FitFrame& f = frames_[frame_];
+    cand_e_ += PoseFitter(cam_, f.grid, f.seg, f.floor, cand_, p).fit(f.init).energy;
+    if (++frame_ < frames_.size()) continue;
+    // Fit energy plus a prior that keeps each length near the body proportions.
+    for (auto len : kLengths) {
+      double s = std::log(cand_.*len / prior_.*len);
+      cand_e_ += kLengthPrior * frames_.size() * s * s;
     }
-    return e;
-  };
-  double best = energy(m);
-  for (double step : {0.08, 0.04}) {
-    for (int round = 0; round < 3; ++round) {
-      bool moved = false;
-      for (double* len : lengths) {
-        const double keep = *len;
-        for (double f : {1 + step, 1 - step}) {
-          *len = keep * f;
-          double e = energy(m);
-          if (e < best) { best = e; moved = true; break; }
-          *len = keep;
+    next(cand_e_);
+    frame_ = 0;
+    cand_e_ = 0;
+  }
+  return done_;
+}
+
+void ModelSearch::next(double energy) {
+  // Coordinate descent: each length scaled up, else down, by the step; a
+  // change that lowers the energy is kept and the next length is tried.
+  if (dir_ < 0) {  // the start, evaluated
+    best_e_ = energy;
+    dir_ = 0;
+  } else if (energy >= best_e_ && dir_ == 0) {
+    dir_ = 1;
+  } else {
+    if (energy < best_e_) {
+      best_ = cand_;
+      best_e_ = energy;
+      moved_ = true;
+    }
+    dir_ = 0;
+    if (++param_ == kNumLengths) {
+      param_ = 0;
+      if (!moved_ || ++round_ == kSearchRounds) {
+        round_ = 0;
+        if (++step_ == static_cast<int>(sizeof(kSearchSteps) / sizeof(kSearchSteps[0]))) {
+          done_ = true;
+          return;
         }
       }
-      if (!moved) break;
+      moved_ = false;
     }
   }
-  return m;
+  cand_ = best_;
+  cand_.*kLengths[param_] *= 1 + (dir_ == 0 ? 1 : -1) * kSearchSteps[step_];
 }
 
 }  // namespace hri_sync
