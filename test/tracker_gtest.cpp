@@ -1,5 +1,5 @@
 // Unit tests of the depth tracker's parts (segmentation, geodesic extremities,
-// bone calibration), the device clock mapping and the track loader, on depth
+// bone calibration, the model fit), the device clock mapping and the track loader, on depth
 // rendered from the shared real motion (data/motion/cmu_60_01_salsa.track).
 #include <gtest/gtest.h>
 
@@ -13,6 +13,7 @@
 #include "hri_sync/body.h"
 #include "hri_sync/clock_map.h"
 #include "hri_sync/depth_tracker.h"
+#include "hri_sync/pose_fit.h"
 #include "hri_sync/render.h"
 
 using namespace hri_sync;
@@ -40,6 +41,26 @@ std::vector<uint16_t> render(const Joints& j, const Camera& cam, bool background
 }
 
 double boneLength(const Joints& j, Joint a, Joint b) { return (j[a] - j[b]).norm(); }
+
+double meanError(const Joints& a, const Joints& b) {
+  double e = 0;
+  for (int k = 0; k < NUM_JOINTS; ++k) e += (a[k] - b[k]).norm();
+  return e / NUM_JOINTS;
+}
+
+// One rendered frame of the motion as the tracker sees it, started from the
+// true pose with every joint moved up to `shake` m at random.
+FitFrame fitFrame(const Camera& cam, const Joints& truth, double shake, std::mt19937* rng) {
+  std::vector<uint16_t> depth = render(truth, cam, false);
+  FitFrame f;
+  f.grid = makeGrid(depth.data(), cam, 2);
+  f.floor = fitFloor(f.grid);
+  f.seg = segmentUser(f.grid, f.floor, nullptr);
+  std::uniform_real_distribution<double> u(-shake, shake);
+  f.init = truth;
+  for (Vec3& p : f.init) p += Vec3(u(*rng), u(*rng), u(*rng));
+  return f;
+}
 
 }  // namespace
 
@@ -155,6 +176,47 @@ TEST(Calibration, BoneLengthsFromFirstFrames) {
   EXPECT_NEAR(b.upper_arm + b.forearm, arm, 0.2 * arm);
   EXPECT_NEAR(b.thigh + b.shin, leg, 0.2 * leg);
   EXPECT_NEAR(b.shoulder_width, boneLength(j0, L_SHOULDER, R_SHOULDER), 0.12);
+}
+
+TEST(PoseFit, PullsAShakenPoseBackOntoTheBody) {
+  Camera cam;
+  const Track& m = motion();
+  std::mt19937 rng(3);
+  BodyModel model = BodyModel::fromHeight(1.74);
+  double before = 0, after = 0;
+  int frames = 0;
+  for (double t = 0.5; t < 16.0; t += 1.5, ++frames) {
+    const Joints truth = m.at(t, false);
+    FitFrame f = fitFrame(cam, truth, 0.08, &rng);
+    ASSERT_TRUE(f.seg.found);
+    PoseFit fit = PoseFitter(cam, f.grid, f.seg, f.floor, model).fit(f.init);
+    before += meanError(f.init, truth);
+    after += meanError(fit.joints, truth);
+    EXPECT_GT(fit.support[TORSO], 20);
+  }
+  before /= frames;
+  after /= frames;
+  std::printf("pose fit over %d frames: mean joint error %.3f m shaken, %.3f m fitted\n", frames, before, after);
+  EXPECT_LT(after, 0.07);
+  EXPECT_LT(after, 0.6 * before);
+}
+
+TEST(Calibration, ModelSearchMovesTheLegsTowardsTheirLength) {
+  Camera cam;
+  const Track& m = motion();
+  std::mt19937 rng(5);
+  std::vector<FitFrame> frames;
+  for (int k = 0; k < 6; ++k) frames.push_back(fitFrame(cam, m.at(0.2 + 0.1 * k, false), 0.03, &rng));
+  const BodyModel start = BodyModel::fromHeight(1.74);
+  ModelSearch search(cam, frames, start);
+  int fits = 0;
+  while (!search.advance(1)) ASSERT_LT(++fits, 2000) << "the search does not end";
+  const Joints& j0 = m.frames().front();
+  const double leg = boneLength(j0, L_HIP, L_KNEE) + boneLength(j0, L_KNEE, L_FOOT);
+  const BodyModel& b = search.best();
+  std::printf("model search: %d fits, leg %.3f -> %.3f (true %.3f)\n", fits, start.thigh + start.shin,
+              b.thigh + b.shin, leg);
+  EXPECT_LT(std::fabs(b.thigh + b.shin - leg), std::fabs(start.thigh + start.shin - leg));
 }
 
 TEST(DeviceClock, LowerEnvelopeFitsOffsetAndDrift) {
