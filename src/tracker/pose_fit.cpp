@@ -44,9 +44,9 @@ const Part kParts[] = {
     {at(R_FOOT), at(R_FOOT), 0.06},
 };
 constexpr int kNumParts = sizeof(kParts) / sizeof(kParts[0]);
-constexpr double kLengthPrior = 1e-3;  // energy of a length off by e (per frame, per log scale^2)
+constexpr double kLengthPrior = 1e-3;  // prior energy per kept frame per (log of a length's scale)^2
 constexpr double kOverRelax = 2.0;  // steps beyond the mean pull converge in fewer iterations
-constexpr double kFloorBand = 0.06;  // segmentUser drops points this near the floor
+constexpr double kFloorBand = 0.06;  // segmentUser drops points within 5 cm of the floor (+1 cm noise)
 
 // Closest point parameter of p on segment a-b (0..1).
 double closestT(const Vec3& p, const Vec3& a, const Vec3& b) {
