@@ -2,6 +2,7 @@
 // bones, standing on a floor plane, with an optional background.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -23,7 +24,45 @@ struct RenderOptions {
   uint32_t seed = 1;           ///< noise seed (per frame)
 };
 
-/// The capsules of the body model the virtual Kinect renders.
+/// A capsule end fixed to the skeleton: joint i moved w of the way towards joint k.
+struct CapsuleEnd {
+  int i, k;
+  double w;
+  Vec3 at(const Joints& j) const { return j[i] + (j[k] - j[i]) * w; }
+};
+/// A capsule between two ends fixed to the skeleton.
+struct BodyPart {
+  CapsuleEnd a, b;
+  double radius;
+};
+constexpr CapsuleEnd atJoint(int i) { return {i, i, 0.0}; }
+
+/// The body below the head (radii of an average adult): the virtual Kinect
+/// renders these capsules and the tracker's model fit assumes the same shape.
+inline constexpr std::array<BodyPart, 19> kBodyParts = {{
+    {atJoint(NECK), atJoint(HEAD), 0.055},
+    {atJoint(NECK), atJoint(TORSO), 0.12},
+    {atJoint(TORSO), {L_HIP, R_HIP, 0.5}, 0.12},
+    {atJoint(L_SHOULDER), atJoint(R_SHOULDER), 0.06},
+    {atJoint(L_SHOULDER), atJoint(L_HIP), 0.09},
+    {atJoint(R_SHOULDER), atJoint(R_HIP), 0.09},
+    {atJoint(L_HIP), atJoint(R_HIP), 0.09},
+    {atJoint(L_SHOULDER), atJoint(L_ELBOW), 0.05},
+    {atJoint(R_SHOULDER), atJoint(R_ELBOW), 0.05},
+    {atJoint(L_ELBOW), atJoint(L_HAND), 0.04},
+    {atJoint(R_ELBOW), atJoint(R_HAND), 0.04},
+    {atJoint(L_HAND), atJoint(L_HAND), 0.05},
+    {atJoint(R_HAND), atJoint(R_HAND), 0.05},
+    {atJoint(L_HIP), atJoint(L_KNEE), 0.075},
+    {atJoint(R_HIP), atJoint(R_KNEE), 0.075},
+    {atJoint(L_KNEE), atJoint(L_FOOT), 0.055},
+    {atJoint(R_KNEE), atJoint(R_FOOT), 0.055},
+    {atJoint(L_FOOT), atJoint(L_FOOT), 0.06},
+    {atJoint(R_FOOT), atJoint(R_FOOT), 0.06},
+}};
+
+/// The capsules of the body model the virtual Kinect renders: a head sphere
+/// above the head joint, then kBodyParts.
 std::vector<Capsule> bodyCapsules(const Joints& j);
 
 /// Renders depth in millimetres (0 = no return), row-major, cam.width x cam.height.

@@ -8,30 +8,9 @@
 namespace hri_sync {
 
 std::vector<Capsule> bodyCapsules(const Joints& j) {
-  Vec3 hip_mid = (j[L_HIP] + j[R_HIP]) * 0.5;
   Vec3 up = (j[HEAD] - j[NECK]).normalized();
-  std::vector<Capsule> c = {
-      {j[HEAD] + up * 0.04, j[HEAD] + up * 0.05, 0.10},   // head
-      {j[NECK], j[HEAD], 0.055},                          // neck
-      {j[NECK], j[TORSO], 0.12},                          // chest
-      {j[TORSO], hip_mid, 0.12},                          // belly
-      {j[L_SHOULDER], j[R_SHOULDER], 0.06},
-      {j[L_SHOULDER], j[L_HIP], 0.09},
-      {j[R_SHOULDER], j[R_HIP], 0.09},
-      {j[L_HIP], j[R_HIP], 0.09},
-      {j[L_SHOULDER], j[L_ELBOW], 0.05},
-      {j[R_SHOULDER], j[R_ELBOW], 0.05},
-      {j[L_ELBOW], j[L_HAND], 0.04},
-      {j[R_ELBOW], j[R_HAND], 0.04},
-      {j[L_HAND], j[L_HAND], 0.05},
-      {j[R_HAND], j[R_HAND], 0.05},
-      {j[L_HIP], j[L_KNEE], 0.075},
-      {j[R_HIP], j[R_KNEE], 0.075},
-      {j[L_KNEE], j[L_FOOT], 0.055},
-      {j[R_KNEE], j[R_FOOT], 0.055},
-      {j[L_FOOT], j[L_FOOT], 0.06},
-      {j[R_FOOT], j[R_FOOT], 0.06},
-  };
+  std::vector<Capsule> c = {{j[HEAD] + up * 0.04, j[HEAD] + up * 0.05, 0.10}};  // head
+  for (const BodyPart& p : kBodyParts) c.push_back({p.a.at(j), p.b.at(j), p.radius});
   return c;
 }
 
