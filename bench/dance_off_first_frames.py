@@ -26,7 +26,7 @@ import tempfile
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, 'src'))
 
-from hri_sync import verify  # noqa: E402
+from hri_sync.dance_off import verify  # noqa: E402
 
 
 def free_port():

@@ -136,7 +136,7 @@ def observe(opts):
     import rosgraph
     import rospy
     from geometry_msgs.msg import Twist
-    from hri_sync.hostclock import realtime
+    from hri_sync.timing.truth import realtime
     from hri_sync.msg import ActionStart, CaptureData, Decision
     deadline = time.time() + 30.0
     while not rosgraph.is_master_online() and time.time() < deadline:
@@ -157,7 +157,7 @@ def observe(opts):
 
     def on_start(m):
         with lock:
-            starts[(m.round, m.action)] = m.host_time.to_sec()
+            starts[(m.round, m.action)] = m.true_time.to_sec()
 
     def on_cmd(_m):
         t = time.time()

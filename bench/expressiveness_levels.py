@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
 """Expressiveness of a still person, small movements and dancers (JSON).
 
-Each case is sampled like a live sensor (hri_sync.skeleton_source: 20 Hz,
-own phase, white tracker noise) for a window of --dur seconds, repeated
---repeats times with different phases and noise; prints mean, min and max
-of the score per case. These numbers justify the decision module's
+Each case is sampled like a live sensor
+(hri_sync.dance_off.skeleton_source: 20 Hz, own phase, white tracker
+noise) for a window of --dur seconds, repeated --repeats times with
+different phases and noise; prints mean, min and max of the score per
+case. These numbers justify the decision module's
 ~min_expressiveness default (see docs/dance_off.md).
 
 Motion comes from data/motion/*.npz (made by scripts/convert_mocap.py).
@@ -19,9 +20,10 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, 'src'))
 
-from hri_sync.expressiveness import expressiveness  # noqa: E402
-from hri_sync.motion import load_motion  # noqa: E402
-from hri_sync.skeleton_source import SkeletonSource, tick_times  # noqa: E402
+from hri_sync.dance_off.expressiveness import expressiveness  # noqa: E402
+from hri_sync.dance_off.motion import load_motion  # noqa: E402
+from hri_sync.dance_off.skeleton_source import (  # noqa: E402
+    SkeletonSource, tick_times)
 
 MOTION = os.path.join(ROOT, 'data', 'motion')
 

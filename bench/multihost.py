@@ -50,7 +50,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import sync_skew as ss  # noqa: E402  (the one-host bench's helpers)
-from hri_sync.skew import percentiles  # noqa: E402
+from hri_sync.timing.skew import percentiles  # noqa: E402
 
 CLONE_NEWNET = 0x40000000
 MASTER_PORT = 11311     # each namespace has its own ports

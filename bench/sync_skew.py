@@ -11,10 +11,10 @@ under one libfaketime clock with a random offset (+/- --max-offset s) and
 drift (+/- --max-drift ppm) via ``skewed_client``, reading the reference
 with ``stamp_source: arrival``, then the server (control and decision
 modules, ``rounds:=R``).  The bench itself is a ROS node on the true
-clock: it records every round (``hri_sync.rosutil.RoundLog``) and, from
+clock: it records every round (``hri_sync.ros.RoundLog``) and, from
 the samples each client kept (global stamp vs the true time written into
 the sample), each client's clock error at the window start
-(``hri_sync.skew``).
+(``hri_sync.timing.skew``).
 
 Progress goes to stderr; the last stdout line is one JSON object.  Every
 process it started (and their descendants, each in its own process group)
@@ -42,12 +42,12 @@ import rosgraph
 import roslib.packages
 import rospy
 
-from hri_sync import ntp
-from hri_sync.clock import ClockModel
+from hri_sync.timing import ntp
+from hri_sync.timing.clock import ClockModel
 from hri_sync.msg import (ClientResult, ClockState, Decision, RoundStatus,
                           SyncAck, SyncTime)
-from hri_sync.rosutil import RoundLog
-from hri_sync.skew import client_timing, percentiles, start_skew
+from hri_sync.ros.round_log import RoundLog
+from hri_sync.timing.skew import client_timing, percentiles, start_skew
 
 PR_SET_CHILD_SUBREAPER = 36
 SETUP_TIME = 30.0        # s for roscore, chronyd and the sensor

@@ -46,11 +46,11 @@ def find_eval():
 def to_track(motion, tmpdir):
     """A .track file for the motion.
 
-    Converted with hri_sync.motion unless it is one.
+    Converted with hri_sync.dance_off.motion unless it is one.
     """
     if motion.endswith('.track'):
         return os.path.abspath(motion)
-    from hri_sync.motion import load_motion
+    from hri_sync.dance_off.motion import load_motion
     path = os.path.join(
         tmpdir,
         os.path.splitext(

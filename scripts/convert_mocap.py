@@ -4,8 +4,8 @@
 For each BVH file: ``<name>.npz`` (times, 15-joint positions in the sensor
 frame to 0.1 mm, orientations; resampled to --rate Hz, compressed) and, for
 the clips named by --track (or all with --track all), the plain-text
-``<name>.track`` the C++ virtual Kinect reads. See hri_sync.motion for the
-sensor frame and the 1.70 m height scaling.
+``<name>.track`` the C++ virtual Kinect reads. See
+hri_sync.dance_off.motion for the sensor frame and the 1.70 m height scaling.
 
     scripts/convert_mocap.py                     # ../shared/data/mocap
     scripts/convert_mocap.py --src DIR --out data/motion my_dance.bvh
@@ -18,8 +18,8 @@ import sys
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, 'src'))
 
-from hri_sync.bvh import BvhError  # noqa: E402
-from hri_sync.motion import load_motion  # noqa: E402
+from hri_sync.dance_off.bvh import BvhError  # noqa: E402
+from hri_sync.dance_off.motion import load_motion  # noqa: E402
 
 DEFAULT_SRC = os.path.join(os.path.dirname(ROOT), 'shared', 'data', 'mocap')
 DEFAULT_TRACKS = 'cmu_60_01_salsa,cmu_61_01_salsa,cmu_131_01_walk'

@@ -4,7 +4,7 @@
 Writes ``data/music/dj_rob_120bpm.wav`` (22.05 kHz mono, 8-bit PCM with
 dither so 64 s stay under 2 MB, and needs no encoder) and its sidecar
 ``dj_rob_120bpm.json`` (tempo, first beat, duration, every beat time) that
-``hri_sync.music`` reads.  Deterministic: running it again gives the same
+``hri_sync.robot.music`` reads.  Deterministic: running it again gives the same
 bytes.  Needs only numpy.
 
     /usr/bin/python3 scripts/make_music.py [--out DIR] [--bpm 120] [--bars 32]

@@ -1,12 +1,11 @@
 #!/usr/bin/env python3
 """Make the small skeleton bags of test/bags/ from the motion in data/motion.
 
-Each bag holds one hri_sync/Skeleton stream on /skeleton, as a 20 Hz
-tracker would give it (hri_sync.skeleton_source: own phase, white tracker
-noise of 3 mm per axis), stamped from 0 (device_stamp = header.stamp),
-20 s long, bz2-compressed.
-The rostests replay them with skeleton_sensor ~bag. Cases (the paper's
-pilot and validation):
+Each bag holds one hri_sync/Skeleton stream on /skeleton, as a 20 Hz tracker
+would give it (hri_sync.dance_off.skeleton_source: own phase, white tracker
+noise of 3 mm per axis), stamped from 0 (device_stamp = header.stamp), 20 s
+long, bz2-compressed. The rostests replay them with skeleton_sensor ~bag. Cases
+(the paper's pilot and validation):
 
   still_walker    cmu_131_01_walk held at its first frame (standing)
   still_salsa     cmu_61_01_salsa held at its first frame
@@ -29,8 +28,8 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, 'src'))
 
-from hri_sync.motion import load_motion  # noqa: E402
-from hri_sync.skeleton_source import SkeletonSource, tick_times  # noqa: E402
+from hri_sync.dance_off.motion import load_motion  # noqa: E402
+from hri_sync.dance_off.skeleton_source import SkeletonSource, tick_times  # noqa: E402
 
 CASES = {
     'still_walker': ('cmu_131_01_walk', dict(hold=0.0), 1),

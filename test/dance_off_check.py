@@ -156,7 +156,11 @@ class DanceOffRound(unittest.TestCase):
                 continue
             self.assertTrue(math.isfinite(r.value), c)
             self.assertGreaterEqual(r.first_frame_offset, 0.0)
-            self.assertLess(r.first_frame_offset, period + 0.01, c)
+            # With drops, the seeded sensors never drop 3 frames in a row
+            # (dance_off_round.launch), so a window's first frame is among
+            # the 3 ticks after its start.
+            ticks = 3 if self.drop > 0 else 1
+            self.assertLess(r.first_frame_offset, ticks * period + 0.01, c)
             window = [m for m in self.captured.get(c, [])
                       if r.capture_start <= m.header.stamp < r.capture_end]
             self.assertEqual(len(window), r.frames + r.frames_rejected, c)

@@ -14,7 +14,8 @@ import unittest
 import rospy
 import rostest
 
-from hri_sync.rosutil import RoundLog, csv_list
+from hri_sync.ros.params import csv_list
+from hri_sync.ros.round_log import RoundLog
 
 
 class LateCheck(unittest.TestCase):

@@ -16,8 +16,9 @@ import unittest
 import rospy
 import rostest
 
-from hri_sync.rosutil import RoundLog, csv_list
-from hri_sync.skew import client_timing, start_skew
+from hri_sync.ros.params import csv_list
+from hri_sync.ros.round_log import RoundLog
+from hri_sync.timing.skew import client_timing, start_skew
 
 
 class SyncCheck(unittest.TestCase):

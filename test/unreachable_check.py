@@ -13,7 +13,8 @@ import rospy
 import rostest
 
 from hri_sync.msg import RoundStatus
-from hri_sync.rosutil import RoundLog, csv_list
+from hri_sync.ros.params import csv_list
+from hri_sync.ros.round_log import RoundLog
 
 
 class UnreachableCheck(unittest.TestCase):

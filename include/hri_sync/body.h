@@ -26,7 +26,7 @@ struct Vec3 {
   bool finite() const { return std::isfinite(x) && std::isfinite(y) && std::isfinite(z); }
 };
 
-/// Joint indices, in the fixed order of hri_sync/Skeleton (hri_sync.joints).
+/// Joint indices, in the fixed order of hri_sync/Skeleton (hri_sync.dance_off.joints).
 enum Joint {
   HEAD = 0, NECK, TORSO, L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_HAND, R_HAND,
   L_HIP, R_HIP, L_KNEE, R_KNEE, L_FOOT, R_FOOT, NUM_JOINTS

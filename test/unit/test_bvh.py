@@ -5,8 +5,8 @@ import os
 import numpy as np
 import pytest
 
-from hri_sync import bvh, motion
-from hri_sync.joints import INDEX
+from hri_sync.dance_off import bvh, motion
+from hri_sync.dance_off.joints import INDEX
 
 MOCAP = os.path.join(os.path.dirname(__file__), '..', '..', '..', 'shared',
                      'data', 'mocap')

@@ -1,4 +1,4 @@
-"""hri_sync.capture: the sample buffer, window statistics and the device
+"""hri_sync.timing.capture: the sample buffer, window statistics and the device
 clock mapper."""
 
 import math
@@ -6,7 +6,8 @@ import random
 
 import pytest
 
-from hri_sync.capture import DeviceClockMapper, SampleBuffer, window_stats
+from hri_sync.timing.capture import (DeviceClockMapper, SampleBuffer,
+                                     window_stats)
 
 # -- SampleBuffer ------------------------------------------------------------
 

@@ -3,9 +3,9 @@ import math
 
 import pytest
 
-from hri_sync import choreography as ch
-from hri_sync.choreography import Limits, Twist
-from hri_sync.kobuki import KobukiBase
+from hri_sync.robot import choreography as ch
+from hri_sync.robot.choreography import Limits, Twist
+from hri_sync.robot.kobuki import KobukiBase
 
 KOBUKI = Limits()
 DEG = math.pi / 180.0

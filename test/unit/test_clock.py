@@ -1,4 +1,4 @@
-"""hri_sync.clock: NTP samples, minimum-delay offsets, the drift-fitted
+"""hri_sync.timing.clock: NTP samples, minimum-delay offsets, the drift-fitted
 global clock."""
 
 import math
@@ -6,8 +6,8 @@ import random
 
 import pytest
 
-from hri_sync.clock import (ClockModel, GlobalClock, NtpSample,
-                            OffsetMeasurement, best_offset)
+from hri_sync.timing.clock import (ClockModel, GlobalClock, NtpSample,
+                                   OffsetMeasurement, best_offset)
 
 
 def meas(local, offset, delay=0.0002, exchanges=8):

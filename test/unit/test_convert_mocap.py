@@ -6,8 +6,8 @@ import sys
 
 import numpy as np
 
-from hri_sync.joints import NUM_JOINTS
-from hri_sync.motion import load_motion
+from hri_sync.dance_off.joints import NUM_JOINTS
+from hri_sync.dance_off.motion import load_motion
 from test_bvh import TWO, figure_text
 
 SCRIPT = os.path.join(os.path.dirname(__file__), '..', '..', 'scripts',

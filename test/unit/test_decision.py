@@ -1,11 +1,11 @@
-"""hri_sync.decision: the decision module's rule."""
+"""hri_sync.timing.decision: the decision module's rule."""
 
 import math
 
 import pytest
 
-from hri_sync.decision import (ABORTED, NO_WINNER, TIE, WINNER, Verdict,
-                               decide)
+from hri_sync.timing.decision import (ABORTED, NO_WINNER, TIE, WINNER, Verdict,
+                                      decide)
 
 P = ['left', 'right']
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from hri_sync.expressiveness import expressiveness
+from hri_sync.dance_off.expressiveness import expressiveness
 
 
 def track(xs, joints=1):

@@ -1,9 +1,9 @@
-"""hri_sync.joints and msg/Skeleton.msg name the same 15 joints, in order."""
+"""hri_sync.dance_off.joints and msg/Skeleton.msg: the same 15 joints."""
 
 import os
 import re
 
-from hri_sync.joints import INDEX, JOINTS, NUM_JOINTS
+from hri_sync.dance_off.joints import INDEX, JOINTS, NUM_JOINTS
 
 MSG = os.path.join(os.path.dirname(__file__), '..', '..', 'msg',
                    'Skeleton.msg')

@@ -3,8 +3,8 @@ import math
 
 import pytest
 
-from hri_sync.choreography import Limits
-from hri_sync.kobuki import KobukiBase
+from hri_sync.robot.choreography import Limits
+from hri_sync.robot.kobuki import KobukiBase
 
 
 def run(base, t_end, dt=0.02):

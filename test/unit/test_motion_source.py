@@ -6,11 +6,11 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from hri_sync.expressiveness import SkeletonExpressiveness
-from hri_sync.joints import NUM_JOINTS
-from hri_sync.motion import Motion, load_motion
-from hri_sync.processors import Frame, load_processor
-from hri_sync.skeleton_source import SkeletonSource, tick_times
+from hri_sync.dance_off.expressiveness import SkeletonExpressiveness
+from hri_sync.dance_off.joints import NUM_JOINTS
+from hri_sync.dance_off.motion import Motion, load_motion
+from hri_sync.timing.processors import Frame, load_processor
+from hri_sync.dance_off.skeleton_source import SkeletonSource, tick_times
 
 DATA = os.path.join(os.path.dirname(__file__), '..', '..', 'data', 'motion')
 
@@ -91,6 +91,25 @@ def test_tick_times_phase_and_window():
     np.testing.assert_allclose(ticks, [9.91, 9.96])
 
 
+def test_seeded_drops_do_not_depend_on_batching():
+    stamps = np.arange(0, 50, 0.05)
+    whole = SkeletonSource(ramp(), noise=0.01, drop=0.2, seed=9)
+    batched = SkeletonSource(ramp(), noise=0.01, drop=0.2, seed=9)
+    kept = np.concatenate([batched.frames(stamps[i:i + n], 0.0).stamps
+                           for i, n in zip(range(0, 1000, 7), [7] * 143)])
+    np.testing.assert_array_equal(whole.frames(stamps, 0.0).stamps, kept)
+
+
+@pytest.mark.parametrize('seed', [4, 21])
+def test_rostest_seeds_never_drop_three_in_a_row(seed):
+    # dance_off_round.launch's seeds: its checker relies on this.
+    src = SkeletonSource(ramp(), noise=0.0, drop=0.05, seed=seed)
+    stamps = np.arange(12000) * 0.05
+    kept = np.isin(stamps, src.frames(stamps, 0.0).stamps)
+    runs = np.diff(np.flatnonzero(np.concatenate([[True], kept, [True]])))
+    assert runs.max() - 1 <= 2
+
+
 def test_source_hold_noise_drop():
     mot = ramp()
     src = SkeletonSource(mot, noise=0.0, hold=0.5, seed=1)
@@ -122,8 +141,9 @@ def skeleton_msg(pos, conf=None):
 
 
 def test_processor_scores_and_counts():
-    proc = load_processor('hri_sync.expressiveness.SkeletonExpressiveness',
-                          {'min_confidence': 0.5})
+    proc = load_processor(
+        'hri_sync.dance_off.expressiveness.SkeletonExpressiveness',
+        {'min_confidence': 0.5})
     assert proc.msg_type == 'hri_sync/Skeleton'
     still = np.zeros((NUM_JOINTS, 3))
     moved = still.copy()
@@ -152,7 +172,7 @@ def test_processor_empty_window():
 
 def test_replay_schedule_pingpong():
     from itertools import islice
-    from hri_sync.skeleton_source import replay_schedule
+    from hri_sync.dance_off.skeleton_source import replay_schedule
     got = list(islice(replay_schedule([0.0, 0.1, 0.3]), 7))
     times = [t for t, _ in got]
     assert [i for _, i in got] == [0, 1, 2, 1, 0, 1, 2]

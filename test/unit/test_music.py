@@ -6,7 +6,7 @@ import wave
 import numpy as np
 import pytest
 
-from hri_sync.music import TrackInfo, load_track_info
+from hri_sync.robot.music import TrackInfo, load_track_info
 
 ROOT = os.path.join(os.path.dirname(__file__), '..', '..')
 TRACK = os.path.join(ROOT, 'data', 'music', 'dj_rob_120bpm.wav')

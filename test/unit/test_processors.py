@@ -1,4 +1,4 @@
-"""hri_sync.processors: the CountMean processor and load_processor."""
+"""hri_sync.timing.processors: the CountMean processor and load_processor."""
 
 import math
 import textwrap
@@ -6,8 +6,8 @@ from types import SimpleNamespace as NS
 
 import pytest
 
-from hri_sync.processors import (CountMean, Frame, ProcessResult, Processor,
-                                 load_processor)
+from hri_sync.timing.processors import (CountMean, Frame, ProcessResult,
+                                        Processor, load_processor)
 
 
 def frames(*values):
@@ -43,21 +43,22 @@ def test_base_processor_defaults():
 
 
 def test_load_processor_by_class_path():
-    p = load_processor('hri_sync.processors.CountMean')
+    p = load_processor('hri_sync.timing.processors.CountMean')
     assert type(p) is CountMean
-    assert type(load_processor('hri_sync.processors.CountMean', {})) is \
-        CountMean
+    assert type(load_processor('hri_sync.timing.processors.CountMean',
+                               {})) is CountMean
 
 
 @pytest.mark.parametrize('path, message', [
-    ('CountMean', "must be a class path like 'hri_sync.processors.CountMean'"
-                  ", got 'CountMean'"),
+    ('CountMean', "must be a class path like "
+                  "'hri_sync.timing.processors.CountMean', got 'CountMean'"),
     ('hri_sync.no_such_module.Thing',
      r"~processor 'hri_sync.no_such_module.Thing' cannot be loaded"),
-    ('hri_sync.processors.NoSuchClass',
-     r"~processor 'hri_sync.processors.NoSuchClass' cannot be loaded"),
-    ('hri_sync.processors.Frame',
-     r"~processor 'hri_sync.processors.Frame' is not a hri_sync Processor"),
+    ('hri_sync.timing.processors.NoSuchClass',
+     r"~processor 'hri_sync.timing.processors.NoSuchClass' cannot be loaded"),
+    ('hri_sync.timing.processors.Frame',
+     r"~processor 'hri_sync.timing.processors.Frame' is not a hri_sync "
+     r"Processor"),
     ('math.pi', r"~processor 'math.pi' is not a hri_sync Processor"),
 ])
 def test_load_processor_errors_name_the_path(path, message):
@@ -68,14 +69,14 @@ def test_load_processor_errors_name_the_path(path, message):
 def test_processor_without_params_refuses_params():
     with pytest.raises(ValueError, match='CountMean takes no parameters, got '
                        'gain, offset'):
-        load_processor('hri_sync.processors.CountMean',
+        load_processor('hri_sync.timing.processors.CountMean',
                        {'offset': 1, 'gain': 2})
 
 
 @pytest.fixture
 def plugin(tmp_path, monkeypatch):
     (tmp_path / 'my_plugin.py').write_text(textwrap.dedent('''
-        from hri_sync.processors import Processor, ProcessResult
+        from hri_sync.timing.processors import Processor, ProcessResult
 
         class Scaled(Processor):
             msg_type = 'std_msgs/Float64'

@@ -1,13 +1,13 @@
-"""hri_sync.protocol: the CM's round and the CPM's schedule."""
+"""hri_sync.timing.protocol: the CM's round and the CPM's schedule."""
 
 import math
 
 import pytest
 
-from hri_sync.clock import ClockModel
-from hri_sync.protocol import (Abort, Ack, Capture, ClientSchedule,
-                               ControlRound, Late, ProtocolError, Scheduled,
-                               StrAftPolicy)
+from hri_sync.timing.clock import ClockModel
+from hri_sync.timing.protocol import (Abort, Ack, Capture, ClientSchedule,
+                                      ControlRound, Late, ProtocolError,
+                                      Scheduled, StrAftPolicy)
 
 CLIENTS = ['alice', 'bob', 'carol']
 

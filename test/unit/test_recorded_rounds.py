@@ -9,7 +9,7 @@ import os
 
 import pytest
 
-from hri_sync import verify
+from hri_sync.dance_off import verify
 
 pytest.importorskip('rosbags', reason='rosbags is installed by make venv')
 

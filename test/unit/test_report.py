@@ -1,11 +1,11 @@
-"""hri_sync.report: the plain-text round table, with stand-in messages."""
+"""hri_sync.tools.round_summary: the round table, stand-in messages."""
 
 import math
 from types import SimpleNamespace as NS
 
 import pytest
 
-from hri_sync.report import round_report
+from hri_sync.tools.round_summary import round_report
 
 
 def time_of(sec):

@@ -1,4 +1,4 @@
-"""hri_sync.verify: recomputing recorded rounds from captured frames."""
+"""hri_sync.dance_off.verify: recomputing rounds from captured frames."""
 
 import math
 from types import SimpleNamespace as NS
@@ -6,7 +6,7 @@ from types import SimpleNamespace as NS
 import numpy as np
 import pytest
 
-from hri_sync.verify import check_recording, format_table
+from hri_sync.dance_off.verify import check_recording, format_table
 
 CONFIG = {'min_expressiveness': 1.0, 'tie_margin': 0.0,
           'on_missing': 'partial'}

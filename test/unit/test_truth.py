@@ -7,20 +7,20 @@ import time
 
 import pytest
 
-from hri_sync.hostclock import host_time, realtime, wait_until
+from hri_sync.timing.truth import true_time, realtime, wait_until
 
 SRC = os.path.join(os.path.dirname(__file__), '..', '..', 'src')
 
 
 def test_host_time_is_the_system_clock():
-    assert abs(host_time() - time.time()) < 0.01
+    assert abs(true_time() - time.time()) < 0.01
 
 
 @pytest.mark.skipif(shutil.which('faketime') is None,
                     reason='faketime is not installed')
 def test_host_time_bypasses_libfaketime():
-    code = ('import time; from hri_sync.hostclock import host_time; '
-            'print(host_time() - time.time())')
+    code = ('import time; from hri_sync.timing.truth import true_time; '
+            'print(true_time() - time.time())')
     out = subprocess.run(
         ['faketime', '-f', '+100s', sys.executable, '-c', code],
         env=dict(os.environ, PYTHONPATH=os.path.abspath(SRC)),

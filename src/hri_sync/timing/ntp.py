@@ -7,7 +7,7 @@ import socket
 import struct
 import time
 
-from hri_sync.clock import NtpSample, best_offset
+from hri_sync.timing.clock import NtpSample, best_offset
 
 NTP_EPOCH_OFFSET = 2208988800  # 1900-01-01 to 1970-01-01, s
 _PACKET = struct.Struct('!B B b b 11I')

@@ -5,7 +5,7 @@ Pure numpy, no ROS. ``read_bvh(path)`` parses the hierarchy and the motion
 order of its rotation channels), ``Bvh.forward_kinematics()`` gives every
 joint's (and end site's) global position and rotation for all frames at
 once, and ``map_joints`` picks the BVH joints behind the 15
-``hri_sync.joints.JOINTS``. Two skeleton sets are known (the 43-joint
+``hri_sync.dance_off.joints.JOINTS``. Two skeleton sets are known (the 43-joint
 "salsa" set and the 31-joint CMU set of ``/work/shared/data/mocap``) plus
 the common Mixamo / MotionBuilder names; anything else raises ``BvhError``
 naming the file and the joints that could not be found.
@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hri_sync.joints import JOINTS
+from hri_sync.dance_off.joints import JOINTS
 
 END_SUFFIX = '_End'
 

@@ -71,7 +71,8 @@ def load_processor(path, params=None):
     module_name, _, class_name = path.rpartition('.')
     if not module_name:
         raise ValueError('~processor must be a class path like '
-                         "'hri_sync.processors.CountMean', got %r" % path)
+                         "'hri_sync.timing.processors.CountMean', got %r"
+                         % path)
     try:
         cls = getattr(importlib.import_module(module_name), class_name)
     except (ImportError, AttributeError) as e:

@@ -1,7 +1,7 @@
 """Plain-text round reports (no ROS): offsets, clock errors, start skew."""
 import math
 
-from hri_sync.skew import client_timing, start_skew
+from hri_sync.timing.skew import client_timing, start_skew
 
 
 def _ms(x, signed=True):

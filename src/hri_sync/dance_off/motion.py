@@ -1,10 +1,10 @@
 """Human motion as a 15-joint stream in the sensor frame (no ROS).
 
-``load_motion(path)`` reads a BVH file (any skeleton ``hri_sync.bvh`` can
-map), a converted ``.npz`` or a ``.track`` file from ``data/motion/`` and
-returns a ``Motion`` in the SENSOR FRAME of interfaces.md: OpenNI
-convention, metres, x to the sensor's right, y up, z away from the sensor
-along its optical axis, sensor 1.0 m above the floor (floor: y = -1.0).
+``load_motion(path)`` reads a BVH file (any skeleton ``hri_sync.dance_off.bvh``
+can map), a converted ``.npz`` or a ``.track`` file from ``data/motion/`` and
+returns a ``Motion`` in the SENSOR FRAME of interfaces.md: OpenNI convention,
+metres, x to the sensor's right, y up, z away from the sensor along its optical
+axis, sensor 1.0 m above the floor (floor: y = -1.0).
 
 A BVH clip is turned into that frame by:
 
@@ -31,8 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hri_sync import bvh as bvh_mod
-from hri_sync.joints import INDEX, JOINTS, NUM_JOINTS
+from hri_sync.dance_off import bvh as bvh_mod
+from hri_sync.dance_off.joints import INDEX, JOINTS, NUM_JOINTS
 
 STANDING_HEIGHT = 1.70      # m
 SENSOR_HEIGHT = 1.0         # m above the floor
@@ -168,7 +168,8 @@ def load_motion(path, height=STANDING_HEIGHT):
                 joints = tuple(str(j) for j in data['joints'])
                 if joints != JOINTS:
                     raise ValueError('%s: joint order %s differs from '
-                                     'hri_sync.joints' % (path, joints))
+                                     'hri_sync.dance_off.joints'
+                                     % (path, joints))
                 quat = data['orientations'] / NPZ_QUATERNION_SCALE
                 return Motion(data['times'],
                               data['positions'] * NPZ_POSITION_UNIT,

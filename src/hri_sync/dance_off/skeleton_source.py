@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hri_sync.joints import NUM_JOINTS
+from hri_sync.dance_off.joints import NUM_JOINTS
 
 
 @dataclass
@@ -39,7 +39,7 @@ def tick_times(start, phase, rate, t0, t1):
 
 
 class SkeletonSource:
-    """Samples a ``hri_sync.motion.Motion`` like a live tracker."""
+    """Samples a ``hri_sync.dance_off.motion.Motion`` like a live tracker."""
 
     def __init__(self, motion, noise=0.003, drop=0.0, speed=1.0, hold=None,
                  offset=0.0, mode='pingpong', confidence=1.0, seed=None):
@@ -55,7 +55,11 @@ class SkeletonSource:
         self.offset = float(offset)
         self.mode = mode
         self.confidence = float(confidence)
-        self.rng = np.random.default_rng(seed)
+        # Drops draw from a stream of their own, one number per tick, so a
+        # seed fixes which ticks are dropped however the ticks are batched.
+        noise_seed, drop_seed = np.random.SeedSequence(seed).spawn(2)
+        self.rng = np.random.default_rng(noise_seed)
+        self.drop_rng = np.random.default_rng(drop_seed)
 
     def clip_times(self, stamps, start):
         """Motion time shown at host times ``stamps``."""
@@ -67,7 +71,7 @@ class SkeletonSource:
     def frames(self, stamps, start):
         """The frames the sensor produces at ticks ``stamps`` (host time)."""
         stamps = np.asarray(stamps, dtype=float)
-        keep = self.rng.random(stamps.shape) >= self.drop
+        keep = self.drop_rng.random(stamps.shape) >= self.drop
         stamps = stamps[keep]
         clip = self.clip_times(stamps, start)
         pos = self.motion.positions_at(clip, self.mode)

@@ -8,7 +8,7 @@ import math
 import statistics
 from collections import deque
 
-from hri_sync.processors import Frame
+from hri_sync.timing.processors import Frame
 
 
 class SampleBuffer:

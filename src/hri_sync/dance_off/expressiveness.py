@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hri_sync.joints import NUM_JOINTS
-from hri_sync.processors import Processor, ProcessResult
+from hri_sync.dance_off.joints import NUM_JOINTS
+from hri_sync.timing.processors import Processor, ProcessResult
 
 DEFAULT_MIN_CONFIDENCE = 0.5
 

@@ -1,10 +1,10 @@
-"""Precise waits on a global clock, and the host's unfaked clock.
+"""The true clock (the host's unfaked CLOCK_REALTIME) and precise waits.
 
 No ROS.  ``wait_until`` is how DJ Rob's nodes start an action on time: a
 coarse sleep, then a short spin on the clock itself, so the action starts
 within a fraction of a millisecond of the target unless the machine is
 overloaded; ``realtime`` lifts the waiting thread to real-time scheduling
-for the start so that a busy machine does not delay it.  ``host_time``
+for the start so that a busy machine does not delay it.  ``true_time``
 reads CLOCK_REALTIME by a raw system call, which libfaketime does not
 intercept: the ground truth a test compares a faked process's actions
 with.
@@ -30,7 +30,7 @@ _libc = ctypes.CDLL(ctypes.util.find_library('c') or 'libc.so.6',
 _syscall_nr = _SYS_CLOCK_GETTIME.get(platform.machine())
 
 
-def host_time():
+def true_time():
     """The host's real CLOCK_REALTIME in s, bypassing libfaketime.
 
     Returns NaN on an architecture whose syscall number is not known here

@@ -16,7 +16,7 @@ from a base that merely hides a bad one.
 import math
 from dataclasses import dataclass
 
-from hri_sync.choreography import Limits, Twist
+from hri_sync.robot.choreography import Limits, Twist
 
 WHEELBASE = 0.23        # m, Kobuki wheel separation
 WHEEL_RADIUS = 0.035    # m

@@ -14,10 +14,10 @@ from dataclasses import dataclass, field
 
 import yaml
 
-from hri_sync.decision import ABORTED, decide
-from hri_sync.expressiveness import DEFAULT_MIN_CONFIDENCE, \
-    SkeletonExpressiveness
-from hri_sync.processors import Frame
+from hri_sync.timing.decision import ABORTED, decide
+from hri_sync.dance_off.expressiveness import (DEFAULT_MIN_CONFIDENCE,
+                                               SkeletonExpressiveness)
+from hri_sync.timing.processors import Frame
 
 REL_TOL = 1e-6
 ABS_TOL = 1e-9

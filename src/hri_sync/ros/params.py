@@ -1,0 +1,99 @@
+"""Node plumbing: ~params, polled waits and rospy.Time conversion."""
+import math
+import threading
+import time
+
+import rospy
+
+
+class ParamError(Exception):
+    """A ~param that is missing or wrong."""
+
+
+def param(name, default=None, kind=None, check=None, why=''):
+    """Read private param ``~name``; convert with ``kind`` and validate.
+
+    Raises ParamError naming the param when it is missing (no default),
+    of the wrong type, or fails ``check``.
+    """
+    key = '~' + name
+    if not rospy.has_param(key):
+        if default is None:
+            raise ParamError('required param %s is not set (%s)'
+                             % (rospy.resolve_name(key), why or 'no default'))
+        value = default
+    else:
+        value = rospy.get_param(key)
+    if kind is not None:
+        try:
+            value = kind(value)
+        except (TypeError, ValueError) as e:
+            raise ParamError('param %s=%r is not a valid %s: %s'
+                             % (rospy.resolve_name(key), value,
+                                getattr(kind, '__name__', kind), e))
+    if check is not None and not check(value):
+        raise ParamError('param %s=%r is out of range: %s'
+                         % (rospy.resolve_name(key), value, why))
+    return value
+
+
+def csv_list(value):
+    """A list of names from a comma-separated string or a YAML list."""
+    if isinstance(value, (list, tuple)):
+        items = [str(v).strip() for v in value]
+    else:
+        items = [v.strip() for v in str(value).split(',')]
+    return [v for v in items if v]
+
+
+def positive(x):
+    """True for a finite number > 0."""
+    return math.isfinite(x) and x > 0
+
+
+def run_node(name, main):
+    """init_node, then run ``main()``; a ParamError ends the node with a
+    fatal message naming the param (exit status 2)."""
+    rospy.init_node(name)
+    try:
+        main()
+    except ParamError as e:
+        rospy.logfatal('%s: %s', rospy.get_name(), e)
+        raise SystemExit(2)
+    except rospy.ROSInterruptException:
+        pass
+
+
+def wait_for(predicate, timeout, poll=0.005):
+    """Poll ``predicate`` until true or ``timeout`` s; returns its value.
+
+    Timed waits on locks and events (threading.Timer, Event.wait(t)) hang
+    under libfaketime; plain sleeps work, so every wait here polls.
+    """
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() >= deadline or rospy.is_shutdown():
+            return predicate()
+        time.sleep(poll)
+    return True
+
+
+def after(delay, callback, *args):
+    """Call ``callback(*args)`` in a thread after ``delay`` s (a
+    sleep-based threading.Timer, which would hang under libfaketime)."""
+    def run():
+        if delay > 0:
+            time.sleep(delay)
+        if not rospy.is_shutdown():
+            callback(*args)
+    threading.Thread(target=run, daemon=True).start()
+
+
+def stamp(t):
+    """A float of seconds as rospy.Time (NaN becomes 0)."""
+    return rospy.Time.from_sec(t) if math.isfinite(t) else rospy.Time()
+
+
+def secs(t):
+    """A rospy.Time or Duration as float seconds."""
+    return t.to_sec()

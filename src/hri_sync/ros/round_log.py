@@ -1,0 +1,75 @@
+"""RoundLog: what each round put on the wire, for monitors and tests."""
+import threading
+
+import roslib.message
+import rospy
+
+from hri_sync.msg import CaptureData, ClientResult, Decision, SyncAck
+
+
+def truth_of(msg):
+    """(true time, sample id) of a captured sample whose sensor ran on the
+    true clock: Sample carries it in ``value`` (signal true_time), Skeleton
+    in ``device_stamp``."""
+    if hasattr(msg, 'device_stamp'):
+        t = msg.device_stamp.to_sec()
+        return t, t
+    return msg.value, msg.index
+
+
+class RoundLog:
+    """Records what a round put on the wire, for reports and tests.
+
+    ``rounds[n]`` holds 'acks' {client: SyncAck}, 'capture' (CaptureData),
+    'results' {client: ClientResult}, 'captured' {client: [(global stamp,
+    true time, id)]}, 'decision' (Decision).
+    """
+
+    def __init__(self, clients, captured_type=None):
+        self.rounds = {}
+        self.lock = threading.Lock()
+        rospy.Subscriber('/sync_ack', SyncAck, self._put, ('acks',))
+        rospy.Subscriber('/capture_data', CaptureData, self._put,
+                         ('capture',))
+        rospy.Subscriber('/client_result', ClientResult, self._put,
+                         ('results',))
+        rospy.Subscriber('/decision', Decision, self._put, ('decision',))
+        if captured_type:
+            cls = roslib.message.get_message_class(captured_type)
+            for c in clients:
+                rospy.Subscriber('/%s/captured' % c, cls, self._captured,
+                                 c, queue_size=100000)
+        self._pending = {}
+
+    def round(self, n):
+        """The record of round ``n`` (created empty if needed)."""
+        return self.rounds.setdefault(n, {'acks': {}, 'capture': None,
+                                          'results': {}, 'captured': {},
+                                          'decision': None})
+
+    def _put(self, msg, args):
+        key = args[0]
+        with self.lock:
+            r = self.round(msg.round)
+            if key in ('acks', 'results'):
+                r[key][msg.client_id] = msg
+            else:
+                r[key] = msg
+
+    def _captured(self, msg, client):
+        truth, ident = truth_of(msg)
+        with self.lock:
+            self._pending.setdefault(client, []).append(
+                (msg.header.stamp.to_sec(), truth, ident))
+
+    def assign_captured(self):
+        """File captured samples under the round whose window holds them."""
+        with self.lock:
+            for client, samples in self._pending.items():
+                for s in samples:
+                    for n, r in self.rounds.items():
+                        c = r['capture']
+                        start = c and c.cr_t.to_sec() + c.str_aft
+                        if c and start <= s[0] < start + c.dur:
+                            r['captured'].setdefault(client, []).append(s)
+            self._pending = {}
