@@ -138,6 +138,7 @@ def observe(opts):
     from geometry_msgs.msg import Twist
     from hri_sync.timing.truth import realtime
     from hri_sync.msg import ActionStart, CaptureData, Decision
+    from hri_sync.timing.protocol import Capture
     deadline = time.time() + 30.0
     while not rosgraph.is_master_online() and time.time() < deadline:
         time.sleep(0.2)
@@ -153,7 +154,7 @@ def observe(opts):
 
     def on_capture(m):
         with lock:
-            captures[m.round] = m.cr_t.to_sec() + m.str_aft
+            captures[m.round] = Capture.from_msg(m).start
 
     def on_start(m):
         with lock:

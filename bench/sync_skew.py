@@ -43,10 +43,11 @@ import roslib.packages
 import rospy
 
 from hri_sync.timing import ntp
-from hri_sync.timing.clock import ClockModel
 from hri_sync.msg import (ClientResult, ClockState, Decision, RoundStatus,
                           SyncAck, SyncTime)
+from hri_sync.ros.clock_state import model_from_msg
 from hri_sync.ros.round_log import RoundLog
+from hri_sync.timing.protocol import Capture
 from hri_sync.timing.skew import client_timing, percentiles, start_skew
 
 PR_SET_CHILD_SUBREAPER = 36
@@ -359,7 +360,7 @@ def analyse_round(n, rec, log_round, clocks, failures):
     if missing_clients:
         fail(failures, 'quorum', 'round %d: captured without %s (quorum)',
              n, ','.join(missing_clients))
-    start = capture.cr_t.to_sec() + capture.str_aft
+    start = Capture.from_msg(capture).start
     out['model_errors'] = {}
     for c in capture.clients:
         states = [m for t, m in rec.clock_states.get(c, []) if t < start]
@@ -367,7 +368,7 @@ def analyse_round(n, rec, log_round, clocks, failures):
             offset, rate, t0 = clocks[c]
             s = states[-1]
             local = start + offset + (rate - 1.0) * (start - t0)
-            model = ClockModel(s.local_ref, s.offset, s.drift)
+            model = model_from_msg(s)
             out['model_errors'][c] = model.to_global(local) - start
     if len(out['model_errors']) >= 2:
         e = out['model_errors'].values()

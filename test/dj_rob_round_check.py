@@ -36,6 +36,7 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Log
 
+from hri_sync.timing.protocol import Capture
 from hri_sync.timing.truth import realtime
 from hri_sync.msg import (ActionStart, Beat, CaptureData, Decision, Led,
                           Sample, Sound)
@@ -187,8 +188,8 @@ class DjRobRound(unittest.TestCase):
 
     def window(self):
         self.assertIsNotNone(self.capture, 'no capture_data seen')
-        start = self.capture.cr_t.to_sec() + self.capture.str_aft
-        return start, start + self.capture.dur
+        c = Capture.from_msg(self.capture)
+        return c.start, c.end
 
     def test_1_decision(self):
         self.assertEqual(sorted(self.decisions),
@@ -206,7 +207,7 @@ class DjRobRound(unittest.TestCase):
     def test_2_starts_on_time(self):
         self.assertEqual(len(self.captures), self.rounds)
         for n, c in sorted(self.captures.items()):
-            start = c.cr_t.to_sec() + c.str_aft
+            start = Capture.from_msg(c).start
             # round 1: anything in the 2 s before counts as too early;
             # later rounds: the previous gesture may brake until shortly
             # before the window
@@ -238,7 +239,7 @@ class DjRobRound(unittest.TestCase):
 
     def test_2b_beats(self):
         for n, c in sorted(self.captures.items()):
-            start = c.cr_t.to_sec() + c.str_aft
+            start = Capture.from_msg(c).start
             with self.lock:
                 beats = [(t, b) for t, b in self.beats if b.round == n]
             self.assertEqual([b.index for _, b in beats],

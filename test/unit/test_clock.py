@@ -3,11 +3,16 @@ global clock."""
 
 import math
 import random
+import re
 
 import pytest
 
 from hri_sync.timing.clock import (ClockModel, GlobalClock, NtpSample,
                                    OffsetMeasurement, best_offset)
+
+
+def unread_clock():
+    raise AssertionError('the local clock is not read in this test')
 
 
 def meas(local, offset, delay=0.0002, exchanges=8):
@@ -93,13 +98,58 @@ def test_clock_model_defaults_are_identity_with_infinite_uncertainty():
     assert m.uncertainty == math.inf
 
 
+def test_from_state_keeps_the_values():
+    m = ClockModel.from_state(1.7e9, -0.9, 2e-4, 0.0003)
+    assert (m.local_ref, m.offset, m.drift, m.uncertainty) == (
+        1.7e9, -0.9, 2e-4, 0.0003)
+    assert m.ready and m.drift_bound == 0.0
+    assert m.uncertainty_at(1.7e9 + 100.0) == 0.0003   # no growth known
+
+
+@pytest.mark.parametrize('fields, what', [
+    ((100.0, math.nan, 0.0, 0.001), 'offset=nan is not finite'),
+    ((math.inf, 0.0, 0.0, 0.001), 'local_ref=inf is not finite'),
+    ((100.0, 0.0, math.nan, 0.001), 'drift=nan is not finite'),
+    ((100.0, 0.0, 0.0, math.inf), 'uncertainty=inf is not finite'),
+    ((100.0, 0.0, 0.0, -1e-6), 'uncertainty=-1e-06 is negative'),
+    ((100.0, 0.0, 0.02, 0.001), 'drift=0.02 exceeds'),
+    ((100.0, 0.0, -1.0, 0.001), 'drift=-1.0 exceeds'),
+    ((-1.0, 0.0, 0.0, 0.001), 'local_ref=-1.0 s is outside'),
+    ((100.0, -200.0, 0.0, 0.001), 'global time at local_ref=-100.0'),
+    ((2.0 ** 32, -10.0, 0.0, 0.001), 'local_ref=4294967296.0 s'),
+    ((100.0, 2.0 ** 32, 0.0, 0.001), 'global time at local_ref'),
+    ((100.0, '1.5', 0.0, 0.001), "offset='1.5' is not a number"),
+    ((100.0, 0.0, True, 0.001), 'drift=True is not a number'),
+])
+def test_from_state_refuses_unusable_values(fields, what):
+    with pytest.raises(ValueError, match=re.escape(what)):
+        ClockModel.from_state(*fields)
+
+
+def test_default_model_is_not_ready_and_not_valid():
+    with pytest.raises(ValueError, match='uncertainty=inf'):
+        ClockModel().validate()
+
+
+def test_uncertainty_grows_at_the_drift_bound_both_ways():
+    m = ClockModel(local_ref=100.0, uncertainty=0.001, drift_bound=1e-4)
+    assert m.uncertainty_at(100.0) == 0.001
+    assert m.uncertainty_at(110.0) == pytest.approx(0.002, abs=1e-15)
+    assert m.uncertainty_at(90.0) == pytest.approx(0.002, abs=1e-15)
+    # A snapshot carries the bound of its instant and no growth.
+    s = m.snapshot(120.0)
+    assert (s.local_ref, s.uncertainty, s.drift_bound) == (
+        100.0, pytest.approx(0.003, abs=1e-15), 0.0)
+    assert s.uncertainty_at(200.0) == s.uncertainty
+
+
 # -- GlobalClock -------------------------------------------------------------
 
-def test_global_clock_unsynced_until_first_measurement():
+def test_global_clock_not_ready_until_first_measurement():
     c = GlobalClock(local_clock=lambda: 10.0)
-    assert not c.synced
+    assert not c.ready
     c.add(meas(10.0, 1.5, delay=0.001))
-    assert c.synced
+    assert c.ready
     assert (c.offset, c.drift, c.local_ref) == (1.5, 0.0, 10.0)
     assert c.uncertainty == 0.0005
     assert c.now() == 11.5
@@ -130,7 +180,7 @@ def test_two_points_give_exact_drift_and_offset_at_the_last():
 
 
 def test_drift_is_clamped_and_residuals_enter_the_uncertainty():
-    c = GlobalClock(max_drift=1e-3)
+    c = GlobalClock(unread_clock, max_drift=1e-3)
     c.add(meas(100.0, 1.0, delay=0.002))
     c.add(meas(110.0, 1.02, delay=0.002))   # 2000 ppm: clamped to 1000
     assert c.drift == 1e-3
@@ -142,14 +192,14 @@ def test_drift_is_clamped_and_residuals_enter_the_uncertainty():
 def test_fit_weights_low_delay_measurements():
     # Three clean points on offset = 0.5 + 1e-4 * (local - 0) and one
     # noisy one 5 ms off with a 100x larger delay (10^4 x less weight).
-    c = GlobalClock()
+    c = GlobalClock(unread_clock)
     for t in (0.0, 5.0, 10.0):
         c.add(meas(t, 0.5 + 1e-4 * t, delay=1e-4))
     c.add(meas(15.0, 0.5 + 1e-4 * 15 + 0.005, delay=1e-2))
     assert c.drift == pytest.approx(1e-4, abs=2e-6)
     assert c.offset_at(10.0) == pytest.approx(0.501, abs=2e-6)
     # An unweighted fit would be pulled far off (slope error ~1.5e-4).
-    unweighted = GlobalClock()
+    unweighted = GlobalClock(unread_clock)
     for t in (0.0, 5.0, 10.0, 15.0):
         unweighted.add(meas(t, 0.5 + 1e-4 * t
                             + (0.005 if t == 15.0 else 0.0), delay=1e-4))
@@ -159,7 +209,7 @@ def test_fit_weights_low_delay_measurements():
 def test_a_queued_burst_does_not_inflate_the_uncertainty():
     # One burst caught in a queue (9 ms round trip, offset 4 ms off), then
     # clean ones: the uncertainty is that of the clean bursts only.
-    c = GlobalClock()
+    c = GlobalClock(unread_clock)
     c.add(meas(0.0, 0.5 + 0.004, delay=0.009))
     for t in (5.0, 10.0, 15.0):
         c.add(meas(t, 0.5, delay=1e-4))
@@ -170,7 +220,7 @@ def test_a_queued_burst_does_not_inflate_the_uncertainty():
 
 
 def test_old_measurements_leave_the_window():
-    c = GlobalClock(window=20.0)
+    c = GlobalClock(unread_clock, window=20.0)
     c.add(meas(0.0, 9.0))        # a stale, very different offset
     c.add(meas(30.0, 1.0))
     c.add(meas(40.0, 1.001))
@@ -179,7 +229,38 @@ def test_old_measurements_leave_the_window():
     assert c.state() == {'local_ref': 40.0, 'offset': c.offset,
                          'drift': c.drift, 'uncertainty': c.uncertainty,
                          'samples': 2}
+    assert ClockModel.from_state(**{k: v for k, v in c.state().items()
+                                    if k != 'samples'}).state() == {
+        'local_ref': 40.0, 'offset': c.offset, 'drift': c.drift,
+        'uncertainty': c.uncertainty}
     assert c.state()['offset'] == pytest.approx(1.001, abs=1e-12)
+
+
+def test_global_clock_uncertainty_grows_from_the_last_measurement():
+    now = [100.0]
+    c = GlobalClock(lambda: now[0], drift_bound=20e-6)
+    assert c.uncertainty_at(100.0) == math.inf
+    c.add(meas(100.0, 1.0, delay=0.002))         # +/- 1 ms at 100
+    for elapsed in (0.0, 10.0, 60.0, 600.0):
+        assert c.uncertainty_at(100.0 + elapsed) == pytest.approx(
+            0.001 + 20e-6 * elapsed, abs=1e-15)
+    # The next measurement restarts the growth from its own instant.
+    c.add(meas(700.0, 1.0, delay=0.002))
+    assert c.local_ref == 700.0
+    assert c.uncertainty_at(710.0) == pytest.approx(
+        c.uncertainty + 20e-6 * 10.0, abs=1e-15)
+
+
+def test_global_clock_default_drift_bound_is_ntps_15_ppm():
+    c = GlobalClock(unread_clock)
+    c.add(meas(0.0, 0.0, delay=0.0))
+    assert c.uncertainty_at(1000.0) == pytest.approx(0.015, abs=1e-12)
+
+
+@pytest.mark.parametrize('bound', [-1e-6, math.nan, math.inf])
+def test_global_clock_refuses_a_bad_drift_bound(bound):
+    with pytest.raises(ValueError, match='drift bound'):
+        GlobalClock(unread_clock, drift_bound=bound)
 
 
 # -- The issue's key property ------------------------------------------------
@@ -270,7 +351,7 @@ def test_without_drift_estimation_the_same_clock_drifts_out():
 
 def test_fitted_drift_and_offset_match_the_simulated_clock():
     rng = random.Random(42)
-    c = GlobalClock()
+    c = GlobalClock(unread_clock)
     for k in range(13):                       # 60 s of 5 s resyncs
         c.add(ntp_burst(rng, EPOCH + 5.0 * k))
     # global = local + offset(local); d offset / d local = -ppm / (1 + ppm)

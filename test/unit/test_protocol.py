@@ -5,9 +5,10 @@ import math
 import pytest
 
 from hri_sync.timing.clock import ClockModel
+from hri_sync.timing.clock_sync import ClockStatus
 from hri_sync.timing.protocol import (Abort, Ack, Capture, ClientSchedule,
                                       ControlRound, Late, ProtocolError,
-                                      Scheduled, StrAftPolicy)
+                                      Scheduled, StrAftPolicy, SyncReply)
 
 CLIENTS = ['alice', 'bob', 'carol']
 
@@ -218,11 +219,87 @@ def capture(round_id=5, cr_t=100.0, str_aft=0.5, dur=2.0,
 
 
 CLOCK = ClockModel(offset=2.0)   # global = local + 2
+# Measured at local 95 (+/- 1 ms), growing 0.1 ms/s; global = local + 2.
+MODEL = ClockModel(local_ref=95.0, offset=2.0, uncertainty=0.001,
+                   drift_bound=1e-4)
+FRESH = ClockStatus(MODEL, '', 3)
+DOWN = 'time server 127.0.0.1:11123 did not answer within 0.50 s'
+NO_MODEL = ClockStatus(ClockModel(), DOWN, 0)
+
+
+def acked(client, round_id=5):
+    """A schedule that ACKed ``round_id`` at local 98."""
+    s = ClientSchedule(client, max_uncertainty=0.005)
+    assert s.on_sync(round_id, 98.0, 98.0, FRESH).ok
+    return s
+
+
+# The ACK/NACK rule (a model, its uncertainty now, the measurement's error)
+
+def test_fresh_clock_acks_with_its_numbers_at_the_answer():
+    s = ClientSchedule('alice', max_uncertainty=0.005)
+    reply = s.on_sync(5, 97.5, 98.0, FRESH)
+    assert reply == SyncReply(
+        round=5, client_id='alice', ok=True, reason='', offset=2.0,
+        uncertainty=pytest.approx(0.0013, abs=1e-15), drift=0.0,
+        sync_received=99.5, stamp=100.0)
+    assert s.acked_round == 5
+
+
+@pytest.mark.parametrize('error, reason', [(DOWN, DOWN),
+                                           ('', 'no clock model yet')])
+def test_no_model_nacks_with_the_measurements_error(error, reason):
+    s = ClientSchedule('alice', max_uncertainty=0.005)
+    reply = s.on_sync(5, 97.5, 98.0, ClockStatus(ClockModel(), error, 0))
+    assert (reply.ok, reply.reason) == (False, reason)
+    for x in (reply.offset, reply.uncertainty, reply.drift,
+              reply.sync_received, reply.stamp):
+        assert math.isnan(x)
+    assert s.acked_round is None
+
+
+def test_a_fresh_but_too_uncertain_clock_nacks():
+    s = ClientSchedule('alice', max_uncertainty=0.001)
+    reply = s.on_sync(5, 98.0, 98.0, FRESH)          # 1.3 ms > 1 ms
+    assert not reply.ok
+    assert reply.reason == ('offset uncertainty 1.30 ms exceeds '
+                            '~max_uncertainty 1.00 ms')
+    assert reply.uncertainty == pytest.approx(0.0013, abs=1e-15)
+    assert s.acked_round is None
+
+
+def test_holdover_acks_until_the_grown_uncertainty_passes_the_limit():
+    # The time server stopped answering after the measurement at 95: the
+    # bound grows 0.1 ms/s from 1 ms and passes 5 ms at local 135.
+    s = ClientSchedule('alice', max_uncertainty=0.005)
+    held = ClockStatus(MODEL, DOWN, 3)
+    reply = s.on_sync(5, 104.9, 105.0, held)
+    assert reply.ok
+    assert reply.reason == ('holdover: no good sync for 10.0 s (%s); '
+                            'uncertainty 2.000 ms' % DOWN)
+    assert reply.stamp == 107.0
+    assert s.acked_round == 5
+    assert s.on_sync(6, 134.9, 134.9, held).ok
+    reply = s.on_sync(7, 135.1, 135.1, held)
+    assert not reply.ok
+    assert reply.reason == ('offset uncertainty 5.01 ms exceeds '
+                            '~max_uncertainty 5.00 ms; no good sync for '
+                            '40.1 s: %s' % DOWN)
+    assert reply.offset == 2.0      # the model is still reported
+    assert s.acked_round is None
+
+
+@pytest.mark.parametrize('bad', [0.0, -0.001, math.nan])
+def test_max_uncertainty_must_be_positive(bad):
+    with pytest.raises(ProtocolError, match='~max_uncertainty'):
+        ClientSchedule('alice', max_uncertainty=bad)
+
+
+# Capture orders
 
 
 def test_scheduled_in_global_and_local_time():
-    s = ClientSchedule('alice')
-    s.on_sync(5, True)
+    s = acked('alice')
     order = s.on_capture(capture(), 100.125, CLOCK)
     assert order == Scheduled(round=5, start=100.5, end=102.5,
                               local_start=98.5, lead=0.375)
@@ -231,16 +308,14 @@ def test_scheduled_in_global_and_local_time():
 
 def test_scheduled_local_start_follows_the_drift():
     clock = ClockModel(local_ref=90.0, offset=2.0, drift=1e-3)
-    s = ClientSchedule('alice')
-    s.on_sync(5, True)
+    s = acked('alice')
     order = s.on_capture(capture(), 100.0, clock)
     assert clock.to_global(order.local_start) == pytest.approx(100.5,
                                                                abs=1e-12)
 
 
 def test_order_after_the_start_is_late_not_captured():
-    s = ClientSchedule('alice')
-    s.on_sync(5, True)
+    s = acked('alice')
     order = s.on_capture(capture(), 100.75, CLOCK)
     assert isinstance(order, Late)
     assert (order.round, order.start, order.end, order.lateness) == (
@@ -251,23 +326,20 @@ def test_order_after_the_start_is_late_not_captured():
 
 
 def test_order_exactly_at_the_start_is_late():
-    s = ClientSchedule('alice')
-    s.on_sync(5, True)
+    s = acked('alice')
     order = s.on_capture(capture(), 100.5, CLOCK)
     assert isinstance(order, Late) and order.lateness == 0.0
 
 
 def test_one_capture_per_ack():
-    s = ClientSchedule('alice')
-    s.on_sync(5, True)
+    s = acked('alice')
     assert isinstance(s.on_capture(capture(), 100.0, CLOCK), Scheduled)
     assert s.on_capture(capture(), 100.0, CLOCK) is None
     assert dict(s.ignored) == {'unacked_round': 1}
 
 
 def test_old_round_capture_is_ignored_and_counted():
-    s = ClientSchedule('alice')
-    s.on_sync(6, True)
+    s = acked('alice', 6)
     assert s.on_capture(capture(round_id=5), 100.0, CLOCK) is None
     assert s.on_capture(capture(round_id=7), 100.0, CLOCK) is None
     assert dict(s.ignored) == {'unacked_round': 2}
@@ -277,23 +349,21 @@ def test_old_round_capture_is_ignored_and_counted():
 
 
 def test_capture_for_a_round_we_refused_is_ignored():
-    s = ClientSchedule('alice')
-    s.on_sync(5, True)
-    s.on_sync(6, False)        # the NACK also forgets the earlier round
+    s = acked('alice')
+    s.on_sync(6, 98.0, 98.0, NO_MODEL)   # a NACK forgets the earlier round
     assert s.on_capture(capture(round_id=6), 100.0, CLOCK) is None
     assert s.on_capture(capture(round_id=5), 100.0, CLOCK) is None
     assert s.ignored['unacked_round'] == 2
 
 
 def test_capture_before_any_sync_is_ignored():
-    s = ClientSchedule('alice')
+    s = ClientSchedule('alice', max_uncertainty=0.005)
     assert s.on_capture(capture(), 100.0, CLOCK) is None
     assert s.ignored['unacked_round'] == 1
 
 
 def test_capture_for_other_clients_is_ignored_as_not_a_participant():
-    s = ClientSchedule('carol')
-    s.on_sync(5, True)
+    s = acked('carol')
     assert s.on_capture(capture(), 100.0, CLOCK) is None
     assert dict(s.ignored) == {'not_a_participant': 1}
 
@@ -304,9 +374,31 @@ def test_capture_for_other_clients_is_ignored_as_not_a_participant():
     {'cr_t': math.nan}, {'cr_t': math.inf},
 ])
 def test_malformed_capture_is_ignored_and_counted(fields):
-    s = ClientSchedule('alice')
-    s.on_sync(5, True)
+    s = acked('alice')
     assert s.on_capture(capture(**fields), 100.0, CLOCK) is None
     assert dict(s.ignored) == {'malformed': 1}
     # A well-formed order for the same round is still taken.
     assert isinstance(s.on_capture(capture(), 100.0, CLOCK), Scheduled)
+
+
+# -- Capture.from_msg --------------------------------------------------------
+
+class FakeTime:
+    def __init__(self, secs):
+        self.secs = secs
+
+    def to_sec(self):
+        return self.secs
+
+
+class FakeCaptureData:
+    def __init__(self, cr_t):
+        self.round, self.cr_t, self.str_aft, self.dur = 4, cr_t, 0.5, 2.0
+        self.clients = ('alice', 'bob')
+
+
+@pytest.mark.parametrize('cr_t', [FakeTime(100.25), 100.25])
+def test_capture_from_a_message_with_a_ros_time_or_seconds(cr_t):
+    c = Capture.from_msg(FakeCaptureData(cr_t))
+    assert c == Capture(4, 100.25, 0.5, 2.0, ['alice', 'bob'])
+    assert (c.start, c.end) == (100.75, 102.75)

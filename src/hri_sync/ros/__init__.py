@@ -3,7 +3,8 @@
 Contract: the only subpackage that imports rospy.  ``params`` reads
 ``~params`` with checks and holds the polled waits that work under
 libfaketime, ``synced_clock`` keeps a host's global clock against the time
-server and publishes its ``ClockState``, ``client_process`` is the CPM on
+server and publishes its ``ClockState`` (``clock_state``: the one
+ClockState <-> ClockModel conversion), ``client_process`` is the CPM on
 ROS, and ``round_log`` records what each round put on the wire.  Logic
 lives in the core; these modules wire it to topics.
 """

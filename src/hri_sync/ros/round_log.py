@@ -5,6 +5,7 @@ import roslib.message
 import rospy
 
 from hri_sync.msg import CaptureData, ClientResult, Decision, SyncAck
+from hri_sync.timing.protocol import Capture
 
 
 def truth_of(msg):
@@ -68,8 +69,7 @@ class RoundLog:
             for client, samples in self._pending.items():
                 for s in samples:
                     for n, r in self.rounds.items():
-                        c = r['capture']
-                        start = c and c.cr_t.to_sec() + c.str_aft
-                        if c and start <= s[0] < start + c.dur:
+                        c = r['capture'] and Capture.from_msg(r['capture'])
+                        if c and c.start <= s[0] < c.end:
                             r['captured'].setdefault(client, []).append(s)
             self._pending = {}

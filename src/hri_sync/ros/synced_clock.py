@@ -6,18 +6,21 @@ import time
 import rospy
 
 from hri_sync.msg import ClockState
+from hri_sync.ros.clock_state import msg_from_model
 from hri_sync.ros.params import param, positive, wait_for
 from hri_sync.timing import ntp
-from hri_sync.timing.clock import GlobalClock
+from hri_sync.timing.clock import DRIFT_BOUND
+from hri_sync.timing.clock_sync import ClockSync, SyncError
 
 
 class SyncedClock:
-    """A host's global clock, kept against the time server.
+    """The ROS shell of a ``ClockSync``: params, chronyc, the publisher.
 
     Reads ``~ntp_server``, ``~ntp_port``, ``~ntp_exchanges``,
-    ``~ntp_timeout``, ``~resync_period`` and ``~sync_method``; re-measures
-    every resync period in a thread and publishes the model latched on
-    ``/<name>/clock_state`` (hri_sync/ClockState).
+    ``~ntp_timeout``, ``~resync_period``, ``~drift_bound`` and
+    ``~sync_method``; runs the resync loop in a thread and publishes the
+    model latched on ``/<name>/clock_state`` (hri_sync/ClockState) after
+    every measurement.  The local clock is ``time.time``.
     """
 
     def __init__(self, name):
@@ -28,57 +31,62 @@ class SyncedClock:
         self.exchanges = param('ntp_exchanges', 8, int, lambda n: n >= 1,
                                'at least one exchange')
         self.timeout = param('ntp_timeout', 0.5, float, positive, '> 0 s')
-        self.resync_period = param('resync_period', 5.0, float, positive,
-                                   '> 0 s')
         self.sync_method = param(
             'sync_method', 'software', str,
             lambda m: m in ('software', 'step'), "'software' or 'step'")
-        self.clock = GlobalClock()
-        self.last_error = 'not measured yet'
-        self._lock = threading.Lock()
+        self.sync = ClockSync(
+            self._measure, time.time,
+            resync_period=param('resync_period', 5.0, float, positive,
+                                '> 0 s'),
+            drift_bound=param('drift_bound', DRIFT_BOUND, float,
+                              lambda x: 0 <= x < 1, '>= 0 s/s'))
+        self.clock = self.sync.clock
+        self._publish_lock = threading.Lock()
         self._state_pub = rospy.Publisher('/%s/clock_state' % name,
                                           ClockState, queue_size=1,
                                           latch=True)
-        threading.Thread(target=self._resync_loop, daemon=True).start()
+        threading.Thread(target=self.sync.run, daemon=True,
+                         args=(time.sleep, rospy.is_shutdown,
+                               self._report)).start()
+
+    @property
+    def last_error(self):
+        """Why the last measurement failed ('' if it succeeded)."""
+        return self.sync.last_error
 
     def measure(self):
-        """One NTP burst into the clock model; returns an error or None."""
-        with self._lock:
-            try:
-                if self.sync_method == 'step':
-                    subprocess.run(['chronyc', 'makestep'], check=True,
-                                   timeout=5, capture_output=True)
-                m = ntp.measure(self.server, self.port, self.exchanges,
-                                self.timeout)
-            except (ntp.NtpError, OSError, subprocess.SubprocessError) as e:
-                self.last_error = str(e)
-                self._publish_state(False, self.last_error)
-                return self.last_error
-            self.clock.add(m)
-            self.last_error = ''
-            self._publish_state(True, '')
-            return None
+        """One NTP burst into the clock model; publishes and returns the
+        ClockStatus."""
+        status = self.sync.sync()
+        self._publish()
+        return status
 
-    def wait_synced(self, timeout):
+    def wait_ready(self, timeout):
         """Block until the first measurement succeeded; False on timeout."""
-        return wait_for(lambda: self.clock.synced, timeout, 0.05)
+        return wait_for(lambda: self.clock.ready, timeout, 0.05)
 
-    def _publish_state(self, ok, reason):
-        s = self.clock.state()
-        self._state_pub.publish(ClockState(
-            client_id=self.name, ok=ok and self.clock.synced,
-            reason=reason, local_ref=s['local_ref'], offset=s['offset'],
-            drift=s['drift'], uncertainty=min(s['uncertainty'], 1e9),
-            samples=s['samples']))
+    def _measure(self):
+        if self.sync_method == 'step':
+            try:
+                subprocess.run(['chronyc', 'makestep'], check=True,
+                               timeout=5, capture_output=True)
+            except (OSError, subprocess.SubprocessError) as e:
+                raise SyncError('chronyc makestep failed: %s' % e)
+        return ntp.measure(self.server, self.port, self.exchanges,
+                           self.timeout, local_clock=time.time)
 
-    def _resync_loop(self):
-        # Re-measure after 0.5, 1, 2, 4 s at start, so the drift is known
-        # within seconds instead of one resync period.
-        pause = 0.5
-        while not rospy.is_shutdown():
-            error = self.measure()
-            if error:
-                rospy.logwarn_throttle(10, '%s: clock sync failed: %s'
-                                       % (self.name, error))
-            time.sleep(min(pause, self.resync_period))
-            pause *= 2
+    def _publish(self):
+        # The latest status: the loop and a sync_time may measure at
+        # once, and the latched state must never go back.
+        with self._publish_lock:
+            status = self.sync.status()
+            local = time.time()
+            self._state_pub.publish(msg_from_model(
+                self.name, status.model.snapshot(local),
+                status.reason(local), status.samples))
+
+    def _report(self, status):
+        self._publish()
+        if status.error:
+            rospy.logwarn_throttle(10, '%s: clock sync failed: %s'
+                                   % (self.name, status.error))

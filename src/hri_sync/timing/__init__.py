@@ -5,7 +5,8 @@ value or a callable (never ``time.time()`` inside), works on float seconds
 of one of four clocks (true, local, global, device; see docs/glossary in
 docs/architecture.md) and returns results or raises ``ValueError``
 subclasses; nothing here publishes or sleeps.  It holds the clock model
-and NTP estimation (``clock``, ``ntp``), the CM/CPM protocol state
+and NTP estimation (``clock``, ``ntp``), keeping a clock against the time
+server with its holdover (``clock_sync``), the CM/CPM protocol state
 machines (``protocol``), the DPM's capture window and time mapping
 (``capture``), processors and decisions (``processors``, ``decision``),
 skew measurement against the true clock (``skew``, ``truth``).

@@ -1,11 +1,16 @@
 """Clock model: NTP offset estimation and a drift-corrected global clock.
 
-Pure Python, no ROS.  Times are float seconds.  ``local`` is the host's
-own clock (``time.time()``); ``global`` is the time server's clock.
+Pure Python, no ROS.  Times are float seconds of the four clocks: ``local``
+is the process's own, possibly faked system clock (what ``time.time()``
+reads in a node; here always passed in), ``global`` the time server's
+clock.  A model maps local to global time and bounds its own error.
 """
 import math
-import time
 from dataclasses import dataclass
+
+MAX_DRIFT = 0.01       # |d offset / d local| of any usable model (1 %)
+TIME_LIMIT = 2.0 ** 32  # s: the last time a ROS message can carry
+DRIFT_BOUND = 15e-6    # default error growth without measurements, s/s
 
 
 @dataclass(frozen=True)
@@ -68,22 +73,78 @@ def best_offset(samples):
 
 
 class ClockModel:
-    """A linear map from local to global time.
+    """A linear map from local to global time, with an error bound.
 
-    ``global(local) = local + offset + drift * (local - local_ref)``; a CPM
-    publishes one as hri_sync/ClockState for the other nodes of its host.
+    ``global(local) = local + offset + drift * (local - local_ref)``;
+    ``uncertainty`` bounds the error of ``offset`` at ``local_ref`` and
+    grows by ``drift_bound`` s per s away from it (the fitted drift's own
+    error and the clock's wander).  A CPM publishes one as
+    hri_sync/ClockState for the other nodes of its host.  The default
+    model is the identity with an infinite uncertainty: not ``ready``.
     """
 
     def __init__(self, local_ref=0.0, offset=0.0, drift=0.0,
-                 uncertainty=math.inf):
+                 uncertainty=math.inf, drift_bound=0.0):
         self.local_ref = local_ref
         self.offset = offset
         self.drift = drift
         self.uncertainty = uncertainty
+        self.drift_bound = drift_bound
+
+    @classmethod
+    def from_state(cls, local_ref, offset, drift, uncertainty):
+        """A model from the fields of a ClockState, validated.
+
+        Raises ValueError naming the field when a value is not finite,
+        ``uncertainty`` is negative, ``|drift|`` exceeds MAX_DRIFT (1 %,
+        ten times any crystal's) or ``local_ref`` or its global time lies
+        outside [0, 2**32) s (what a ROS time can carry).
+        """
+        return cls(local_ref, offset, drift, uncertainty).validate()
+
+    def validate(self):
+        """Return self if the model is usable; else raise ValueError."""
+        for name in ('local_ref', 'offset', 'drift', 'uncertainty',
+                     'drift_bound'):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value,
+                                                         (int, float)):
+                raise ValueError('clock model %s=%r is not a number'
+                                 % (name, value))
+            if not math.isfinite(value):
+                raise ValueError('clock model %s=%r is not finite'
+                                 % (name, value))
+        for name, t in (('local_ref', self.local_ref),
+                        ('global time at local_ref',
+                         self.local_ref + self.offset)):
+            if not 0 <= t < TIME_LIMIT:
+                raise ValueError('clock model %s=%r s is outside [0, 2**32)'
+                                 % (name, t))
+        if self.uncertainty < 0:
+            raise ValueError('clock model uncertainty=%r is negative'
+                             % self.uncertainty)
+        if self.drift_bound < 0:
+            raise ValueError('clock model drift_bound=%r is negative'
+                             % self.drift_bound)
+        if abs(self.drift) > MAX_DRIFT:
+            raise ValueError('clock model drift=%r exceeds +/-%g'
+                             % (self.drift, MAX_DRIFT))
+        return self
+
+    @property
+    def ready(self):
+        """True when the model has a finite error bound (a usable model)."""
+        return math.isfinite(self.uncertainty)
 
     def offset_at(self, local):
         """Global minus local at local time ``local``."""
         return self.offset + self.drift * (local - self.local_ref)
+
+    def uncertainty_at(self, local):
+        """The error bound at local time ``local``: ``uncertainty`` grown
+        by ``drift_bound`` for every s since (or before) ``local_ref``."""
+        return self.uncertainty + self.drift_bound * abs(local
+                                                         - self.local_ref)
 
     def to_global(self, local):
         """Convert a local time to global time."""
@@ -94,6 +155,17 @@ class ClockModel:
         return ((global_time - self.offset + self.drift * self.local_ref)
                 / (1.0 + self.drift))
 
+    def snapshot(self, local):
+        """A copy whose uncertainty is the bound at ``local``, growth off:
+        the model as published at that instant."""
+        return ClockModel(self.local_ref, self.offset, self.drift,
+                          self.uncertainty_at(local))
+
+    def state(self):
+        """The model as a dict (the model fields of hri_sync/ClockState)."""
+        return {'local_ref': self.local_ref, 'offset': self.offset,
+                'drift': self.drift, 'uncertainty': self.uncertainty}
+
 
 class GlobalClock(ClockModel):
     """A software-corrected global clock fitted to offset measurements.
@@ -102,23 +174,26 @@ class GlobalClock(ClockModel):
     The fit is a weighted least-squares line through the measurements of
     the last ``window`` seconds (weights fall with the round-trip delay);
     with one measurement, or less than ``min_span`` seconds of them, the
-    drift is taken as zero.  The system clock is never touched.
+    drift is taken as zero.  ``local_ref`` is the last measurement's, so
+    ``uncertainty_at`` grows with the time since the last good sync at
+    ``drift_bound`` s/s (NTP assumes 15 ppm).  ``local_clock`` is the
+    local clock (a callable) ``now`` reads.  The system clock is never
+    touched.
     """
 
-    def __init__(self, local_clock=time.time, window=120.0, min_span=2.0,
-                 max_drift=1e-3, delay_slack=0.0005):
-        super().__init__()
+    def __init__(self, local_clock, window=120.0, min_span=2.0,
+                 max_drift=1e-3, delay_slack=0.0005,
+                 drift_bound=DRIFT_BOUND):
+        super().__init__(drift_bound=drift_bound)
+        if not (math.isfinite(drift_bound) and drift_bound >= 0):
+            raise ValueError('drift bound must be >= 0 s/s, got %r'
+                             % (drift_bound,))
         self._local_clock = local_clock
         self.window = window
         self.min_span = min_span
         self.max_drift = max_drift
         self.delay_slack = delay_slack
         self.measurements = []
-
-    @property
-    def synced(self):
-        """True once at least one measurement was added."""
-        return bool(self.measurements)
 
     def add(self, m):
         """Add an OffsetMeasurement and refit the model."""
@@ -164,6 +239,4 @@ class GlobalClock(ClockModel):
 
     def state(self):
         """The model as a dict (fields of hri_sync/ClockState)."""
-        return {'local_ref': self.local_ref, 'offset': self.offset,
-                'drift': self.drift, 'uncertainty': self.uncertainty,
-                'samples': len(self.measurements)}
+        return dict(super().state(), samples=len(self.measurements))

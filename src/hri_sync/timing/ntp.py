@@ -8,12 +8,13 @@ import struct
 import time
 
 from hri_sync.timing.clock import NtpSample, best_offset
+from hri_sync.timing.clock_sync import SyncError
 
 NTP_EPOCH_OFFSET = 2208988800  # 1900-01-01 to 1970-01-01, s
 _PACKET = struct.Struct('!B B b b 11I')
 
 
-class NtpError(Exception):
+class NtpError(SyncError):
     """The time server could not be queried."""
 
 
@@ -26,16 +27,16 @@ def _from_ntp(seconds, fraction):
     return seconds - NTP_EPOCH_OFFSET + fraction / 2 ** 32
 
 
-def query(host, port=123, timeout=0.5, local_clock=time.time):
+def query(server, port=123, timeout=0.5, local_clock=time.time):
     """Make one NTP exchange and return its NtpSample.
 
     Raises NtpError with a specific reason when the server does not answer,
     refuses, or answers with a malformed or unsynchronised packet.
     """
     try:
-        addr = socket.getaddrinfo(host, port, 0, socket.SOCK_DGRAM)[0][4]
+        addr = socket.getaddrinfo(server, port, 0, socket.SOCK_DGRAM)[0][4]
     except (socket.gaierror, UnicodeError) as e:
-        raise NtpError('cannot resolve time server %s: %s' % (host, e))
+        raise NtpError('cannot resolve time server %s: %s' % (server, e))
     with socket.socket(socket.AF_INET6 if ':' in addr[0] else socket.AF_INET,
                        socket.SOCK_DGRAM) as sock:
         sock.settimeout(timeout)
@@ -48,35 +49,35 @@ def query(host, port=123, timeout=0.5, local_clock=time.time):
             data, _ = sock.recvfrom(512)
         except socket.timeout:
             raise NtpError('time server %s:%d did not answer within %.2f s'
-                           % (host, port, timeout))
+                           % (server, port, timeout))
         except OSError as e:
             raise NtpError('time server %s:%d unreachable: %s'
-                           % (host, port, e.strerror or e))
+                           % (server, port, e.strerror or e))
         t4 = local_clock()
     if len(data) < _PACKET.size:
         raise NtpError('short NTP reply (%d bytes) from %s:%d'
-                       % (len(data), host, port))
+                       % (len(data), server, port))
     fields = _PACKET.unpack(data[:_PACKET.size])
     li_vn_mode, stratum = fields[0], fields[1]
     words = fields[4:]
     if li_vn_mode & 0x7 != 4:
         raise NtpError('NTP reply from %s:%d is not a server reply (mode %d)'
-                       % (host, port, li_vn_mode & 0x7))
+                       % (server, port, li_vn_mode & 0x7))
     if stratum == 0 or (li_vn_mode >> 6) == 3:
         raise NtpError('time server %s:%d is not synchronised (stratum %d)'
-                       % (host, port, stratum))
+                       % (server, port, stratum))
     if (words[5], words[6]) != (tx_s, tx_f):
         raise NtpError('NTP reply from %s:%d does not match our request'
-                       % (host, port))
+                       % (server, port))
     if (words[9], words[10]) == (0, 0):
         raise NtpError('NTP reply from %s:%d has no transmit time'
-                       % (host, port))
+                       % (server, port))
     t2 = _from_ntp(words[7], words[8])
     t3 = _from_ntp(words[9], words[10])
     return NtpSample(t1, t2, t3, t4)
 
 
-def measure(host, port=123, exchanges=8, timeout=0.5, local_clock=time.time,
+def measure(server, port=123, exchanges=8, timeout=0.5, local_clock=time.time,
             pause=0.01):
     """Make a burst of exchanges; return the minimum-delay OffsetMeasurement.
 
@@ -86,7 +87,7 @@ def measure(host, port=123, exchanges=8, timeout=0.5, local_clock=time.time,
     samples, last_error = [], None
     for i in range(exchanges):
         try:
-            samples.append(query(host, port, timeout, local_clock))
+            samples.append(query(server, port, timeout, local_clock))
         except NtpError as e:
             last_error = e
             if not samples and i >= 1:

@@ -2,7 +2,8 @@
 
 No ROS.  The control module (CM) side is ``ControlRound``; the client
 process module (CPM) side is ``ClientSchedule``.  Both take plain values
-and return plain records; the nodes turn them into messages.
+(times of the local or global clock, always passed in) and return plain
+records; the nodes turn them into messages.
 """
 import math
 from collections import Counter
@@ -28,13 +29,21 @@ class Ack:
 
 @dataclass
 class Capture:
-    """The CM's capture_data order."""
+    """The CM's capture_data order (times global, s)."""
 
     round: int
     cr_t: float
     str_aft: float
     dur: float
     clients: list
+
+    @classmethod
+    def from_msg(cls, msg):
+        """From a hri_sync/CaptureData, or anything with its fields (``cr_t``
+        a ROS time or float seconds).  Values are not checked here."""
+        cr_t = msg.cr_t
+        cr_t = cr_t.to_sec() if hasattr(cr_t, 'to_sec') else float(cr_t)
+        return cls(msg.round, cr_t, msg.str_aft, msg.dur, list(msg.clients))
 
     @property
     def start(self):
@@ -190,6 +199,24 @@ class ControlRound:
 
 
 @dataclass
+class SyncReply:
+    """The CPM's answer to sync_time: the fields of hri_sync/SyncAck.
+
+    Times are global; without a clock model the numbers are NaN.
+    """
+
+    round: int
+    client_id: str
+    ok: bool
+    reason: str
+    offset: float          # global minus local at ``stamp``, s
+    uncertainty: float     # bound on the offset's error at ``stamp``, s
+    drift: float
+    sync_received: float   # when sync_time arrived
+    stamp: float           # when the answer was made
+
+
+@dataclass
 class Scheduled:
     """A capture the CPM accepted: the window in global and local time."""
 
@@ -212,16 +239,58 @@ class Late:
 
 
 class ClientSchedule:
-    """The CPM's view of rounds: which it ACKed, and their capture orders."""
+    """The CPM's side of the protocol: ACK or NACK, then capture orders.
 
-    def __init__(self, client_id):
+    ``on_sync`` answers a sync_time from the clock's status after a fresh
+    measurement: NACK without a clock model (the measurement's error),
+    NACK when the model's uncertainty now exceeds ``max_uncertainty``
+    (also in holdover, when the time server stopped answering and the
+    bound grows with the time since the last good sync), else ACK (with
+    the holdover's age and cause as the reason when the measurement
+    failed).  ``on_capture`` turns the capture order of the round it
+    ACKed into a Scheduled window or Late.
+    """
+
+    def __init__(self, client_id, max_uncertainty=math.inf):
+        if not max_uncertainty > 0:
+            raise ProtocolError('~max_uncertainty must be > 0 s, got %r'
+                                % (max_uncertainty,))
         self.client_id = client_id
+        self.max_uncertainty = max_uncertainty
         self.acked_round = None
         self.ignored = Counter()
 
-    def on_sync(self, round_id, ok):
-        """Remember the round we ACKed (ok) for matching capture_data."""
+    def on_sync(self, round_id, received, now, status):
+        """Answer sync_time of ``round_id``: a SyncReply.
+
+        ``received`` and ``now`` are local times (sync_time's arrival, the
+        answer); ``status`` is the clock's ClockStatus (``model``,
+        ``error``) after the measurement the sync_time triggered.
+        """
+        model = status.model
+        ok, reason = True, ''
+        if not model.ready:
+            ok, reason = False, status.error or 'no clock model yet'
+        else:
+            uncertainty = model.uncertainty_at(now)
+            if uncertainty > self.max_uncertainty:
+                ok = False
+                reason = ('offset uncertainty %.2f ms exceeds '
+                          '~max_uncertainty %.2f ms'
+                          % (uncertainty * 1e3, self.max_uncertainty * 1e3))
+                if status.error:
+                    reason += ('; no good sync for %.1f s: %s'
+                               % (now - model.local_ref, status.error))
+            else:
+                reason = status.reason(now)
         self.acked_round = round_id if ok else None
+        if not model.ready:
+            return SyncReply(round_id, self.client_id, ok, reason, math.nan,
+                             math.nan, math.nan, math.nan, math.nan)
+        return SyncReply(round_id, self.client_id, ok, reason,
+                         model.offset_at(now), model.uncertainty_at(now),
+                         model.drift, model.to_global(received),
+                         model.to_global(now))
 
     def on_capture(self, capture, now_global, clock):
         """Return Scheduled, Late, or None (ignored and counted).

@@ -1,6 +1,7 @@
 """Plain-text round reports (no ROS): offsets, clock errors, start skew."""
 import math
 
+from hri_sync.timing.protocol import Capture
 from hri_sync.timing.skew import client_timing, start_skew
 
 
@@ -20,11 +21,11 @@ def round_report(n, acks, capture, results, captured, decision):
     clients = list(capture.clients) if capture else sorted(acks)
     lines = ['round %d' % n]
     if capture:
-        start = capture.cr_t.to_sec() + capture.str_aft
+        c = Capture(n, capture.cr_t.to_sec(), capture.str_aft, capture.dur,
+                    clients)
         lines.append('  window: CR_T %.6f + STR_AFT %.3f s, DUR %.3f s '
-                     '(global start %.6f)' % (capture.cr_t.to_sec(),
-                                              capture.str_aft, capture.dur,
-                                              start))
+                     '(global start %.6f)' % (c.cr_t, c.str_aft, c.dur,
+                                              c.start))
     lines.append('  %-10s %-4s %14s %9s %13s %11s %7s %-8s %s' % (
         'client', 'ack', 'offset [s]', 'unc [ms]', 'clk err [ms]',
         'wake [ms]', 'frames', 'status', 'value'))
