@@ -1,0 +1,145 @@
+#!/usr/bin/python3
+"""Checks that a session survives its time server dying (issue 11).
+
+Kills chronyd (SIGKILL) when round 1's capture_data arrives, then checks,
+each within a deadline: the time_server node exits and the launch goes on
+(it is not required); round 1 ends in a decision from both clients'
+results; in round 2, client a (drift bound 15 ppm) ACKs in holdover and
+client b (2 ms/s) NACKs because its grown uncertainty exceeds
+~max_uncertainty, so round 2 aborts naming b and that reason; round 3
+happens too; the CM, the DM and both clients' nodes stay alive.
+"""
+import os
+import signal
+import time
+import unittest
+from xmlrpc.client import ServerProxy
+
+import rosgraph
+import rospy
+import rostest
+
+from hri_sync.msg import CaptureData, RoundStatus
+from hri_sync.ros.round_log import RoundLog
+
+CALLER = '/timeserver_dies_check'
+SURVIVORS = ['/control_module', '/decision_module', '/a/cpm', '/a/dpm',
+             '/b/cpm', '/b/dpm']
+
+
+def node_pid(name):
+    """The pid of ROS node ``name`` (None when it is gone)."""
+    try:
+        uri = rosgraph.Master(CALLER).lookupNode(name)
+        return ServerProxy(uri).getPid(CALLER)[2]
+    except Exception:       # not registered, or not answering: gone
+        return None
+
+
+def children(pid):
+    """[(pid, command name)] of the live children of ``pid``."""
+    out = []
+    for name in filter(str.isdigit, os.listdir('/proc')):
+        try:
+            with open('/proc/%s/stat' % name) as f:
+                stat = f.read()
+        except OSError:
+            continue
+        comm = stat[stat.find('(') + 1:stat.rfind(')')]
+        fields = stat[stat.rfind(')') + 2:].split()
+        if fields[0] not in ('Z', 'X') and int(fields[1]) == pid:
+            out.append((int(name), comm))
+    return out
+
+
+def alive(pid):
+    try:
+        with open('/proc/%d/stat' % pid) as f:
+            return f.read().split(') ')[1][0] not in ('Z', 'X')
+    except OSError:
+        return False
+
+
+def wait(predicate, timeout):
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline or rospy.is_shutdown():
+            return predicate()
+        time.sleep(0.1)
+    return True
+
+
+class TimeServerDies(unittest.TestCase):
+    """The time server dies; the session goes on and says why."""
+
+    def test_session_survives(self):
+        port = rospy.get_param('~ntp_port')
+        server = '127.0.0.1:%d' % port
+        log = RoundLog(['a', 'b'])
+        statuses = []
+        rospy.Subscriber('/round_status', RoundStatus, statuses.append)
+        captures = []
+        rospy.Subscriber('/capture_data', CaptureData, captures.append)
+
+        def decision(n):
+            return log.rounds.get(n, {}).get('decision')
+
+        self.assertTrue(wait(lambda: any(c.round == 1 for c in captures),
+                             60.0), 'no capture_data for round 1 in 60 s')
+        ts_pid = node_pid('/time_server')
+        self.assertIsNotNone(ts_pid, 'no /time_server node')
+        chronyd = [p for p, comm in children(ts_pid) if comm == 'chronyd']
+        self.assertEqual(len(chronyd), 1, 'chronyd not found under the '
+                         'time_server node: %s' % children(ts_pid))
+        os.kill(chronyd[0], signal.SIGKILL)
+        rospy.loginfo('killed chronyd (pid %d) serving %s', chronyd[0],
+                      server)
+        self.assertTrue(wait(lambda: not alive(ts_pid), 10.0),
+                        'the time_server node did not notice its chronyd '
+                        'died')
+
+        # The round in progress still ends in a decision.
+        self.assertTrue(wait(lambda: decision(1), 30.0),
+                        'round 1: no decision within 30 s of the kill')
+        r1 = log.rounds[1]
+        self.assertNotEqual(r1['decision'].outcome, 'aborted',
+                            r1['decision'].reason)
+        for c in ('a', 'b'):
+            self.assertEqual(r1['results'][c].status, 'ok',
+                             'round 1 result of %s' % c)
+
+        # Round 2: a in holdover, b past its ~max_uncertainty.
+        self.assertTrue(wait(lambda: decision(2), 40.0),
+                        'round 2: no decision or abort within 40 s')
+        for name in SURVIVORS:
+            self.assertIsNotNone(node_pid(name), '%s died' % name)
+        r2 = log.rounds[2]
+        a, b = r2['acks'].get('a'), r2['acks'].get('b')
+        self.assertIsNotNone(a, 'no ACK from a in round 2')
+        self.assertIsNotNone(b, 'no ACK from b in round 2')
+        self.assertTrue(a.ok, a.reason)
+        self.assertTrue(a.reason.startswith('holdover: no good sync for'),
+                        a.reason)
+        self.assertIn(server, a.reason)
+        self.assertFalse(b.ok)
+        self.assertIn('exceeds ~max_uncertainty 5.00 ms', b.reason)
+        self.assertIn('no good sync for', b.reason)
+        self.assertIn(server, b.reason)
+        self.assertGreater(b.uncertainty, 0.005)
+        aborted = [s for s in statuses if s.round == 2
+                   and s.state == RoundStatus.ABORTED]
+        self.assertTrue(aborted, 'round 2 was not aborted')
+        self.assertIn('b refused (offset uncertainty', aborted[0].reason)
+        self.assertEqual(list(aborted[0].refused), ['b'])
+        self.assertEqual(r2['decision'].outcome, 'aborted')
+        self.assertIn('~max_uncertainty', r2['decision'].reason)
+
+        # The session goes on: round 3 gets its outcome too.
+        self.assertTrue(wait(lambda: decision(3), 40.0),
+                        'round 3: no decision or abort within 40 s')
+        self.assertIsNone(node_pid('/time_server'))
+
+
+if __name__ == '__main__':
+    rospy.init_node('timeserver_dies_check')
+    rostest.rosrun('hri_sync', 'timeserver_dies_check', TimeServerDies)
