@@ -104,9 +104,10 @@ class TimeServerDies(unittest.TestCase):
         r1 = log.rounds[1]
         self.assertNotEqual(r1['decision'].outcome, 'aborted',
                             r1['decision'].reason)
-        for c in ('a', 'b'):
-            self.assertEqual(r1['results'][c].status, 'ok',
-                             'round 1 result of %s' % c)
+        for c in ('a', 'b'):         # captured on the models in holdover
+            self.assertIn(c, r1['results'], 'round 1: no result of %s' % c)
+            self.assertIn(r1['results'][c].status, ('ok', 'partial'),
+                          'round 1 result of %s' % c)
 
         # Round 2: a in holdover, b past its ~max_uncertainty.
         self.assertTrue(wait(lambda: decision(2), 40.0),
