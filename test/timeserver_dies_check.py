@@ -116,6 +116,9 @@ class TimeServerDies(unittest.TestCase):
         for name in SURVIVORS:
             self.assertIsNotNone(node_pid(name), '%s died' % name)
         r2 = log.rounds[2]
+        wait(lambda: len(r2['acks']) == 2 and any(
+            s.round == 2 and s.state == RoundStatus.ABORTED
+            for s in statuses), 5.0)
         a, b = r2['acks'].get('a'), r2['acks'].get('b')
         self.assertIsNotNone(a, 'no ACK from a in round 2')
         self.assertIsNotNone(b, 'no ACK from b in round 2')
