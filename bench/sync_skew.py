@@ -578,10 +578,12 @@ def start_ros(procs, name, core_argv, master_uri, clients, state):
 
 def start_time_server(procs, host, port, what, extra=(), wrap=list):
     """Start chronyd (``timeserver.launch`` with ``extra`` arguments, run
-    by ``wrap(argv)``) and wait until it answers on ``host``:``port``."""
+    by ``wrap(argv)``) and wait until it answers on ``host``:``port``.
+    Required here: its roslaunch exits when chronyd dies, which the bench
+    sees as a died process."""
     ts = procs.start('time_server', wrap([
         'roslaunch', '--wait', 'hri_sync', 'timeserver.launch',
-        'ntp_port:=%d' % port] + list(extra)))
+        'ntp_port:=%d' % port, 'required:=true'] + list(extra)))
 
     def ntp_up():
         try:
