@@ -59,8 +59,8 @@ class ClockSync:
     (``ntp.NtpError`` is one), OSError or ValueError (an inconsistent
     burst): a failure is kept as ``last_error`` and the model is left as
     it was.  ``local_clock()`` is the local clock the measurements and
-    the model use.  ``sync`` and ``status`` may be called from several
-    threads.
+    the model use; ``drift_bound`` and ``fit`` are the GlobalClock's
+    options.  ``sync`` and ``status`` may be called from several threads.
     """
 
     def __init__(self, measure, local_clock, resync_period=5.0,
