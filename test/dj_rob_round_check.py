@@ -36,24 +36,16 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Log
 
-from hri_sync.timing.protocol import Capture
-from hri_sync.timing.truth import realtime
 from hri_sync.msg import (ActionStart, Beat, CaptureData, Decision, Led,
                           Sample, Sound)
+from hri_sync.robot.geometry import wrap_degrees, yaw_of
+from hri_sync.robot.kobuki import Limits
+from hri_sync.timing.protocol import Capture
+from hri_sync.timing.truth import realtime
 
-LIMITS = {'linear': 0.7, 'angular': math.pi, 'linear_accel': 0.5,
-          'angular_accel': 3.5}
+LIMITS = Limits()            # the Kobuki's, as dj_rob.launch sets them
 START_SANITY = 0.25          # s, see the docstring
 HEADING_TOLERANCE = 10.0     # deg
-
-
-def yaw_of(q):
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y),
-                      1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-
-
-def wrap_deg(a):
-    return (a + 180.0) % 360.0 - 180.0
 
 
 class DjRobRound(unittest.TestCase):
@@ -270,8 +262,8 @@ class DjRobRound(unittest.TestCase):
             for o in after:
                 self.assertLess(math.hypot(o[1] - ref[1], o[2] - ref[2]),
                                 1e-4)
-                self.assertLess(abs(wrap_deg(math.degrees(o[3] - ref[3]))),
-                                0.05)
+                self.assertLess(
+                    abs(wrap_degrees(math.degrees(o[3] - ref[3]))), 0.05)
             self.assertEqual(leds, [])
             self.assertEqual(sounds, [])
             return
@@ -280,7 +272,8 @@ class DjRobRound(unittest.TestCase):
         rospy.loginfo('final heading %.2f deg, winner at %.1f deg; '
                       'position (%.3f, %.3f) m', heading, bearing, final[1],
                       final[2])
-        self.assertLess(abs(wrap_deg(heading - bearing)), HEADING_TOLERANCE)
+        self.assertLess(abs(wrap_degrees(heading - bearing)),
+                        HEADING_TOLERANCE)
         self.assertLess(math.hypot(final[1], final[2]), 0.05)
         approach = max(math.hypot(o[1], o[2]) for o in after)
         self.assertGreater(approach, 0.2, 'no approach toward the winner')
@@ -312,8 +305,8 @@ class DjRobRound(unittest.TestCase):
             odom = [o for _, o in self.odom]
         self.assertGreater(len(cmds), 100)
         for _, c in cmds:
-            self.assertLessEqual(abs(c[0]), LIMITS['linear'])
-            self.assertLessEqual(abs(c[1]), LIMITS['angular'])
+            self.assertLessEqual(abs(c[0]), LIMITS.linear)
+            self.assertLessEqual(abs(c[1]), LIMITS.angular)
         # Accelerations from arrival times, which jitter by a few ms (a
         # late command arrives close to the next one): over 1 and 10
         # commands, with 30 ms of slack.
@@ -321,22 +314,22 @@ class DjRobRound(unittest.TestCase):
             for (t0, a), (t1, b) in zip(cmds, cmds[span:]):
                 dt = t1 - t0 + 0.030
                 self.assertLessEqual(abs(b[0] - a[0]) / dt,
-                                     LIMITS['linear_accel'], (t1, a, b))
+                                     LIMITS.linear_accel, (t1, a, b))
                 self.assertLessEqual(abs(b[1] - a[1]) / dt,
-                                     LIMITS['angular_accel'], (t1, a, b))
+                                     LIMITS.angular_accel, (t1, a, b))
         self.assertEqual(cmds[-1][1], (0.0, 0.0), 'no explicit zero at the '
                          'end')
         peak_w = max(abs(o[5]) for o in odom)
         self.assertGreater(peak_w, 0.3, 'the robot never turned')
         for a, b in zip(odom, odom[1:]):
             dt = b[0] - a[0]
-            self.assertLessEqual(abs(b[4]), LIMITS['linear'] + 1e-9)
-            self.assertLessEqual(abs(b[5]), LIMITS['angular'] + 1e-9)
+            self.assertLessEqual(abs(b[4]), LIMITS.linear + 1e-9)
+            self.assertLessEqual(abs(b[5]), LIMITS.angular + 1e-9)
             if dt > 0:
                 self.assertLessEqual(abs(b[4] - a[4]) / dt,
-                                     LIMITS['linear_accel'] * 1.001)
+                                     LIMITS.linear_accel * 1.001)
                 self.assertLessEqual(abs(b[5] - a[5]) / dt,
-                                     LIMITS['angular_accel'] * 1.001)
+                                     LIMITS.angular_accel * 1.001)
         self.assertTrue(self.diag, 'no diagnostics from kobuki_sim')
         for key in ('velocity_clamped', 'accel_limited', 'timeouts',
                     'refused'):

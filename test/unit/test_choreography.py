@@ -4,8 +4,7 @@ import math
 import pytest
 
 from hri_sync.robot import choreography as ch
-from hri_sync.robot.choreography import Limits, Twist
-from hri_sync.robot.kobuki import KobukiBase
+from hri_sync.robot.kobuki import KobukiBase, Limits, Twist
 
 KOBUKI = Limits()
 DEG = math.pi / 180.0

@@ -3,8 +3,7 @@ import math
 
 import pytest
 
-from hri_sync.robot.choreography import Limits
-from hri_sync.robot.kobuki import KobukiBase
+from hri_sync.robot.kobuki import KobukiBase, Limits
 
 
 def run(base, t_end, dt=0.02):

@@ -12,64 +12,19 @@ peak acceleration 2 pi |D| / T^2; every move is sized so both stay under
 the :class:`Limits` times a safety margin.  Outside its moves a plan
 commands exactly zero.
 
-No ROS here: ``nodes/turtlebot_gesture`` evaluates ``plan.twist(t)`` at
-50 Hz and publishes it as ``geometry_msgs/Twist``.
+No ROS here: the scheduler (``hri_sync.robot.dj_rob``) evaluates
+``plan.twist(t)`` at 50 Hz and ``nodes/turtlebot_gesture`` publishes it as
+``geometry_msgs/Twist``.  The base's limits and velocity command
+(:class:`Limits`, :class:`Twist`) come from ``hri_sync.robot.kobuki``.
 """
 import bisect
 import math
 from dataclasses import dataclass
-from typing import NamedTuple, Sequence, Tuple
+from typing import Sequence, Tuple
 
-TWO_PI = 2.0 * math.pi
-
-# kobuki_msgs/Led values and kobuki_msgs/Sound values (same numbers).
-LED_BLACK, LED_GREEN, LED_ORANGE, LED_RED = 0, 1, 2, 3
-SOUND_ON, SOUND_OFF, SOUND_RECHARGE, SOUND_BUTTON = 0, 1, 2, 3
-SOUND_ERROR, SOUND_CLEANINGSTART, SOUND_CLEANINGEND = 4, 5, 6
-
-
-class Twist(NamedTuple):
-    """A planar velocity command: forward m/s, counter-clockwise rad/s."""
-
-    linear: float = 0.0
-    angular: float = 0.0
-
-
-ZERO = Twist(0.0, 0.0)
-
-
-@dataclass(frozen=True)
-class Limits:
-    """Velocity and acceleration limits of the base.
-
-    Defaults are the Kobuki's: 0.7 m/s and 180 deg/s; the accelerations
-    are those of the Kobuki driver's acceleration limiter (0.5 m/s^2,
-    3.5 rad/s^2).
-    """
-
-    linear: float = 0.7
-    angular: float = math.pi
-    linear_accel: float = 0.5
-    angular_accel: float = 3.5
-
-    def __post_init__(self):
-        for name in ('linear', 'angular', 'linear_accel', 'angular_accel'):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError('limit %s must be a positive number, got %r'
-                                 % (name, value))
-
-    def scaled(self, factor):
-        """These limits times ``factor`` (a safety margin in (0, 1])."""
-        if not 0.0 < factor <= 1.0:
-            raise ValueError('margin must be in (0, 1], got %r' % factor)
-        return Limits(self.linear * factor, self.angular * factor,
-                      self.linear_accel * factor, self.angular_accel * factor)
-
-
-def wrap_angle(angle):
-    """``angle`` wrapped to [-pi, pi)."""
-    return (angle + math.pi) % TWO_PI - math.pi
+from hri_sync.robot.geometry import TWO_PI, wrap_angle
+from hri_sync.robot.kobuki import (LED_BLACK, LED_GREEN, SOUND_CLEANINGEND,
+                                   ZERO, Limits, Twist)
 
 
 def min_move_duration(displacement, max_velocity, max_accel):

@@ -1,10 +1,14 @@
 """A Kobuki (Turtlebot 2) base model: differential drive, pure Python.
 
-It does what the base does with ``/mobile_base/commands/velocity``: it
-keeps the last command for ``timeout`` s (0.6 s on the Kobuki) then stops,
-clamps the command to the velocity limits, reaches it no faster than the
-acceleration limits allow, and integrates the wheels' motion into a pose.
-``nodes/kobuki_sim`` steps it at 50 Hz and publishes the odometry.
+The lowest layer of the robot above ``geometry``: the base's velocity
+command (:class:`Twist`), its limits (:class:`Limits`, the Kobuki's by
+default, and the nodes' params for them), its LED and sound values, and
+:class:`KobukiBase`, which does what the base does with
+``/mobile_base/commands/velocity``: it keeps the last command for
+``timeout`` s (0.6 s on the Kobuki) then stops, clamps the command to the
+velocity limits, reaches it no faster than the acceleration limits allow,
+and integrates the wheels' motion into a pose.  ``nodes/kobuki_sim``
+steps it at 50 Hz and publishes the odometry.
 
 It also counts how often a command was NOT followed (clamped to a
 velocity limit, or more than two nominal steps' worth of acceleration
@@ -15,13 +19,92 @@ from a base that merely hides a bad one.
 """
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
-from hri_sync.robot.choreography import Limits, Twist
+from hri_sync.robot.geometry import wrap_angle
 
 WHEELBASE = 0.23        # m, Kobuki wheel separation
 WHEEL_RADIUS = 0.035    # m
 RATE = 50.0             # Hz, the simulator's update rate
 TIMEOUT = 0.6           # s, the Kobuki keeps the last command this long
+
+# kobuki_msgs/Led values and kobuki_msgs/Sound values (same numbers as
+# hri_sync/Led and hri_sync/Sound).
+LED_BLACK, LED_GREEN, LED_ORANGE, LED_RED = 0, 1, 2, 3
+SOUND_ON, SOUND_OFF, SOUND_RECHARGE, SOUND_BUTTON = 0, 1, 2, 3
+SOUND_ERROR, SOUND_CLEANINGSTART, SOUND_CLEANINGEND = 4, 5, 6
+LED_NAMES = {LED_BLACK: 'black', LED_GREEN: 'green', LED_ORANGE: 'orange',
+             LED_RED: 'red'}
+SOUND_NAMES = {SOUND_ON: 'on', SOUND_OFF: 'off', SOUND_RECHARGE: 'recharge',
+               SOUND_BUTTON: 'button', SOUND_ERROR: 'error',
+               SOUND_CLEANINGSTART: 'cleaning start',
+               SOUND_CLEANINGEND: 'cleaning end'}
+
+# Pose and twist covariances of the simulated wheel odometry (row-major
+# 6x6: small for x, y and yaw, huge for the unobserved z, roll, pitch).
+ODOM_COVARIANCE = tuple(1e-4 if i in (0, 7, 35) else
+                        (1e6 if i in (14, 21, 28) else 0.0)
+                        for i in range(36))
+
+
+class Twist(NamedTuple):
+    """A planar velocity command: forward m/s, counter-clockwise rad/s."""
+
+    linear: float = 0.0
+    angular: float = 0.0
+
+
+ZERO = Twist(0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Velocity and acceleration limits of the base.
+
+    Defaults are the Kobuki's: 0.7 m/s and 180 deg/s; the accelerations
+    are those of the Kobuki driver's acceleration limiter (0.5 m/s^2,
+    3.5 rad/s^2).
+    """
+
+    linear: float = 0.7
+    angular: float = math.pi
+    linear_accel: float = 0.5
+    angular_accel: float = 3.5
+
+    def __post_init__(self):
+        for name in ('linear', 'angular', 'linear_accel', 'angular_accel'):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError('limit %s must be a positive number, got %r'
+                                 % (name, value))
+
+    def scaled(self, factor):
+        """These limits times ``factor`` (a safety margin in (0, 1])."""
+        if not 0.0 < factor <= 1.0:
+            raise ValueError('margin must be in (0, 1], got %r' % factor)
+        return Limits(self.linear * factor, self.angular * factor,
+                      self.linear_accel * factor, self.angular_accel * factor)
+
+
+def limits_from_params(get):
+    """Limits from the nodes' params, read by ``get(name, default)``:
+    ``max_linear`` (m/s), ``max_angular_deg`` (deg/s), ``max_linear_accel``
+    (m/s^2) and ``max_angular_accel`` (rad/s^2), defaults the Kobuki's.
+    Raises ValueError for a limit that is not a positive number."""
+    kobuki = Limits()
+    return Limits(
+        get('max_linear', kobuki.linear),
+        math.radians(get('max_angular_deg', math.degrees(kobuki.angular))),
+        get('max_linear_accel', kobuki.linear_accel),
+        get('max_angular_accel', kobuki.angular_accel))
+
+
+class Health(NamedTuple):
+    """What the base did with its commands (kobuki_sim's diagnostics)."""
+
+    ok: bool
+    message: str
+    counters: tuple     # (name, count) pairs
 
 
 @dataclass
@@ -62,6 +145,8 @@ class KobukiBase:
         self.velocity_clamped = 0    # commands beyond the velocity limits
         self.accel_limited = 0       # steps the acceleration limit slewed
         self.timeouts = 0            # nonzero commands the timeout ended
+        self.commands = 0            # commands taken
+        self.refused = 0             # non-finite commands refused
 
     def command(self, linear, angular, stamp):
         """Take a velocity command received at ``stamp``.
@@ -69,6 +154,7 @@ class KobukiBase:
         Raises ValueError for a non-finite value (the command is ignored
         and the previous one keeps ageing toward the timeout)."""
         if not (math.isfinite(linear) and math.isfinite(angular)):
+            self.refused += 1
             raise ValueError('non-finite velocity command (%r, %r)'
                              % (linear, angular))
         if (abs(linear) > self.limits.linear + 1e-9
@@ -79,6 +165,21 @@ class KobukiBase:
             max(-self.limits.angular, min(self.limits.angular, angular)))
         self.command_stamp = stamp
         self.timed_out = False
+        self.commands += 1
+
+    def health(self):
+        """Counters of commands taken, clamped, slewed, timed out and
+        refused; not ok once any was clamped, slewed or refused."""
+        bad = self.velocity_clamped or self.accel_limited or self.refused
+        return Health(
+            not bad,
+            ('commands beyond the limits or refused' if bad
+             else 'commands within limits'),
+            (('commands', self.commands),
+             ('velocity_clamped', self.velocity_clamped),
+             ('accel_limited', self.accel_limited),
+             ('timeouts', self.timeouts),
+             ('refused', self.refused)))
 
     def target(self, now):
         """The velocity the base heads for at ``now`` (zero after timeout)."""
@@ -121,7 +222,7 @@ class KobukiBase:
             dy = -r * (math.cos(s.theta + dth) - math.cos(s.theta))
         s.x += dx
         s.y += dy
-        s.theta = (s.theta + dth + math.pi) % (2.0 * math.pi) - math.pi
+        s.theta = wrap_angle(s.theta + dth)
         s.left_wheel += left * dt / self.wheel_radius
         s.right_wheel += right * dt / self.wheel_radius
         s.linear, s.angular = lin, ang

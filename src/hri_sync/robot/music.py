@@ -49,6 +49,19 @@ class TrackInfo:
                     out.append((t, k))
             loop += 1
 
+    def window_beats(self, start, end):
+        """The beats of the track played from global ``start`` until
+        ``end``: (index from 0, global time, beat within the bar) each."""
+        return [(index, start + t, k % self.beats_per_bar) for index, (t, k)
+                in enumerate(self.beat_times(0.0, end - start))]
+
+
+def play_span(duration, length):
+    """How to play a track of ``length`` s for ``duration`` s: (extra
+    loops, play time in whole ms), pygame's ``Sound.play`` arguments."""
+    loops = max(0, math.ceil(duration / length) - 1)
+    return loops, int(round(duration * 1000))
+
 
 def sidecar_path(audio_path):
     """The JSON sidecar of ``audio_path``."""
