@@ -3,7 +3,7 @@ import math
 
 import pytest
 
-from hri_sync.robot.kobuki import KobukiBase, Limits
+from hri_sync.robot.kobuki import KobukiBase, Limits, limits_from_params
 
 
 def run(base, t_end, dt=0.02):
@@ -111,3 +111,39 @@ def test_bad_command_rejected_and_previous_kept():
     assert base.command_value.linear == 0.1
     with pytest.raises(ValueError):
         KobukiBase(start=0.0, wheelbase=0.0)
+
+
+def test_health_counts_what_the_base_did_with_its_commands():
+    base = KobukiBase(start=0.0)
+    base.command(0.1, 0.0, 0.0)
+    assert base.health() == (True, 'commands within limits', (
+        ('commands', 1), ('velocity_clamped', 0), ('accel_limited', 0),
+        ('timeouts', 0), ('refused', 0)))
+    with pytest.raises(ValueError):
+        base.command(float('nan'), 0.0, 0.1)
+    health = base.health()
+    assert not health.ok
+    assert health.message == 'commands beyond the limits or refused'
+    assert dict(health.counters)['refused'] == 1
+    assert dict(health.counters)['commands'] == 1
+    clamped = KobukiBase(start=0.0)
+    clamped.command(0.0, 4.0, 0.0)
+    assert not clamped.health().ok
+
+
+def test_limits_from_params_defaults_are_the_kobukis():
+    asked = []
+
+    def default(name, value):
+        asked.append(name)
+        return value
+    assert limits_from_params(default) == Limits()
+    assert asked == ['max_linear', 'max_angular_deg', 'max_linear_accel',
+                     'max_angular_accel']
+    given = {'max_linear': 0.5, 'max_angular_deg': 90.0,
+             'max_linear_accel': 0.4, 'max_angular_accel': 2.0}
+    assert limits_from_params(lambda n, d: given[n]) == Limits(
+        0.5, math.pi / 2, 0.4, 2.0)
+    given['max_angular_deg'] = -1.0
+    with pytest.raises(ValueError, match='angular'):
+        limits_from_params(lambda n, d: given[n])

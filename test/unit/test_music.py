@@ -6,7 +6,7 @@ import wave
 import numpy as np
 import pytest
 
-from hri_sync.robot.music import TrackInfo, load_track_info
+from hri_sync.robot.music import TrackInfo, load_track_info, play_span
 
 ROOT = os.path.join(os.path.dirname(__file__), '..', '..')
 TRACK = os.path.join(ROOT, 'data', 'music', 'dj_rob_120bpm.wav')
@@ -54,6 +54,24 @@ def test_beats_loop_past_the_end():
         [3.25, 3.75, 4.25, 4.75, 5.25, 5.75, 6.25, 6.75, 7.25, 7.75, 8.25,
          8.75])
     assert [k for _, k in beats][:4] == [6, 7, 0, 1]
+
+
+def test_window_beats_on_the_global_clock():
+    info = TrackInfo('x.wav', bpm=120.0, first_beat=0.25, duration=4.0,
+                     beats_per_bar=4)
+    beats = info.window_beats(100.0, 105.0)
+    assert [i for i, _, _ in beats] == list(range(10))
+    assert [t for _, t, _ in beats] == pytest.approx(
+        [100.25 + 0.5 * i for i in range(10)])
+    # the loop restarts the bar at 4 s
+    assert [b for _, _, b in beats] == [0, 1, 2, 3, 0, 1, 2, 3, 0, 1]
+
+
+def test_play_span_loops_a_short_track():
+    assert play_span(5.0, 64.0) == (0, 5000)
+    assert play_span(64.0, 64.0) == (0, 64000)
+    assert play_span(64.001, 64.0) == (1, 64001)
+    assert play_span(130.0, 64.0) == (2, 130000)
 
 
 def test_missing_or_bad_track_is_a_clear_error(tmp_path):

@@ -346,7 +346,9 @@ class Run:
         first, self.first = self.first, False
         self.t_prev = t + 1e-9
         self.last = twist
-        k = math.floor(t / c.period) + 1
+        # The next period boundary; a tick on its target (to rounding:
+        # now - t0 may come out a hair short) is not repeated.
+        k = math.floor(t / c.period + 1e-6) + 1
         return Tick(now, twist, first, bobble, events, self.t0 + k * c.period)
 
     def finish(self):
