@@ -4,7 +4,9 @@ import math
 import pytest
 
 from hri_sync.robot import choreography as ch
-from hri_sync.robot.kobuki import KobukiBase, Limits, Twist
+from hri_sync.robot.geometry import wrap_angle
+from hri_sync.robot.kobuki import (LED_BLACK, LED_GREEN, SOUND_CLEANINGEND,
+                                   ZERO, KobukiBase, Limits, Twist)
 
 KOBUKI = Limits()
 DEG = math.pi / 180.0
@@ -21,9 +23,9 @@ def test_dance_within_limits_and_ends_at_rest(duration, beat):
     plan = ch.dance(duration, beat=beat)
     assert ch.check_limits(sample(plan, duration + 1.0), KOBUKI) == []
     assert all(m.end <= duration + 1e-9 for m in plan.moves)
-    assert plan.twist(duration) == ch.ZERO
-    assert plan.twist(duration + 0.3) == ch.ZERO
-    assert plan.twist(-0.01) == ch.ZERO
+    assert plan.twist(duration) == ZERO
+    assert plan.twist(duration + 0.3) == ZERO
+    assert plan.twist(-0.01) == ZERO
     assert plan.heading(duration) == pytest.approx(0.0, abs=1e-9)
     assert plan.distance(duration) == pytest.approx(0.0, abs=1e-9)
 
@@ -65,7 +67,7 @@ def test_dance_from_a_turned_start(start_deg):
     plan = ch.dance(20.0, heading=h0)
     assert ch.check_limits(sample(plan, 21.0), KOBUKI) == []
     turns = [m for m in plan.moves if m.angle]
-    faced = [ch.wrap_angle(h0 + plan.heading(m.end)) for m in turns]
+    faced = [wrap_angle(h0 + plan.heading(m.end)) for m in turns]
     expect = [30 * DEG, -30 * DEG] * len(faced)
     if start_deg == 30.0:           # already facing participant 1
         expect = expect[1:]
@@ -80,7 +82,7 @@ def test_dance_from_a_turned_start(start_deg):
 def test_short_window_dances_in_place():
     plan = ch.dance(1.5)
     assert plan.moves == ()
-    assert plan.twist(0.7) == ch.ZERO
+    assert plan.twist(0.7) == ZERO
 
 
 def test_dance_rejects_bad_input():
@@ -107,17 +109,17 @@ def test_winner_gesture_plan(heading_deg, target_deg):
     plan = ch.winner_gesture(heading_deg * DEG, target_deg * DEG)
     assert ch.check_limits(sample(plan, plan.duration + 1), KOBUKI) == []
     end = heading_deg * DEG + plan.heading(plan.duration)
-    assert ch.wrap_angle(end - target_deg * DEG) == pytest.approx(0, abs=1e-9)
+    assert wrap_angle(end - target_deg * DEG) == pytest.approx(0, abs=1e-9)
     assert plan.distance(plan.duration) == pytest.approx(0.0, abs=1e-9)
-    assert plan.twist(plan.duration) == ch.ZERO
-    turn = ch.wrap_angle((target_deg - heading_deg) * DEG)
+    assert plan.twist(plan.duration) == ZERO
+    turn = wrap_angle((target_deg - heading_deg) * DEG)
     assert abs(plan.heading(plan.duration)) <= math.pi + 1e-9
     assert plan.heading(plan.duration) == pytest.approx(turn, abs=1e-9)
     kinds = {(e.kind, e.value) for e in plan.events}
-    assert ('sound', ch.SOUND_CLEANINGEND) in kinds
-    assert ('led1', ch.LED_GREEN) in kinds and ('led1', ch.LED_BLACK) in kinds
+    assert ('sound', SOUND_CLEANINGEND) in kinds
+    assert ('led1', LED_GREEN) in kinds and ('led1', LED_BLACK) in kinds
     last_led = [e for e in plan.events if e.kind == 'led1'][-1]
-    assert last_led.value == ch.LED_BLACK
+    assert last_led.value == LED_BLACK
     assert last_led.time == pytest.approx(plan.duration)
 
 
@@ -192,7 +194,7 @@ def test_round_on_the_simulated_base(winner, bearing):
     goal = ch.target_heading(s.x, s.y, bearing * DEG, 2.0)
     gesture = ch.winner_gesture(s.theta, goal)
     states += drive(base, gesture, 21.0, 21.0 + gesture.duration + 1.0)
-    assert abs(math.degrees(ch.wrap_angle(base.state.theta - goal))) < 2.0
+    assert abs(math.degrees(wrap_angle(base.state.theta - goal))) < 2.0
     assert abs(math.degrees(base.state.theta) - bearing) < 10.0
     assert base.accel_limited == 0 and base.velocity_clamped == 0
     assert base.timeouts == 0
