@@ -5,6 +5,8 @@ import time
 
 import rospy
 
+from hri_sync.ros import master_watch
+
 
 class ParamError(Exception):
     """A ~param that is missing or wrong."""
@@ -51,10 +53,20 @@ def positive(x):
     return math.isfinite(x) and x > 0
 
 
-def run_node(name, main):
-    """init_node, then run ``main()``; a ParamError ends the node with a
-    fatal message naming the param (exit status 2)."""
+def run_node(name, main, master_restart='exit'):
+    """init_node, watch the master, then run ``main()``.
+
+    A ParamError ends the node with a fatal message naming the param (exit
+    status 2).  A restart of the ROS master (``master_watch``) is logged
+    and, with ``master_restart='exit'``, shuts the node down with exit
+    status ``master_watch.RESTART_EXIT`` (75) for roslaunch to respawn it;
+    with 'warn' the node keeps running unregistered.
+    """
+    if master_restart not in ('exit', 'warn'):
+        raise ValueError("master_restart must be 'exit' or 'warn', got %r"
+                         % (master_restart,))
     rospy.init_node(name)
+    watch = master_watch.start(exit_on_restart=master_restart == 'exit')
     try:
         main()
     except ParamError as e:
@@ -62,6 +74,13 @@ def run_node(name, main):
         raise SystemExit(2)
     except rospy.ROSInterruptException:
         pass
+    except Exception as e:
+        if not (watch.restarted and watch.exit_on_restart):
+            raise
+        rospy.logwarn('%s stopped with %r after the master restart',
+                      rospy.get_name(), e)
+    if watch.restarted and watch.exit_on_restart:
+        raise SystemExit(master_watch.RESTART_EXIT)
 
 
 def wait_for(predicate, timeout, poll=0.005):

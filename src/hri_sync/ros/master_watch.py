@@ -1,0 +1,212 @@
+"""Noticing that the ROS master restarted, for every node (``run_node``).
+
+rospy registers a node's publishers, subscribers and services, and
+roslaunch its params, with the master once.  A restarted master knows none
+of them: connections already made keep working, but nothing can find the
+node again (a service call, a late subscriber, ``rosnode``), and rospy
+never registers again.  ``MasterWatch`` asks the master every second
+whether it still knows this node at this node's URI.  Once it has seen the
+node registered, a master that answers and does not know it has restarted
+(a master that does not answer is only waited for).  Then the node says
+so (logerr), writes its private params back to the new master (it took
+them at start; ``keep_param`` updates them), and ends with exit status
+``RESTART_EXIT`` so that roslaunch's ``respawn="true"`` starts it again,
+registered with the new master; a node without respawn stays down, and
+its log says the launch must be restarted.  A node that needs no
+registration to do its work (the time server) may instead keep running,
+unregistered, with ``run_node(..., master_restart='warn')``.
+"""
+import http.client
+import logging
+import os
+import threading
+import time
+import xmlrpc.client
+
+import rosgraph
+import rospy
+
+RESTART_EXIT = 75   # EX_TEMPFAIL: try again (roslaunch respawns the node)
+PERIOD = 1.0        # s between two questions to the master
+TIMEOUT = 10.0      # s a question may take (a loaded master answers late)
+GRACE = 5.0         # s the node has to shut down before it is ended
+
+_current = None     # the watch of this process, for keep_param
+
+
+class MasterWatch:
+    """Whether the master still knows node ``name`` at ``uri``.
+
+    ``lookup(name)`` returns the URI the master has for the node, or None
+    if it does not know it, and raises OSError when the master does not
+    answer; ``pid()`` the master's process id (for the log).  ``check``
+    returns one of 'waiting' (not seen registered yet), 'ok',
+    'unreachable', 'back' (answering again after 'unreachable') or
+    'restarted'; ``reason`` then says what happened.
+    """
+
+    def __init__(self, name, uri, master_uri, lookup, pid):
+        self.name = name
+        self.uri = uri
+        self.master_uri = master_uri
+        self._lookup = lookup
+        self._pid = pid
+        self.seen = False
+        self.master_pid = None
+        self.unreachable = None   # why the master stopped answering
+        self.restarted = False
+        self.reason = ''
+
+    def check(self):
+        """Ask the master once (see the class docstring)."""
+        if self.restarted:
+            return 'restarted'
+        try:
+            known = self._lookup(self.name)
+            pid = self._pid()
+        except OSError as e:
+            first = self.unreachable is None
+            self.unreachable = str(e) or type(e).__name__
+            return 'unreachable' if first else 'still_unreachable'
+        was_unreachable = self.unreachable is not None
+        self.unreachable = None
+        if known == self.uri:
+            self.seen = True
+            self.master_pid = pid if self.master_pid is None \
+                else self.master_pid
+            return 'back' if was_unreachable else 'ok'
+        if not self.seen:
+            return 'waiting'
+        self.restarted = True
+        self.reason = (
+            'the ROS master at %s %s and no longer knows %s at %s%s: its '
+            'topics, services and params are gone'
+            % (self.master_uri,
+               'restarted (pid %s, was %s)' % (pid, self.master_pid)
+               if pid != self.master_pid else 'lost its registrations',
+               self.name, self.uri,
+               ' (it has %s under that name)' % known if known else ''))
+        return 'restarted'
+
+
+def _master_calls(caller_id, master_uri):
+    """lookup and pid over XML-RPC with a timeout (OSError on failure)."""
+    class Transport(xmlrpc.client.Transport):
+        def make_connection(self, host):
+            conn = super().make_connection(host)
+            conn.timeout = TIMEOUT
+            return conn
+    proxy = xmlrpc.client.ServerProxy(master_uri, transport=Transport())
+
+    def call(method, *args):
+        try:
+            code, msg, value = getattr(proxy, method)(caller_id, *args)
+        except (xmlrpc.client.Error, http.client.HTTPException,
+                ValueError) as e:
+            raise OSError('%s: %s' % (method, e))
+        return code, msg, value
+
+    def lookup(name):
+        code, _msg, value = call('lookupNode', name)
+        return value if code == 1 else None
+
+    def pid():
+        code, msg, value = call('getPid')
+        if code != 1:
+            raise OSError('getPid: %s' % msg)
+        return value
+    return lookup, pid
+
+
+def keep_param(name, value):
+    """Set private param ``~name`` and keep it for a restarted master
+    (e.g. the CM's next round number); a master that does not answer now
+    is logged, and gets the value when it restarts."""
+    if _current is not None:
+        _current.params[name] = value
+    try:
+        rospy.set_param('~' + name, value)
+    except (OSError, xmlrpc.client.Error) as e:
+        rospy.logwarn('could not set %s=%r on the master: %s',
+                      rospy.resolve_name('~' + name), value, e)
+
+
+class _Runner:
+    """The watch's thread in a rospy node."""
+
+    def __init__(self, exit_on_restart):
+        self.exit_on_restart = exit_on_restart
+        name = rospy.get_name()
+        master_uri = rosgraph.get_master_uri()
+        self.watch = MasterWatch(name, rospy.get_node_uri(), master_uri,
+                                 *_master_calls(name, master_uri))
+        try:
+            params = rospy.get_param('~')
+        except (KeyError, OSError):
+            params = {}
+        self.params = params if isinstance(params, dict) else {}
+
+    @property
+    def restarted(self):
+        """True once the master restarted."""
+        return self.watch.restarted
+
+    def run(self):
+        while not rospy.is_shutdown():
+            state = self.watch.check()
+            if rospy.is_shutdown():
+                return
+            if state == 'unreachable':
+                rospy.logwarn('the ROS master at %s does not answer (%s); '
+                              'waiting for it', self.watch.master_uri,
+                              self.watch.unreachable)
+            elif state == 'back':
+                rospy.loginfo('the ROS master at %s answers again and '
+                              'still knows %s', self.watch.master_uri,
+                              self.watch.name)
+            elif state == 'restarted':
+                self._restarted()
+                return
+            time.sleep(PERIOD)
+
+    def _restarted(self):
+        if not self.exit_on_restart:
+            rospy.logerr('%s; %s keeps running unregistered (rosnode does '
+                         'not list it; restart it to register it again)',
+                         self.watch.reason, self.watch.name)
+            return
+        restored = self._restore_params()
+        rospy.logerr('%s; %s exits (status %d) so that roslaunch '
+                     '(respawn="true") starts it again, registered with the '
+                     'new master%s; without respawn, restart the launch',
+                     self.watch.reason, self.watch.name, RESTART_EXIT,
+                     restored)
+        threading.Thread(target=self._end_after_grace, daemon=True).start()
+        rospy.signal_shutdown('the ROS master restarted')
+
+    def _restore_params(self):
+        if not self.params:
+            return ''
+        try:
+            rospy.set_param('~', self.params)
+        except (OSError, xmlrpc.client.Error) as e:
+            return ' (could not write its params back: %s)' % e
+        return ' (its private params written back)'
+
+    @staticmethod
+    def _end_after_grace():
+        # rospy's shutdown can hang (under libfaketime, a timed join).
+        time.sleep(GRACE)
+        logging.shutdown()
+        os._exit(RESTART_EXIT)
+
+
+def start(exit_on_restart=True):
+    """Start watching the master for this (initialised) rospy node; returns
+    the runner (``restarted`` tells the node why it stops)."""
+    global _current
+    runner = _Runner(exit_on_restart)
+    _current = runner
+    threading.Thread(target=runner.run, daemon=True,
+                     name='master_watch').start()
+    return runner
