@@ -1,0 +1,288 @@
+"""The control module's session: numbered rounds, one at a time.
+
+No ROS, no sleeping.  ``ControlSession`` is the CM's side of the protocol
+as a state machine driven by events, each given the server's global time
+``now``: ``start`` (a round asked for, automatically or by the
+``~start_round`` service), ``on_ack``, ``on_decision``, ``poll`` (time
+passes: all ACKs in or the ACK deadline, the decision or its deadline) and
+``shutdown``.  Each returns a list of outputs for the shell to put on the
+wire or in the log: ``SyncOrder`` (/sync_time), ``StatusUpdate``
+(/round_status), ``protocol.Capture`` (/capture_data), ``Log`` and, once
+per round, ``RoundEnd``; ``start`` returns ``Refused`` while a round runs.
+One round is a ``protocol.ControlRound``; STR_AFT comes from its
+``protocol.StrAftPolicy``, fed with each ACK's dispatch latency
+(``sync_received`` minus the round's sync_time stamp, both global).
+"""
+import math
+from collections import Counter
+from dataclasses import dataclass
+
+from hri_sync.timing.protocol import Abort, Ack, ControlRound, ProtocolError
+
+IDLE, SYNCING, CAPTURING = 'idle', 'syncing', 'capturing'
+ABORTED = 'aborted'   # a RoundStatus state and a RoundEnd outcome
+DECIDED, NO_DECISION, SHUTDOWN = 'decided', 'no_decision', 'shutdown'
+
+
+@dataclass(frozen=True)
+class SyncOrder:
+    """Broadcast sync_time for ``round``, stamped ``stamp`` (global)."""
+
+    round: int
+    stamp: float
+
+
+@dataclass(frozen=True)
+class StatusUpdate:
+    """A round's state change (the fields of hri_sync/RoundStatus).
+
+    ``stamp`` is global; NaN when the server has no clock.
+    """
+
+    round: int
+    state: str          # SYNCING, CAPTURING or ABORTED
+    reason: str
+    acked: list
+    refused: list
+    missing: list
+    stamp: float
+
+
+@dataclass(frozen=True)
+class Log:
+    """A line for the node's log; ``level`` is debug, info, warn or error."""
+
+    level: str
+    text: str
+
+
+@dataclass(frozen=True)
+class RoundEnd:
+    """How a round ended: DECIDED, ABORTED, NO_DECISION or SHUTDOWN."""
+
+    round: int
+    outcome: str
+    message: str
+
+    @property
+    def ok(self):
+        """True when the round got its decision."""
+        return self.outcome == DECIDED
+
+
+@dataclass(frozen=True)
+class Refused:
+    """``start`` refused: a round is still running, or shutting down."""
+
+    message: str
+    ok = False
+
+
+def _secs(t):
+    """A ROS time or a float as float seconds."""
+    return t.to_sec() if hasattr(t, 'to_sec') else float(t)
+
+
+class ControlSession:
+    """The CM: rounds numbered from ``first_round``, one at a time.
+
+    A round starts with sync_time; it closes when every client answered
+    or ``ack_timeout`` s (global) after its start, into a capture order
+    (every client ACKed ok, or ``min_clients`` did) or an abort naming
+    the missing and refusing clients; a captured round ends with its
+    decision, or ``decision_timeout`` s after its window's end without
+    one.  Parameters are checked as ``ControlRound`` checks them
+    (``ProtocolError``).
+    """
+
+    def __init__(self, clients, dur, policy, min_clients=None,
+                 ack_timeout=3.0, decision_timeout=5.0, first_round=1):
+        if not (isinstance(first_round, int) and first_round >= 1):
+            raise ProtocolError('~first_round must be >= 1, got %r'
+                                % (first_round,))
+        ControlRound(first_round, clients, dur, policy, min_clients)
+        for name, value in (('ack_timeout', ack_timeout),
+                            ('decision_timeout', decision_timeout)):
+            if not (isinstance(value, (int, float)) and math.isfinite(value)
+                    and value > 0):
+                raise ProtocolError('~%s must be > 0 s, got %r'
+                                    % (name, value))
+        self.clients = list(clients)
+        self.dur = dur
+        self.policy = policy
+        self.min_clients = min_clients
+        self.ack_timeout = ack_timeout
+        self.decision_timeout = decision_timeout
+        self.next_round = first_round
+        self.phase = IDLE
+        self.current = None        # the ControlRound in progress or last
+        self.order = None          # its Capture, once sent
+        self.deadline = math.nan   # global: ACKs, then the decision
+        self.sync_stamp = math.nan
+        self.decided = False
+        self.ended = {}            # round -> its RoundEnd, recent rounds
+        self.ignored = Counter()   # decisions not acted on, by why
+        self.stopped = False
+
+    @property
+    def idle(self):
+        """True when no round is running (a start would be accepted)."""
+        return self.phase == IDLE and not self.stopped
+
+    @property
+    def round(self):
+        """The round in progress, or the last one started
+        (``first_round - 1`` before any)."""
+        return self.next_round - 1
+
+    def start(self, now, clock_ok=True, clock_error=''):
+        """Start the next round at global ``now``.
+
+        ``clock_ok`` false (the server has no clock model; ``clock_error``
+        says why) aborts the round at once.
+        """
+        if self.stopped:
+            return [Refused('the control module is shutting down')]
+        if self.phase != IDLE:
+            return [Refused('round %d is still running' % self.round)]
+        rnd = ControlRound(self.next_round, self.clients, self.dur,
+                           self.policy, self.min_clients)
+        self.next_round += 1
+        if not clock_ok:
+            reason = ('round %d aborted: the server cannot reach its time '
+                      'server: %s' % (rnd.round, clock_error))
+            return [Log('error', reason),
+                    self._status(rnd, ABORTED, reason, math.nan),
+                    self._end(rnd.round, ABORTED, reason)]
+        self.current, self.order, self.decided = rnd, None, False
+        self.phase = SYNCING
+        self.sync_stamp = now
+        self.deadline = now + self.ack_timeout
+        return [self._status(rnd, SYNCING, '', now),
+                SyncOrder(rnd.round, now)]
+
+    def on_ack(self, msg):
+        """A SyncAck (or anything with its fields; ``sync_received`` a ROS
+        time or float seconds, global).  Returns log lines only: the round
+        moves on at the next ``poll``."""
+        ok = bool(msg.ok)
+        rnd = self.current
+        latency = (_secs(msg.sync_received) - self.sync_stamp
+                   if ok and self.phase == SYNCING else math.nan)
+        ack = Ack(msg.round, msg.client_id, ok, msg.reason, msg.offset,
+                  msg.uncertainty, latency)
+        if rnd is None:
+            return [Log('warn', 'ACK from %s for round %d before any round: '
+                        'ignored' % (msg.client_id, msg.round))]
+        if not rnd.on_ack(ack):
+            return [Log('warn', 'ACK from %s for round %d ignored (round %d '
+                        'open; ignored so far: %s)'
+                        % (msg.client_id, msg.round, rnd.round,
+                           dict(rnd.ignored)))]
+        return [Log('info', 'round %d: %s %s offset %+.6f s +/- %.3f ms%s'
+                    % (msg.round, msg.client_id, 'ACK' if ok else 'NACK',
+                       msg.offset, msg.uncertainty * 1e3,
+                       '' if ok else ' (%s)' % msg.reason))]
+
+    def on_decision(self, round_id):
+        """A Decision for ``round_id``; acted on at the next ``poll``."""
+        if self.phase == CAPTURING and round_id == self.current.round:
+            self.decided = True
+            return []
+        if self.phase != IDLE and round_id == self.current.round:
+            why = 'before_capture'
+            log = Log('warn', 'decision for round %d before its capture '
+                      'order: ignored' % round_id)
+        elif round_id > self.round:
+            why = 'future_round'
+            log = Log('warn', 'decision for round %d, which has not '
+                      'started (last round %d): ignored'
+                      % (round_id, self.round))
+        elif self.outcome(round_id) == NO_DECISION:
+            why = 'after_deadline'
+            log = Log('warn', 'round %d: its decision arrived after the '
+                      'control module stopped waiting for it' % round_id)
+        else:
+            why = 'old_round'
+            log = Log('debug', 'decision for round %d (ended: %s): nothing '
+                      'to do' % (round_id, self.outcome(round_id)))
+        self.ignored[why] += 1
+        return [log]
+
+    def poll(self, now):
+        """Let time pass to global ``now``: close the ACKs, end the
+        round."""
+        if self.phase == SYNCING:
+            rnd = self.current
+            if rnd.all_answered() or now >= self.deadline:
+                return self._close(rnd, now)
+        elif self.phase == CAPTURING:
+            round_id = self.order.round
+            if self.decided:
+                return [self._end(round_id, DECIDED,
+                                  'round %d decided' % round_id)]
+            if now >= self.deadline:
+                return [Log('error', 'round %d: no decision within %.1f s '
+                            'of the window end'
+                            % (round_id, self.decision_timeout)),
+                        self._end(round_id, NO_DECISION,
+                                  'round %d captured, no decision'
+                                  % round_id)]
+        return []
+
+    def shutdown(self):
+        """The node stops: end the round in progress as SHUTDOWN; refuse
+        further starts."""
+        self.stopped = True
+        if self.phase == IDLE:
+            return []
+        round_id = self.current.round
+        before = 'its decision' if self.phase == CAPTURING else \
+            'its capture order'
+        return [Log('warn', 'round %d: shut down before %s'
+                    % (round_id, before)),
+                self._end(round_id, SHUTDOWN,
+                          'round %d: shut down' % round_id)]
+
+    def result(self, round_id):
+        """The RoundEnd of ``round_id``, or None while it runs (or when it
+        is unknown or long past)."""
+        return self.ended.get(round_id)
+
+    def outcome(self, round_id):
+        """How ``round_id`` ended ('unknown' while it runs or if unknown)."""
+        end = self.ended.get(round_id)
+        return end.outcome if end else 'unknown'
+
+    def _close(self, rnd, now):
+        order = rnd.close(now)
+        if isinstance(order, Abort):
+            return [Log('error', order.reason),
+                    self._status(rnd, ABORTED, order.reason, now),
+                    self._end(rnd.round, ABORTED, order.reason)]
+        self.order = order
+        self.phase = CAPTURING
+        self.deadline = order.end + self.decision_timeout
+        note = ''
+        if len(order.clients) < len(self.clients):
+            note = ' (quorum without %s)' % ', '.join(
+                c for c in self.clients if c not in order.clients)
+        return [order,
+                self._status(rnd, CAPTURING, note.strip(), now),
+                Log('info', 'round %d: capture_data CR_T=%.6f STR_AFT=%.3f '
+                    's DUR=%.3f s for %s%s'
+                    % (order.round, order.cr_t, order.str_aft, order.dur,
+                       ','.join(order.clients), note))]
+
+    @staticmethod
+    def _status(rnd, state, reason, now):
+        return StatusUpdate(rnd.round, state, reason, rnd.acked,
+                            rnd.refused, rnd.missing, now)
+
+    def _end(self, round_id, outcome, message):
+        self.phase = IDLE
+        end = RoundEnd(round_id, outcome, message)
+        self.ended[round_id] = end
+        for old in [r for r in self.ended if r <= round_id - 20]:
+            del self.ended[old]
+        return end
