@@ -3,7 +3,10 @@
 
     run_rostests.py TEST_DIR [NAME_SUBSTRING ...]
 
-Each test's full output goes to .ws/test_logs/<name>.log; a failing test's
+Runs TEST_DIR/*.test with rostest, then the script-driven tests,
+TEST_DIR/scripted/test_*.py, with pytest: those need what rostest cannot
+give (e.g. a master they restart) and start their own processes.  Each
+test's full output goes to .ws/test_logs/<name>.log; a failing test's
 tail is printed.  The last line is 'rostest: N passed, N failed'; the exit
 status is non-zero when any test failed or none ran.
 """
@@ -37,23 +40,28 @@ def main():
     logs = os.path.join(root, '.ws', 'test_logs')
     results = os.path.join(root, '.ws', 'test_results')
     os.makedirs(logs, exist_ok=True)
-    files = sorted(glob.glob(os.path.join(test_dir, '*.test')))
+    files = sorted(glob.glob(os.path.join(test_dir, '*.test'))) + sorted(
+        glob.glob(os.path.join(test_dir, 'scripted', 'test_*.py')))
     files = [f for f in files if not wanted or any(w in f for w in wanted)]
     passed, failed = [], []
     for f in files:
         name = os.path.splitext(os.path.basename(f))[0]
         log = os.path.join(logs, name + '.log')
         xml = os.path.join(results, 'hri_sync', 'rostest-%s.xml' % name)
+        if f.endswith('.py'):
+            command = [sys.executable, '-m', 'pytest', '-q', '-p',
+                       'no:cacheprovider', '--junitxml', xml, f]
+        else:
+            command = ['rostest', '--results-base-dir', results,
+                       '--results-filename', '%s.xml' % name,
+                       'hri_sync', os.path.basename(f)]
         if os.path.exists(xml):
             os.remove(xml)
         t0 = time.monotonic()
         with open(log, 'w') as out:
             try:
                 code = subprocess.run(
-                    ['rostest', '--results-base-dir', results,
-                     '--results-filename', '%s.xml' % name,
-                     'hri_sync', os.path.basename(f)],
-                    stdout=out, stderr=subprocess.STDOUT,
+                    command, stdout=out, stderr=subprocess.STDOUT,
                     timeout=TIMEOUT).returncode
             except subprocess.TimeoutExpired:
                 code = 'timeout after %d s' % TIMEOUT
