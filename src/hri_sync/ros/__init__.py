@@ -5,6 +5,8 @@ Contract: the only subpackage that imports rospy.  ``params`` reads
 libfaketime, ``synced_clock`` keeps a host's global clock against the time
 server and publishes its ``ClockState`` (``clock_state``: the one
 ClockState <-> ClockModel conversion), ``client_process`` is the CPM on
-ROS, and ``round_log`` records what each round put on the wire.  Logic
+ROS, ``round_log`` records what each round put on the wire, and
+``master_watch`` (started by ``params.run_node`` for every node) ends a
+node for respawn when the ROS master restarted.  Logic
 lives in the core; these modules wire it to topics.
 """

@@ -7,7 +7,8 @@ docs/architecture.md) and returns results or raises ``ValueError``
 subclasses; nothing here publishes or sleeps.  It holds the clock model
 and NTP estimation (``clock``, ``ntp``), keeping a clock against the time
 server with its holdover (``clock_sync``), the CM/CPM protocol state
-machines (``protocol``), the DPM's capture window and time mapping
-(``capture``), processors and decisions (``processors``, ``decision``),
-skew measurement against the true clock (``skew``, ``truth``).
+machines (``protocol``; the CM's session of rounds, ``control``), the
+DPM's capture window and time mapping (``capture``), processors and
+decisions (``processors``, ``decision``), skew measurement against the
+true clock (``skew``, ``truth``).
 """
