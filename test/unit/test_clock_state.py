@@ -14,7 +14,7 @@ import pytest
 from hri_sync.timing.clock import ClockModel, GlobalClock, OffsetMeasurement
 
 FIELDS = ('client_id', 'ok', 'reason', 'local_ref', 'offset', 'drift',
-          'uncertainty', 'samples')
+          'uncertainty', 'samples', 'round_trip')
 
 
 class StandInClockState:

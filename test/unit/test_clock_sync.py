@@ -177,3 +177,12 @@ def test_cpm_acks_in_holdover_then_nacks_past_max_uncertainty():
     assert replies[151.0].uncertainty == pytest.approx(0.001, abs=1e-12)
     # Every reply while the server was away still names the global time.
     assert replies[141.0].stamp == pytest.approx(141.0 + OFFSET, abs=1e-9)
+
+
+def test_status_carries_the_round_trip_of_the_measurement_just_made():
+    host = FakeHost(1000.0)
+    sync = make(host)
+    assert math.isnan(sync.status().round_trip)     # nothing measured yet
+    assert sync.sync().round_trip == DELAY
+    host.server_up = False
+    assert math.isnan(sync.sync().round_trip)       # the burst failed

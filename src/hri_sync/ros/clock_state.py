@@ -30,8 +30,10 @@ def model_from_msg(msg):
                          % (msg.client_id or 'the sender', e))
 
 
-def msg_from_model(client_id, model, reason='', samples=0):
-    """A ClockState of ``model``: ok when it is ready and valid.
+def msg_from_model(client_id, model, reason='', samples=0,
+                   round_trip=math.nan):
+    """A ClockState of ``model``: ok when it is ready and valid;
+    ``round_trip``: the NTP round trip of the measurement just made (s).
 
     A model that is not ready, or fails ``validate`` (then the reason
     says why), is published with ok false and finite placeholder values.
@@ -50,4 +52,4 @@ def msg_from_model(client_id, model, reason='', samples=0):
         local_ref=finite(model.local_ref), offset=finite(model.offset),
         drift=finite(model.drift),
         uncertainty=model.uncertainty if ok else NO_MODEL_UNCERTAINTY,
-        samples=samples)
+        samples=samples, round_trip=round_trip)

@@ -83,7 +83,7 @@ class SyncedClock:
             local = time.time()
             self._state_pub.publish(msg_from_model(
                 self.name, status.model.snapshot(local),
-                status.reason(local), status.samples))
+                status.reason(local), status.samples, status.round_trip))
 
     def _report(self, status):
         self._publish()

@@ -28,12 +28,14 @@ class ClockStatus:
     ``model`` is a copy of the fit (its uncertainty grows from
     ``local_ref`` at ``drift_bound``); ``error`` is why the last
     measurement failed ('' when it succeeded); ``samples`` the
-    measurements behind the fit.
+    measurements behind the fit; ``round_trip`` the NTP round trip of the
+    last measurement (s; NaN when it failed or none was made).
     """
 
     model: ClockModel
     error: str
     samples: int
+    round_trip: float = math.nan
 
     @property
     def ok(self):
@@ -101,7 +103,9 @@ class ClockSync:
         return ClockStatus(
             ClockModel(c.local_ref, c.offset, c.drift, c.uncertainty,
                        c.drift_bound),
-            self.last_error, len(c.measurements))
+            self.last_error, len(c.measurements),
+            c.measurements[-1].delay if c.measurements
+            and not self.last_error else math.nan)
 
     def run(self, sleep, stopped, report):
         """The resync loop: measure, ``report(status)``, ``sleep(s)``;
