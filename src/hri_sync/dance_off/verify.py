@@ -5,14 +5,12 @@ messages or ``rosbags`` dataclasses): for every recorded ``Decision`` it
 takes the round's ``ClientResult`` of each participant, recomputes the
 score from that client's ``/<client_id>/captured`` frames inside the
 result's window, and recomputes the decision from the recomputed scores
-with the decision module's rule and parameters. ``read_bag`` reads a
-recording with the pure-Python ``rosbags`` library (imported on use).
+with the decision module's rule and parameters. Reading a recording is
+``hri_sync.tools``' part (``tools.bag``, ``tools.session``).
 """
 
 import math
 from dataclasses import dataclass, field
-
-import yaml
 
 from hri_sync.timing.decision import ABORTED, decide
 from hri_sync.dance_off.expressiveness import (DEFAULT_MIN_CONFIDENCE,
@@ -21,7 +19,6 @@ from hri_sync.timing.processors import Frame
 
 REL_TOL = 1e-6
 ABS_TOL = 1e-9
-ROUND_ABORTED = 'aborted'       # RoundStatus.ABORTED
 
 
 def seconds(t):
@@ -189,48 +186,3 @@ def format_table(checks):
             'ok' if not rc.problems else 'MISMATCH: ' + '; '.join(
                 rc.problems)))
     return '\n'.join(lines)
-
-
-def read_bag(path):
-    """Decisions, results, captured frames, config and CM aborts of a bag.
-
-    Returns (decisions, results, {client_id: [(stamp, msg)]}, config dict
-    from /dance_off/config or {}, {round: reason} of aborted rounds).
-    Raises rosbags' ReaderError or ValueError for an unreadable bag.
-    """
-    from rosbags.rosbag1 import Reader
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-    store = get_typestore(Stores.ROS1_NOETIC)
-    decisions, results, captured, aborted = [], [], {}, {}
-    config = {}
-    with Reader(path) as reader:
-        for conn in reader.connections:
-            if conn.msgtype not in store.types:
-                store.register(get_types_from_msg(conn.msgdef.data,
-                                                  conn.msgtype))
-        for conn, _, raw in reader.messages():
-            kind = conn.msgtype.replace('/msg/', '/')
-            if kind == 'hri_sync/Decision':
-                decisions.append(store.deserialize_ros1(raw, conn.msgtype))
-            elif kind == 'hri_sync/ClientResult':
-                results.append(store.deserialize_ros1(raw, conn.msgtype))
-            elif kind == 'hri_sync/RoundStatus':
-                msg = store.deserialize_ros1(raw, conn.msgtype)
-                if msg.state == ROUND_ABORTED:
-                    aborted[msg.round] = msg.reason
-            elif kind == 'hri_sync/Skeleton' and \
-                    conn.topic.endswith('/captured'):
-                msg = store.deserialize_ros1(raw, conn.msgtype)
-                client = conn.topic.strip('/').split('/')[0]
-                captured.setdefault(client, []).append(
-                    (seconds(msg.header.stamp), msg))
-            elif conn.topic == '/dance_off/config':
-                try:
-                    config = yaml.safe_load(
-                        store.deserialize_ros1(raw, conn.msgtype).data)
-                except yaml.YAMLError as e:
-                    raise ValueError('/dance_off/config: %s' % e)
-                if not isinstance(config, dict):
-                    raise ValueError('/dance_off/config is not a mapping: %r'
-                                     % (config,))
-    return decisions, results, captured, config, aborted

@@ -141,7 +141,7 @@ def clock_series(session, t0):
     return out
 
 
-def _rule(config, overrides=None):
+def decision_rule(config, overrides=None):
     rule = dict(DEFAULT_RULE)
     rule.update({k: config[k] for k in DEFAULT_RULE if k in config})
     rule.update({k: v for k, v in (overrides or {}).items()
@@ -179,30 +179,52 @@ def _fig5(frames, start):
     return [ms(s - start) for s, _ in frames if lo <= s < hi]
 
 
-def _robot(session, rnd, clock, pose_list, config, tolerance):
-    """Robot check and heading series of one round (None: no robot)."""
-    robot_id = config.get('robot_id', ROBOT_ID)
-    if not (session.odom or session.cmd_vel
-            or robot_id in session.clock_states):
+def has_robot(session):
+    """True if the recording shows a robot (odometry, commands or its
+    clock)."""
+    robot_id = session.config.get('robot_id', ROBOT_ID)
+    return bool(session.odom or session.cmd_vel
+                or robot_id in session.clock_states)
+
+
+def robot_places(config):
+    """(bearings in deg, distance in m, where they come from)."""
+    bearings = [float(b) for b in config.get('participant_bearings',
+                                             DEFAULT_BEARINGS)]
+    distance = float(config.get('participant_distance', DEFAULT_DISTANCE))
+    return bearings, distance, ('/dance_off/config'
+                                if 'participant_bearings' in config
+                                else 'default (not recorded)')
+
+
+def check_round_robot(session, rnd, clock, pose_list, tolerance):
+    """The RobotCheck of a decided round (see robot_check.check_robot);
+    None if the round has no decision."""
+    if rnd.decision is None:
         return None
-    d = rnd.decision.msg if rnd.decision is not None else None
+    d = rnd.decision.msg
+    robot_id = session.config.get('robot_id', ROBOT_ID)
     scheduled = rnd.capture is not None and \
         robot_id in rnd.capture.msg.clients
     after = (clock.to_bag(rnd.end) if rnd.capture is not None
              else rnd.first_t) + AFTER_WINDOW_SLACK
-    until = session.next_round_t(rnd.n)
-    bearings = [float(b) for b in config.get('participant_bearings',
-                                             DEFAULT_BEARINGS)]
-    distance = float(config.get('participant_distance', DEFAULT_DISTANCE))
+    bearings, distance, _ = robot_places(session.config)
+    return check_robot(rnd.n, d.outcome, d.winner, rnd.decision.t, after,
+                       session.next_round_t(rnd.n), pose_list,
+                       session.cmd_vel, bearings,
+                       distance if distance > 0 else None, tolerance,
+                       scheduled)
+
+
+def _robot(session, rnd, clock, pose_list, tolerance):
+    """Robot check and heading series of one round (None: no robot)."""
+    if not has_robot(session):
+        return None
+    bearings, distance, source = robot_places(session.config)
     out = {'bearings_deg': bearings, 'distance_m': distance,
-           'bearings_source': ('/dance_off/config'
-                               if 'participant_bearings' in config
-                               else 'default (not recorded)')}
-    if d is not None:
-        chk = check_robot(rnd.n, d.outcome, d.winner, rnd.decision.t, after,
-                          until, pose_list, session.cmd_vel, bearings,
-                          distance if distance > 0 else None, tolerance,
-                          scheduled)
+           'bearings_source': source}
+    chk = check_round_robot(session, rnd, clock, pose_list, tolerance)
+    if chk is not None:
         out.update({'expected': chk.expected, 'ok': chk.ok,
                     'verdict': chk.verdict, 'problems': chk.problems,
                     'final_heading_deg': chk.final_heading,
@@ -215,6 +237,7 @@ def _robot(session, rnd, clock, pose_list, config, tolerance):
         out.update({'ok': None, 'verdict': 'robot: n/a (no decision)',
                     'problems': []})
     # Heading over the round, relative to the window start (global).
+    until = session.next_round_t(rnd.n)
     lo = rnd.first_t - 0.5
     hi = min(until, session.end)
     seg = [p for p in pose_list if lo <= p.t <= hi]
@@ -223,7 +246,7 @@ def _robot(session, rnd, clock, pose_list, config, tolerance):
     out['heading'] = {
         't': [clock.to_global(p.t) - base for p in seg[::step]],
         'deg': [deg(p.yaw) for p in seg[::step]]}
-    if d is not None:
+    if rnd.decision is not None:
         out['decision_t'] = clock.to_global(rnd.decision.t) - base
     return out
 
@@ -316,8 +339,7 @@ def summarize_round(session, rnd, clock, pose_list, rule, truth_clients,
         row['recomputed'] = _recompute(session, rnd, rule, aborted)
     row['starts'] = _starts(rnd)
     row['beats'] = len(rnd.beats)
-    robot = _robot(session, rnd, clock, pose_list, session.config,
-                   tolerance)
+    robot = _robot(session, rnd, clock, pose_list, tolerance)
     if robot is not None:
         row['robot'] = robot
     row['ok'], row['verdict'] = _verdict(row)
@@ -368,7 +390,7 @@ def _verdict(row):
 def summarize(session, rule_overrides=None, tolerance=10.0):
     """The whole report of one session as a dict (see the module doc)."""
     config = session.config
-    rule = _rule(config, rule_overrides)
+    rule = decision_rule(config, rule_overrides)
     truth = config.get('truth_clients')
     truth_clients = set(truth) if isinstance(truth, list) else set()
     clock = server_clock(session, SERVER_ID)

@@ -204,6 +204,9 @@ def read_bag(path, allow_old=False, md5sums=None):
                 msg = store.deserialize_ros1(raw, conn.msgtype)
                 contents.messages.setdefault(conn.topic, []).append(
                     Recorded(t_ns * 1e-9, conn.topic, msg))
+            # A topic whose connection holds no message was not recorded.
+            contents.topics = {t: k for t, k in contents.topics.items()
+                               if t in contents.messages}
             contents.start = reader.start_time * 1e-9
             contents.end = reader.end_time * 1e-9
     except ReaderError as e:

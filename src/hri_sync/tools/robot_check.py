@@ -152,8 +152,9 @@ def check_robot(n, outcome, winner, decided_t, after_t, until_t, odom,
     chk.target = deg(target)
     chk.error = abs(deg(wrap_angle(last.yaw - target)))
     if math.isinf(until_t) and cmds and moving(cmds[-1].msg):
-        chk.problems.append('the recording ends while it still moves: '
-                            'the gesture was cut off')
+        chk.note = ('the recording ends while it still moves: the gesture '
+                    'was cut off')
+        return chk
     if not math.isfinite(start):
         chk.problems.append('no gesture: no velocity command after the '
                             'decision')

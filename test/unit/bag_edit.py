@@ -1,0 +1,82 @@
+"""Test helpers: copy a bag with edits, write the layout of a killed
+recorder (rosbags; no ROS)."""
+import struct
+
+from rosbags.rosbag1 import Reader, Writer
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+
+def copy_bag(src, dst, edit=None, md5=None):
+    """Copy ``src`` to ``dst``. ``edit(topic, t_ns, msg)`` returns the
+    message to write (changed in place is fine), or None to drop it;
+    ``md5``: {type ('pkg/Name'): md5} to record instead of the real one."""
+    store = get_typestore(Stores.ROS1_NOETIC)
+    with Reader(src) as reader, Writer(dst) as writer:
+        conns = {}
+        for c in reader.connections:
+            if c.msgtype not in store.types:
+                store.register(get_types_from_msg(c.msgdef.data, c.msgtype))
+            kind = c.msgtype.replace('/msg/', '/')
+            conns[c.id] = writer.add_connection(
+                c.topic, c.msgtype, msgdef=c.msgdef.data,
+                md5sum=(md5 or {}).get(kind, c.digest),
+                callerid=c.ext.callerid, latching=c.ext.latching)
+        for c, t, raw in reader.messages():
+            if edit is not None:
+                msg = edit(c.topic, t, store.deserialize_ros1(raw, c.msgtype))
+                if msg is None:
+                    continue
+                raw = store.serialize_ros1(msg, c.msgtype)
+            writer.write(conns[c.id], t, raw)
+
+
+def _header(fields):
+    body = b''
+    for k, v in fields.items():
+        item = k.encode() + b'=' + v
+        body += struct.pack('<I', len(item)) + item
+    return struct.pack('<I', len(body)) + body
+
+
+def write_unclosed(src, dst, until_ns):
+    """Write the messages of ``src`` before ``until_ns`` as a recorder
+    killed at that instant leaves them: a bag header with no index
+    (index_pos 0) and one uncompressed chunk whose size was never filled
+    in, its connection and message records running to the end of the
+    file (the layout of test/bags/killed_recorder.bag.active)."""
+    with open(dst, 'wb') as f, Reader(src) as reader:
+        f.write(b'#ROSBAG V2.0\n')
+        head = _header({'index_pos': struct.pack('<Q', 0),
+                        'conn_count': struct.pack('<I', 0),
+                        'chunk_count': struct.pack('<I', 0),
+                        'op': b'\x03'})
+        f.write(head)
+        pad = 4096 - len(head) - 4
+        f.write(struct.pack('<I', pad) + b' ' * pad)
+        f.write(_header({'compression': b'none',
+                         'size': struct.pack('<I', 0), 'op': b'\x05'}))
+        f.write(struct.pack('<I', 0))
+        seen = set()
+        for c, t, raw in reader.messages():
+            if t >= until_ns:
+                break
+            if c.id not in seen:
+                seen.add(c.id)
+                f.write(_header({'conn': struct.pack('<I', c.id),
+                                 'topic': c.topic.encode(), 'op': b'\x07'}))
+                data = {'topic': c.topic.encode(),
+                        'type': c.msgtype.replace('/msg/', '/').encode(),
+                        'md5sum': c.digest.encode(),
+                        'message_definition': c.msgdef.data.encode()}
+                if c.ext.callerid:
+                    data['callerid'] = c.ext.callerid.encode()
+                if c.ext.latching is not None:
+                    data['latching'] = str(c.ext.latching).encode()
+                f.write(_header(data))   # data_len + fields
+            f.write(_header({'conn': struct.pack('<I', c.id),
+                             'time': struct.pack('<II', t // 10 ** 9,
+                                                 t % 10 ** 9),
+                             'op': b'\x02'}))
+            f.write(struct.pack('<I', len(raw)) + bytes(raw))
+        # The record being written when the recorder died, cut short.
+        f.write(struct.pack('<I', 4096)[:3])

@@ -1,0 +1,297 @@
+"""The session report and verify_decisions on recorded sessions.
+
+test/bags/session_robot.bag (2 rounds, winner 1) and session_still.bag
+(1 round, no_winner, raw sensor streams) are whole dance-off sessions
+with DJ Rob and the music (scripts/make_session_bags.py); variants are
+made from them here (edited scores, a robot turned wrong, topics left
+out).
+"""
+import base64
+import csv
+import io
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+
+import pytest
+
+pytest.importorskip('rosbags', reason='rosbags is installed by make venv')
+pytest.importorskip('matplotlib', reason='python3-matplotlib (make setup)')
+
+import matplotlib.image  # noqa: E402
+
+import bag_edit  # noqa: E402
+from hri_sync.tools import report  # noqa: E402
+from hri_sync.tools.bag import BagError  # noqa: E402
+
+ROOT = os.path.join(os.path.dirname(__file__), '..', '..')
+BAGS = os.path.join(ROOT, 'test', 'bags')
+ROBOT = os.path.join(BAGS, 'session_robot.bag')
+STILL = os.path.join(BAGS, 'session_still.bag')
+
+
+def quiet(*_):
+    pass
+
+
+@pytest.fixture(scope='module')
+def built(tmp_path_factory):
+    out = str(tmp_path_factory.mktemp('report'))
+    rep = report.build([ROBOT, STILL], out, export_csv=True, rate=25.0,
+                       say=quiet)
+    return out, rep
+
+
+def images(page):
+    return re.findall(r'<img id="([^"]+)" alt="[^"]*" '
+                      r'src="data:image/png;base64,([^"]+)">', page)
+
+
+def test_every_plot_is_embedded_and_decodes(built):
+    out, rep = built
+    with open(os.path.join(out, 'index.html')) as f:
+        page = f.read()
+    imgs = images(page)
+    assert len(imgs) == page.count('<img')
+    figures = [f['id'] for s in rep['sessions'] for f in s['figures']]
+    assert sorted(i for i, _ in imgs) == sorted(figures)
+    # clocks, rounds, heading and one per round, for each session
+    assert len(figures) == (3 + 2) + (3 + 1)
+    for _, data in imgs:
+        png = base64.b64decode(data, validate=True)
+        assert png.startswith(b'\x89PNG\r\n\x1a\n')
+        pixels = matplotlib.image.imread(io.BytesIO(png), format='png')
+        assert pixels.shape[0] > 100 and pixels.shape[1] > 300
+        assert pixels.std() > 0.01          # not a blank image
+    assert 'http://' not in page and 'https://' not in page
+
+
+def test_summary_holds_what_the_page_shows(built):
+    out, rep = built
+    with open(os.path.join(out, 'summary.json')) as f:
+        summary = json.load(f)          # strict JSON: no NaN
+    assert summary == json.loads(json.dumps(rep))
+    robot, still = summary['sessions']
+    assert robot['totals']['rounds'] == 2
+    assert robot['totals']['reproduced'] == 2
+    assert robot['totals']['robot_ok'] == 2
+    assert robot['totals']['ok'] and still['totals']['ok']
+    assert still['rounds'][0]['decision']['outcome'] == 'no_winner'
+    assert still['rounds'][0]['robot']['expected'] == 'stay still'
+    with open(os.path.join(out, 'index.html')) as f:
+        page = f.read()
+    for s in summary['sessions']:
+        for r in s['rounds']:
+            assert r['verdict'] in page
+            for c, v in r['clients'].items():
+                # Figure 5's first tick is the result's first frame.
+                assert r['fig5'][c][0] == pytest.approx(
+                    v['first_frame_offset_ms'], abs=1e-3)
+                assert '%.1f' % v['first_frame_offset_ms'] in page
+                # The build-up ends at the recorded score.
+                assert r['build_up'][c]['value'][-1] == pytest.approx(
+                    v['value'], rel=1e-6)
+            assert '%.3f' % r['start_skew_ms'] in page
+            assert 0 <= r['start_skew_ms'] < 50
+            assert r['error_bound_ms'] is None or r['error_bound_ms'] >= 0
+            assert r['ack_round_ms'] > 0
+            assert set(r['starts']) == {'dance', 'music'}
+        for client, series in s['clocks'].items():
+            assert len(series['t']) == len(series['round_trip_ms'])
+            assert all(rt is None or 0 < rt < 100
+                       for rt in series['round_trip_ms'])
+    # The still session recorded the raw streams: frames before the start.
+    raw = still['rounds'][0]['fig5_raw']
+    assert set(raw) == {'left', 'right'}
+    assert all(min(ticks) < 0 for ticks in raw.values())
+
+
+def test_export_csv_aligns_both_participants(built):
+    out, rep = built
+    s = rep['sessions'][0]
+    with open(s['export']['aligned']) as f:
+        rows = list(csv.DictReader(f))
+    with open(s['export']['raw']) as f:
+        raw = list(csv.DictReader(f))
+    dur = s['rounds'][0]['dur']
+    per_round = int(round(dur * 25.0))
+    assert len(rows) == 2 * per_round
+    r1 = [r for r in rows if r['round'] == '1']
+    step = [float(b['t_window']) - float(a['t_window'])
+            for a, b in zip(r1, r1[1:])]
+    assert all(x == pytest.approx(0.04, abs=1e-6) for x in step)
+    frames = sum(v['frames'] + v['rejected'] for r in s['rounds']
+                 for v in r['clients'].values())
+    assert len(raw) == frames
+    # A grid point between two raw samples is their interpolation.
+    left = [r for r in raw if r['client'] == 'left' and r['round'] == '1']
+    t = [float(r['stamp']) for r in left]
+    x = [float(r['head_x']) for r in left]
+    k = len(r1) // 2
+    g = float(r1[k]['stamp'])
+    i = max(j for j in range(len(t)) if t[j] <= g)
+    want = x[i] + (x[i + 1] - x[i]) * (g - t[i]) / (t[i + 1] - t[i])
+    assert float(r1[k]['left_head_x']) == pytest.approx(want, abs=1e-6)
+    assert r1[k]['right_head_x'] != ''
+
+
+def drop_topics(src, dst, prefixes):
+    bag_edit.copy_bag(src, dst, lambda topic, t, m: None if any(
+        topic.startswith(p) or topic.endswith(p) for p in prefixes) else m)
+
+
+def test_missing_topics_are_named_and_the_rest_rendered(tmp_path):
+    cut = str(tmp_path / 'cut.bag')
+    drop_topics(ROBOT, cut, ['/odom', '/mobile_base', 'clock_state',
+                             '/dj_rob/action_start', '/music/action_start'])
+    out = str(tmp_path / 'out')
+    rep = report.build([cut], out, say=quiet)
+    s = rep['sessions'][0]
+    missing = {m['section']: m['reason'] for m in s['missing']}
+    assert 'DJ Rob: heading and gesture' in missing
+    assert '/odom' in missing['DJ Rob: heading and gesture']
+    assert 'Clocks: offset, drift, uncertainty' in missing
+    assert 'NTP round trips' in missing
+    assert 'DJ Rob and music: start against the schedule' in missing
+    assert s['totals']['reproduced'] == 2
+    with open(os.path.join(out, 'index.html')) as f:
+        page = f.read()
+    assert 'Not in this recording' in page and '/odom' in page
+    assert len(images(page)) == 1 + 2       # rounds overview, 2 rounds
+
+
+def test_no_bag_readable_is_an_error(tmp_path):
+    empty = tmp_path / 'empty.bag'
+    empty.write_bytes(b'')
+    with pytest.raises(BagError, match='empty'):
+        report.build([str(empty)], str(tmp_path / 'out'), say=quiet)
+    assert not os.path.exists(tmp_path / 'out' / 'index.html')
+    rep = report.build([str(empty), STILL], str(tmp_path / 'out'),
+                       say=quiet)
+    assert len(rep['errors']) == 1 and 'empty' in rep['errors'][0]
+    assert len(rep['sessions']) == 1
+
+
+def run(tool, *args):
+    return subprocess.run(
+        [sys.executable, os.path.join(ROOT, 'nodes', tool)] + list(args),
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        timeout=300)
+
+
+def test_verify_decisions_agrees_on_a_whole_session():
+    out = run('verify_decisions', ROBOT, STILL)
+    assert out.returncode == 0, out.stdout
+    assert out.stdout.count('robot faced participant 1') == 2
+    assert 'robot did not move, as it should on no_winner' in out.stdout
+    assert 'all 2 rounds agree' in out.stdout
+    assert 'all 1 rounds agree' in out.stdout
+
+
+def edit_first(topic_name, change):
+    """An edit that changes the first message on ``topic_name``."""
+    done = []
+
+    def edit(topic, t, msg):
+        if topic == topic_name and not done:
+            change(msg)
+            done.append(t)
+        return msg
+    return edit
+
+
+def test_verify_decisions_fails_on_an_edited_score(tmp_path):
+    edited = str(tmp_path / 'edited.bag')
+    bag_edit.copy_bag(ROBOT, edited, edit_first(
+        '/client_result', lambda m: setattr(m, 'value', m.value * 1.01)))
+    out = run('verify_decisions', edited)
+    assert out.returncode == 1, out.stdout
+    assert 'MISMATCH' in out.stdout and 'DISAGREEMENT in round(s) 1' \
+        in out.stdout
+
+    def swap_scores(m):
+        m.scores = m.scores[::-1].copy()
+    edited2 = str(tmp_path / 'edited2.bag')
+    bag_edit.copy_bag(ROBOT, edited2, edit_first('/decision', swap_scores))
+    out = run('verify_decisions', edited2)
+    assert out.returncode == 1, out.stdout
+    assert 'decision score of left' in out.stdout
+
+
+def turned_odometry(src, dst, after_ns, degrees):
+    """Rotate every odometry pose after ``after_ns`` by ``degrees``."""
+    a = math.radians(degrees) / 2
+
+    def edit(topic, t, msg):
+        if topic == '/odom' and t > after_ns:
+            q = msg.pose.pose.orientation
+            c, s = math.cos(a), math.sin(a)
+            q.w, q.x, q.y, q.z = (c * q.w - s * q.z, c * q.x - s * q.y,
+                                  c * q.y + s * q.x, c * q.z + s * q.w)
+        return msg
+    bag_edit.copy_bag(src, dst, edit)
+
+
+def decision_times(path):
+    from rosbags.rosbag1 import Reader
+    with Reader(path) as r:
+        conns = [c for c in r.connections if c.topic == '/decision']
+        return [t for _, t, _ in r.messages(conns)]
+
+
+def test_verify_decisions_fails_on_a_robot_that_turned_wrong(tmp_path):
+    wrong = str(tmp_path / 'wrong.bag')
+    first, second = decision_times(ROBOT)
+    turned_odometry(ROBOT, wrong, second, -25.0)  # round 2's gesture on
+    out = run('verify_decisions', wrong)
+    assert out.returncode == 1, out.stdout
+    assert 'ROBOT WRONG' in out.stdout and 'off by 25.0 deg' in out.stdout
+    assert 'recomputed winner (participant 1)  ok' in out.stdout
+    assert run('verify_decisions', '--heading-tolerance', '30',
+               wrong).returncode == 0
+
+
+def test_verify_decisions_fails_on_a_robot_moving_without_winner(tmp_path):
+    moved = str(tmp_path / 'moved.bag')
+    turned_odometry(STILL, moved, decision_times(STILL)[0], 15.0)
+    out = run('verify_decisions', moved)
+    assert out.returncode == 1, out.stdout
+    assert 'it moved: up to 0.000 m and 15.0 deg' in out.stdout
+
+
+def test_tools_on_a_killed_recording(tmp_path):
+    from rosbags.rosbag1 import Reader
+    with Reader(ROBOT) as r:
+        conns = [c for c in r.connections if c.topic == '/capture_data']
+        cut = [t for _, t, _ in r.messages(conns)][1] + 10 ** 9
+    bag_edit.write_unclosed(ROBOT, str(tmp_path / 'k.bag.active'), cut)
+    bag = str(tmp_path / 'k.bag')
+    out = run('verify_decisions', bag)
+    assert out.returncode == 2
+    assert 'rosbag reindex' in out.stdout and '--reindex' in out.stdout
+    out = run('report', bag, '--out', str(tmp_path / 'r'))
+    assert out.returncode != 0 and 'rosbag reindex' in out.stdout
+    out = run('verify_decisions', '--reindex', bag)
+    assert out.returncode == 0, out.stdout
+    assert 'round 2: CUT OFF' in out.stdout
+    out = run('report', bag, '--out', str(tmp_path / 'r'))
+    assert out.returncode == 1, out.stdout   # a cut-off round fails
+    assert 'round 2: CUT OFF' in out.stdout
+    with open(tmp_path / 'r' / 'summary.json') as f:
+        assert json.load(f)['sessions'][0]['totals']['cut_off'] == [2]
+
+
+def test_report_cli_names_an_old_message_version(tmp_path):
+    old = str(tmp_path / 'old.bag')
+    bag_edit.copy_bag(STILL, old, md5={
+        'hri_sync/Decision': 'ffffffffffffffffffffffffffffffff'})
+    out = run('report', old, '--out', str(tmp_path / 'r'))
+    assert out.returncode == 2
+    assert 'hri_sync/Decision has md5 ffffffffffffffffffffffffffffffff' \
+        in out.stdout
+    out = run('report', old, '--allow-old-messages', '--out',
+              str(tmp_path / 'r'))
+    assert out.returncode == 0, out.stdout

@@ -1,0 +1,115 @@
+"""hri_sync.tools.bag: reading recordings, and what goes wrong with them."""
+import os
+import shutil
+
+import pytest
+
+pytest.importorskip('rosbags', reason='rosbags is installed by make venv')
+
+from rosbags.rosbag1 import Reader, Writer  # noqa: E402
+
+import bag_edit  # noqa: E402
+from hri_sync.tools import bag  # noqa: E402
+from hri_sync.tools.session import build_session  # noqa: E402
+
+BAGS = os.path.join(os.path.dirname(__file__), '..', 'bags')
+SESSION = os.path.join(BAGS, 'session_robot.bag')
+
+
+def capture_time(path, round_n):
+    """Bag time (ns) of round ``round_n``'s /capture_data."""
+    with Reader(path) as r:
+        conns = [c for c in r.connections if c.topic == '/capture_data']
+        times = [t for _, t, _ in r.messages(conns)]
+    return times[round_n - 1]
+
+
+def test_session_bag_reads_whole():
+    c = bag.read_bag(SESSION)
+    assert not c.old_types
+    for topic in ('/odom', '/mobile_base/commands/velocity',
+                  '/dj_rob/action_start', '/music/action_start',
+                  '/round_status', '/left/clock_state', '/server/clock_state',
+                  '/left/capture_command', '/mobile_base/commands/led1'):
+        assert c.messages.get(topic), topic
+    s = build_session(c)
+    assert sorted(s.rounds) == [1, 2] and not s.cut_off
+    assert s.config['participant_bearings'] == [30.0, -30.0]
+    assert set(s.clock_states) == {'left', 'right', 'dj_rob', 'music',
+                                   'server'}
+
+
+def test_empty_file_and_empty_bag(tmp_path):
+    empty = tmp_path / 'empty.bag'
+    empty.write_bytes(b'')
+    with pytest.raises(bag.BagError, match='empty file'):
+        bag.read_bag(str(empty))
+    nothing = tmp_path / 'nothing.bag'
+    with Writer(nothing):
+        pass
+    with pytest.raises(bag.BagError, match='holds no messages'):
+        bag.read_bag(str(nothing))
+    other = tmp_path / 'other.bag'
+    other.write_bytes(b'not a bag at all\n')
+    with pytest.raises(bag.BagError, match='not a rosbag'):
+        bag.read_bag(str(other))
+
+
+def test_other_message_version_is_named(tmp_path):
+    old = str(tmp_path / 'old.bag')
+    fake = '0123456789abcdef0123456789abcdef'
+    bag_edit.copy_bag(SESSION, old, md5={'hri_sync/ClientResult': fake})
+    ours = bag.current_md5sums()['hri_sync/ClientResult']
+    with pytest.raises(bag.BagError) as e:
+        bag.read_bag(old)
+    text = str(e.value)
+    assert 'hri_sync/ClientResult' in text and fake in text and ours in text
+    assert '--allow-old-messages' in text
+    c = bag.read_bag(old, allow_old=True)
+    assert c.old_types == {'hri_sync/ClientResult': (fake, ours)}
+    assert len(c.messages['/client_result']) == 4
+
+
+def test_unclosed_bag_says_how_to_reindex(tmp_path):
+    active = str(tmp_path / 'cut.bag.active')
+    bag_edit.write_unclosed(SESSION, active,
+                            capture_time(SESSION, 2) + 10 ** 9)
+    for path in (active, str(tmp_path / 'cut.bag')):
+        with pytest.raises(bag.BagError) as e:
+            bag.read_bag(path)
+        assert 'rosbag reindex %s' % active in str(e.value)
+        assert '--reindex' in str(e.value)
+    said = []
+    c = bag.open_bags([str(tmp_path / 'cut.bag')], do_reindex=True,
+                      say=said.append)[0]
+    assert c.path == str(tmp_path / 'cut.bag')
+    assert 'reindexed into' in said[0]
+    s = build_session(c)
+    assert s.cut_off == [2]               # its window began, no decision
+    assert s.rounds[1].decision is not None
+    with pytest.raises(bag.BagError, match='exists already'):
+        bag.open_bags([active], do_reindex=True, say=said.append)
+
+
+def test_reindex_a_real_killed_recorder(tmp_path):
+    # rosbag record -O k.bag /chatter, killed with SIGKILL after 4 s at
+    # 50 Hz: the open chunk was never closed (size 0).
+    src = str(tmp_path / 'k.bag.active')
+    shutil.copy(os.path.join(BAGS, 'killed_recorder.bag.active'), src)
+    assert bag.unclosed(str(tmp_path / 'k.bag')) == src
+    salvage = bag.reindex(src, str(tmp_path / 'k.bag'))
+    assert salvage.topics == {'/chatter': 205}
+    c = bag.read_bag(str(tmp_path / 'k.bag'))
+    assert [r.msg.data for r in c.messages['/chatter']][:2] == ['hello'] * 2
+
+
+def test_reindex_keeps_every_message_before_the_cut(tmp_path):
+    cut = capture_time(SESSION, 2)
+    active = str(tmp_path / 'x.bag.active')
+    bag_edit.write_unclosed(SESSION, active, cut)
+    bag.reindex(active, str(tmp_path / 'x.bag'))
+    with Reader(SESSION) as a, Reader(str(tmp_path / 'x.bag')) as b:
+        before = [(c.topic, t, bytes(raw)) for c, t, raw in a.messages()
+                  if t < cut]
+        after = [(c.topic, t, bytes(raw)) for c, t, raw in b.messages()]
+    assert sorted(before) == sorted(after)
