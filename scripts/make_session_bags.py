@@ -47,11 +47,10 @@ def record(name, args, out):
     cmd = ['roslaunch', '-p', str(port), 'hri_sync', 'dance_off.launch',
            'bag:=' + bag, 'ntp_port:=%d' % free_port()] + COMMON + args
     print(' '.join(cmd), flush=True)
+    env = dict(os.environ, ROS_MASTER_URI='http://localhost:%d' % port)
     with open(log, 'w') as f:
         done = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT,
-                              env=dict(os.environ, ROS_MASTER_URI=
-                                       'http://localhost:%d' % port),
-                              timeout=300)
+                              env=env, timeout=300)
     if done.returncode != 0 or not os.path.exists(bag):
         sys.exit('%s: roslaunch failed (exit %d), see %s'
                  % (name, done.returncode, log))

@@ -11,8 +11,8 @@ from hri_sync.tools.session import BagClock
 def odom(t, x, y, yaw_deg):
     h = math.radians(yaw_deg) / 2
     q = NS(x=0.0, y=0.0, z=math.sin(h), w=math.cos(h))
-    return NS(t=t, msg=NS(pose=NS(pose=NS(position=NS(x=x, y=y),
-                                         orientation=q))))
+    pose = NS(position=NS(x=x, y=y), orientation=q)
+    return NS(t=t, msg=NS(pose=NS(pose=pose)))
 
 
 def cmd(t, v, w):
