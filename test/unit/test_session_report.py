@@ -295,3 +295,26 @@ def test_report_cli_names_an_old_message_version(tmp_path):
     out = run('report', old, '--allow-old-messages', '--out',
               str(tmp_path / 'r'))
     assert out.returncode == 0, out.stdout
+
+
+def test_error_bound_when_the_messages_carry_it():
+    from hri_sync.tools import analysis
+    from hri_sync.tools.bag import read_bag
+    from hri_sync.tools.session import build_session
+    c = read_bag(STILL)
+    s = analysis.summarize(build_session(c))
+    assert s['rounds'][0]['error_bound_ms'] != s['rounds'][0][
+        'error_bound_ms']                   # NaN: not recorded
+    assert 'Error bound' in {m['section'] for m in s['missing']}
+    for r, bound in zip(c.messages['/client_result'], (0.0004, 0.0007)):
+        r.msg.timing_uncertainty = bound    # as issue 10's messages have it
+    s = analysis.summarize(build_session(c))
+    r = s['rounds'][0]
+    assert sorted(v['error_bound_ms'] for v in r['clients'].values()) == \
+        pytest.approx([0.4, 0.7])
+    assert r['error_bound_ms'] == pytest.approx(0.7)   # the worst result
+    c.messages['/decision'][0].msg.error_bound = 0.0009
+    s = analysis.summarize(build_session(c))
+    assert s['rounds'][0]['error_bound_ms'] == pytest.approx(0.9)
+    assert 'Error bound' not in {m['section'] for m in s['missing']}
+    assert s['totals']['error_bound_ms']['p99'] == pytest.approx(0.9)

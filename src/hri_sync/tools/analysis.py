@@ -29,6 +29,18 @@ FIG5_BEFORE, FIG5_AFTER = 0.2, 0.4     # s around the window start
 BUILD_UP_POINTS = 60
 AFTER_WINDOW_SLACK = 0.2               # s after the window end, bag time
 ROBOT_ID, MUSIC_ID, SERVER_ID = 'dj_rob', 'music', 'server'
+# The per-window error bound of ClientResult and Decision, by the names
+# it has had.
+ERROR_BOUND_FIELDS = ('error_bound', 'timing_uncertainty')
+
+
+def error_bound(msg):
+    """A result's or decision's error bound (s), NaN where the recorded
+    message has none."""
+    for name in ERROR_BOUND_FIELDS:
+        if hasattr(msg, name):
+            return field_or_nan(msg, name)
+    return math.nan
 
 
 def ms(x):
@@ -166,7 +178,7 @@ def _result_row(res, frames, truth):
            'coverage': m.coverage,
            'first_frame_offset_ms': ms(m.first_frame_offset),
            'wake_lateness_ms': ms(m.wake_lateness), 'value': m.value,
-           'error_bound_ms': ms(field_or_nan(m, 'error_bound')),
+           'error_bound_ms': ms(error_bound(m)),
            'captured': len(frames), 'clock_error_ms': math.nan}
     if truth and frames:
         kept = [(s, *_truth(f)) for s, f in frames]
@@ -320,7 +332,7 @@ def summarize_round(session, rnd, clock, pose_list, rule, truth_clients,
                                   'true-clock frames')
     bounds = [v['error_bound_ms'] for v in clients.values()
               if 'error_bound_ms' in v]
-    bound = ms(field_or_nan(d, 'error_bound'))
+    bound = ms(error_bound(d))
     if not math.isfinite(bound) and any(map(math.isfinite, bounds)):
         bound = max(b for b in bounds if math.isfinite(b))
     row['error_bound_ms'] = bound
@@ -479,8 +491,9 @@ SECTIONS = [
      'with the session report, issue 12)',
      lambda s: any(hasattr(r.msg, 'round_trip')
                    for v in s.clock_states.values() for r in v)),
-    ('Error bound', 'ClientResult.error_bound / Decision.error_bound',
-     lambda s: any(hasattr(r.msg, 'error_bound')
+    ('Error bound', 'per-window error bound in ClientResult/Decision '
+     '(%s)' % ' or '.join(ERROR_BOUND_FIELDS),
+     lambda s: any(hasattr(r.msg, f) for f in ERROR_BOUND_FIELDS
                    for rnd in s.rounds.values()
                    for r in list(rnd.results.values())
                    + ([rnd.decision] if rnd.decision else []))),

@@ -21,7 +21,7 @@ def _num(values):
 
 def _png(fig):
     buf = io.BytesIO()
-    fig.savefig(buf, format='png', dpi=DPI, bbox_inches='tight')
+    fig.savefig(buf, format='png', dpi=DPI)
     plt.close(fig)
     return buf.getvalue()
 
@@ -36,7 +36,8 @@ def _windows(ax, rounds, t0):
 def clocks(series, rounds, t0):
     """Each client's clock model over the session: offset change since
     its first measurement, drift, uncertainty and NTP round trip."""
-    fig, axes = plt.subplots(2, 2, figsize=(12, 5.5), sharex=True)
+    fig, axes = plt.subplots(2, 2, figsize=(12, 5.5), sharex=True,
+                             layout='constrained')
     panels = [('offset_ms', 'offset change since first [ms]', True),
               ('drift_ppm', 'drift [ppm]', False),
               ('uncertainty_ms', 'offset uncertainty [ms]', False),
@@ -63,7 +64,7 @@ def clocks(series, rounds, t0):
 def rounds_overview(rounds):
     """Per round: start skew, error bound, first-frame offsets, ACK round
     time and decision latency."""
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.2))
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.2), layout='constrained')
     n = [r['round'] for r in rounds]
     ax = axes[0]
     ax.plot(n, _num([r.get('start_skew_ms') for r in rounds]), 'o-',
@@ -100,7 +101,7 @@ def rounds_overview(rounds):
 
 def session_heading(heading, rounds, t0, bearings):
     """DJ Rob's heading over the whole session."""
-    fig, ax = plt.subplots(figsize=(12, 2.8))
+    fig, ax = plt.subplots(figsize=(12, 2.8), layout='constrained')
     _windows(ax, rounds, t0)
     ax.plot(_num(heading['t']), _num(heading['deg']), lw=1, color='k',
             label='heading (odometry)')
@@ -121,7 +122,8 @@ def round_figure(r, min_expressiveness):
     score building up, and DJ Rob's heading."""
     robot = r.get('robot')
     panels = 3 if robot and robot.get('heading', {}).get('t') else 2
-    fig, axes = plt.subplots(1, panels, figsize=(4.2 * panels, 3.0))
+    fig, axes = plt.subplots(1, panels, figsize=(4.2 * panels, 3.0),
+                             layout='constrained')
     ax = axes[0]
     clients = sorted(set(r.get('fig5', {})) | set(r.get('fig5_raw', {})))
     for i, c in enumerate(clients):
@@ -178,5 +180,4 @@ def round_figure(r, min_expressiveness):
         ax.legend(fontsize=7, loc='lower left')
         ax.grid(alpha=0.3)
     fig.suptitle('round %d' % r['round'], fontsize=11)
-    fig.tight_layout()
     return _png(fig)
