@@ -18,6 +18,9 @@ more, where the kinds differ). Exit status 0 only if every round passed.
 
     source .ws/devel/setup.bash
     /usr/bin/python3 scripts/campaign.py [--out DIR] [--seed 1] [--dur 3]
+
+(``--verify-only`` re-runs verify_decisions and report on the bags of an
+earlier run in --out.)
 """
 import argparse
 import glob
@@ -122,11 +125,19 @@ def main():
                         help='rounds per pair (default 5: 35 in all)')
     parser.add_argument('--dur', type=float, default=3.0)
     parser.add_argument('--seed', type=int, default=1)
+    parser.add_argument('--verify-only', action='store_true',
+                        help='verify and report the bags already in --out '
+                        '(recorded with the same --pairs and --seed)')
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
-    bags = [run_pair(k, kinds, launch_args, args.rounds, args.dur, args.out)
-            for k, (kinds, launch_args) in enumerate(plan(args.pairs,
-                                                          args.seed))]
+    pairs = plan(args.pairs, args.seed)
+    if args.verify_only:
+        bags = [(os.path.join(args.out, 'pair%02d.bag' % (k + 1)), kinds)
+                for k, (kinds, _) in enumerate(pairs)]
+    else:
+        bags = [run_pair(k, kinds, launch_args, args.rounds, args.dur,
+                         args.out)
+                for k, (kinds, launch_args) in enumerate(pairs)]
     recorded = [b for b, _ in bags if os.path.exists(b)]
     if not recorded:
         sys.exit('campaign: no bag was recorded (logs in %s)' % args.out)

@@ -318,3 +318,30 @@ def test_error_bound_when_the_messages_carry_it():
     assert s['rounds'][0]['error_bound_ms'] == pytest.approx(0.9)
     assert 'Error bound' not in {m['section'] for m in s['missing']}
     assert s['totals']['error_bound_ms']['p99'] == pytest.approx(0.9)
+
+
+def test_results_past_the_deadline_are_not_held_against_the_decision():
+    # As in a loaded campaign run: both DPMs published after the decision
+    # module's deadline, which aborted the round ("missing").
+    from hri_sync.tools import analysis
+    from hri_sync.tools.bag import read_bag
+    from hri_sync.tools.session import build_session
+    c = read_bag(ROBOT)
+    d = c.messages['/decision'][1]
+    d.msg.outcome, d.msg.winner = 'aborted', 0
+    d.msg.scores = d.msg.scores * float('nan')
+    for r in c.messages['/client_result']:
+        if r.msg.round == 2:
+            r.t = d.t + 0.8
+    s = analysis.summarize(build_session(c))
+    r2 = s['rounds'][1]
+    assert r2['recomputed']['reproduced'], r2['recomputed']
+    assert r2['recomputed']['late_results_s'] == pytest.approx(
+        {'left': 0.8, 'right': 0.8})
+    assert 'recorded 0.80 s, 0.80 s after the decision' in r2['verdict']
+    # A score in the decision means the DM had that result: not late.
+    d.msg.scores[0] = 1.0
+    s = analysis.summarize(build_session(c))
+    assert s['rounds'][1]['recomputed']['late_results_s'] == \
+        pytest.approx({'right': 0.8})
+    assert not s['rounds'][1]['recomputed']['reproduced']

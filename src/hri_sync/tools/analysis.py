@@ -348,7 +348,7 @@ def summarize_round(session, rnd, clock, pose_list, rule, truth_clients,
             'stamp': secs(d.stamp) if hasattr(d, 'stamp') else math.nan,
             'latency_ms': ms(secs(d.stamp) - rnd.end)
             if hasattr(d, 'stamp') and secs(d.stamp) > 0 else math.nan}
-        row['recomputed'] = _recompute(session, rnd, rule, aborted)
+        row['recomputed'] = _recompute(session, rnd, rule)
     row['starts'] = _starts(rnd)
     row['beats'] = len(rnd.beats)
     robot = _robot(session, rnd, clock, pose_list, tolerance)
@@ -358,19 +358,47 @@ def summarize_round(session, rnd, clock, pose_list, rule, truth_clients,
     return row
 
 
-def _recompute(session, rnd, rule, aborted):
+def results_at_decision(rnd):
+    """({client: ClientResult} the decision module had, {client: s} of
+    results it did not have: recorded after the decision, which carries no
+    score for them (a result that arrived past the DM's deadline)."""
+    d = rnd.decision
+    scores = dict(zip(d.msg.clients, d.msg.scores)) if d else {}
+    used, late = {}, {}
+    for client, r in rnd.results.items():
+        if d is not None and r.t > d.t and client in scores and \
+                not math.isfinite(scores[client]):
+            late[client] = r.t - d.t
+        else:
+            used[client] = r.msg
+    return used, late
+
+
+def recompute(session, rnd, rule):
+    """(verify.RoundCheck, late results) of a decided round, or (None,
+    late) when there are no captured skeleton frames to recompute from."""
+    used, late = results_at_decision(rnd)
     frames = {c: session.captured.get(c, []) for c in rnd.participants}
     if not any(_is_skeleton(f) for f in frames.values()):
-        return {'reproduced': None, 'note': 'n/a: no captured skeleton '
-                'frames to recompute the scores from', 'problems': []}
-    chk = verify.check_round(rnd.decision.msg,
-                             {c: r.msg for c, r in rnd.results.items()},
-                             frames, rule, aborted)
+        return None, late
+    return verify.check_round(rnd.decision.msg, used, frames, rule,
+                              rnd.aborted_reason), late
+
+
+def _recompute(session, rnd, rule):
+    chk, late = recompute(session, rnd, rule)
+    out = {'late_results_s': late}
+    if chk is None:
+        out.update({'reproduced': None, 'note': 'n/a: no captured skeleton '
+                    'frames to recompute the scores from', 'problems': []})
+        return out
     problems = list(chk.problems) + [
         '%s: %s' % (c.client, p) for c in chk.clients for p in c.problems]
-    return {'reproduced': chk.ok, 'outcome': chk.outcome_recomputed,
-            'winner': chk.winner_recomputed, 'problems': problems,
-            'values': {c.client: c.value_recomputed for c in chk.clients}}
+    out.update({'reproduced': chk.ok, 'outcome': chk.outcome_recomputed,
+                'winner': chk.winner_recomputed, 'problems': problems,
+                'values': {c.client: c.value_recomputed
+                           for c in chk.clients}})
+    return out
 
 
 def _verdict(row):
@@ -391,6 +419,12 @@ def _verdict(row):
         ok = False
         parts.append('DECISION NOT REPRODUCED: ' + '; '.join(
             rec['problems']))
+    if rec.get('late_results_s'):
+        parts.append('result(s) of %s recorded %s after the decision, '
+                     'which was made without them' % (
+                         ', '.join(sorted(rec['late_results_s'])),
+                         ', '.join('%.2f s' % v for _, v in sorted(
+                             rec['late_results_s'].items()))))
     robot = row.get('robot')
     if robot is not None:
         parts.append(robot['verdict'])
