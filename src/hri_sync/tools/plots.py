@@ -19,6 +19,17 @@ def _num(values):
     return [math.nan if v is None else v for v in values]
 
 
+def _figure(rows, cols, width, height, hspace=0.12, wspace=0.3,
+            **kw):
+    """A figure with fixed margins (0.8 in left, 0.55 in below): no
+    layout pass, which would cost a third of the drawing time."""
+    fig, axes = plt.subplots(rows, cols, figsize=(width, height), **kw)
+    fig.subplots_adjust(left=0.8 / width, right=1 - 0.15 / width,
+                        bottom=0.55 / height, top=1 - 0.5 / height,
+                        hspace=hspace, wspace=wspace)
+    return fig, axes
+
+
 def _png(fig):
     buf = io.BytesIO()
     fig.savefig(buf, format='png', dpi=DPI)
@@ -36,8 +47,7 @@ def _windows(ax, rounds, t0):
 def clocks(series, rounds, t0):
     """Each client's clock model over the session: offset change since
     its first measurement, drift, uncertainty and NTP round trip."""
-    fig, axes = plt.subplots(2, 2, figsize=(12, 5.5), sharex=True,
-                             layout='constrained')
+    fig, axes = _figure(2, 2, 12, 5.5, wspace=0.2, sharex=True)
     panels = [('offset_ms', 'offset change since first [ms]', True),
               ('drift_ppm', 'drift [ppm]', False),
               ('uncertainty_ms', 'offset uncertainty [ms]', False),
@@ -64,7 +74,7 @@ def clocks(series, rounds, t0):
 def rounds_overview(rounds):
     """Per round: start skew, error bound, first-frame offsets, ACK round
     time and decision latency."""
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.2), layout='constrained')
+    fig, axes = _figure(1, 3, 12, 3.2)
     n = [r['round'] for r in rounds]
     ax = axes[0]
     ax.plot(n, _num([r.get('start_skew_ms') for r in rounds]), 'o-',
@@ -101,7 +111,7 @@ def rounds_overview(rounds):
 
 def session_heading(heading, rounds, t0, bearings):
     """DJ Rob's heading over the whole session."""
-    fig, ax = plt.subplots(figsize=(12, 2.8), layout='constrained')
+    fig, ax = _figure(1, 1, 12, 2.8)
     _windows(ax, rounds, t0)
     ax.plot(_num(heading['t']), _num(heading['deg']), lw=1, color='k',
             label='heading (odometry)')
@@ -122,8 +132,7 @@ def round_figure(r, min_expressiveness):
     score building up, and DJ Rob's heading."""
     robot = r.get('robot')
     panels = 3 if robot and robot.get('heading', {}).get('t') else 2
-    fig, axes = plt.subplots(1, panels, figsize=(4.2 * panels, 3.0),
-                             layout='constrained')
+    fig, axes = _figure(1, panels, 4.2 * panels, 3.0)
     ax = axes[0]
     clients = sorted(set(r.get('fig5', {})) | set(r.get('fig5_raw', {})))
     for i, c in enumerate(clients):
