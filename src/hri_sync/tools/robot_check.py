@@ -12,7 +12,9 @@ start pose the robot itself uses.
 import math
 from dataclasses import dataclass, field
 
-from hri_sync.robot.choreography import target_heading, wrap_angle
+from hri_sync.robot.choreography import target_heading
+from hri_sync.robot.geometry import (relative_pose, wrap_angle,
+                                     wrap_degrees, yaw_of)
 
 WINNER = 'winner'
 STILL_LINEAR = 0.01         # m: more is motion
@@ -20,15 +22,9 @@ STILL_ANGULAR = math.radians(1.0)
 CMD_EPS = 1e-3              # m/s, rad/s: a command above this moves
 
 
-def yaw_of(q):
-    """Yaw (rad) of a quaternion with x, y, z, w."""
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y),
-                      1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-
-
 def deg(a):
     """Radians to degrees in [-180, 180)."""
-    return (math.degrees(a) + 180.0) % 360.0 - 180.0
+    return wrap_degrees(math.degrees(a))
 
 
 @dataclass
@@ -51,10 +47,7 @@ def poses(odom):
             continue
         if origin is None:
             origin = (x, y, yaw)
-        dx, dy = x - origin[0], y - origin[1]
-        c, s = math.cos(-origin[2]), math.sin(-origin[2])
-        out.append(Pose(r.t, c * dx - s * dy, s * dx + c * dy,
-                        wrap_angle(yaw - origin[2])))
+        out.append(Pose(r.t, *relative_pose(origin, x, y, yaw)))
     return out
 
 
