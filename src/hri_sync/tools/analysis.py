@@ -28,7 +28,7 @@ DEFAULT_RULE = {'min_expressiveness': 1.0, 'tie_margin': 0.0,
 FIG5_BEFORE, FIG5_AFTER = 0.2, 0.4     # s around the window start
 BUILD_UP_POINTS = 60
 AFTER_WINDOW_SLACK = 0.2               # s after the window end, bag time
-ROBOT_ID, MUSIC_ID, SERVER_ID = 'dj_rob', 'music', 'server'
+ROBOT_ID, SERVER_ID = 'dj_rob', 'server'
 # The per-window error bound of ClientResult and Decision, by the names
 # it has had.
 ERROR_BOUND_FIELDS = ('error_bound', 'timing_uncertainty')
@@ -154,6 +154,8 @@ def clock_series(session, t0):
 
 
 def decision_rule(config, overrides=None):
+    """The decision module's rule: the defaults, then what the recording's
+    /dance_off/config says, then ``overrides`` that are not None."""
     rule = dict(DEFAULT_RULE)
     rule.update({k: config[k] for k in DEFAULT_RULE if k in config})
     rule.update({k: v for k, v in (overrides or {}).items()
@@ -290,8 +292,7 @@ def summarize_round(session, rnd, clock, pose_list, rule, truth_clients,
         if sync is not None:
             row['ack_round_ms'] = ms(secs(c.cr_t) - secs(sync.msg.stamp))
     row['acks'] = {k: _ack_row(a, sync) for k, a in sorted(rnd.acks.items())}
-    aborted = rnd.aborted_reason
-    row['aborted_reason'] = aborted
+    row['aborted_reason'] = rnd.aborted_reason
     participants = rnd.participants
     row['participants'] = participants
     clients, timings, fig5, raw5, curves = {}, [], {}, {}, {}
