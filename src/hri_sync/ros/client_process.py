@@ -1,4 +1,5 @@
 """The client process module (CPM) on ROS: ACKs and capture orders."""
+import math
 import time
 from collections import Counter
 
@@ -37,10 +38,13 @@ class ClientProcess:
         received = time.time()
         status = self.synced_clock.measure()
         r = self.schedule.on_sync(msg.round, received, time.time(), status)
+        no_model = math.isnan(r.stamp)
         self._ack_pub.publish(SyncAck(
             round=r.round, client_id=r.client_id, ok=r.ok, reason=r.reason,
             offset=r.offset, uncertainty=r.uncertainty, drift=r.drift,
-            sync_received=stamp(r.sync_received), stamp=stamp(r.stamp)))
+            # The core's NaN times: no clock model yet, so no time.
+            sync_received=stamp(None if no_model else r.sync_received),
+            stamp=stamp(None if no_model else r.stamp)))
         if not r.ok:
             rospy.logerr('%s: NACK round %d: %s', self.client_id, msg.round,
                          r.reason)

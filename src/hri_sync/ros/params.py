@@ -6,6 +6,7 @@ import time
 import rospy
 
 from hri_sync.ros import master_watch
+from hri_sync.timing.validate import Rejected, time_value
 
 
 class ParamError(Exception):
@@ -108,9 +109,31 @@ def after(delay, callback, *args):
     threading.Thread(target=run, daemon=True).start()
 
 
+class StampError(ValueError):
+    """A time that must not be published: not finite, not positive or
+    beyond the last ROS time (rospy cannot serialise it, and a publisher
+    that tries corrupts its link for good).  ``reason`` is the key of
+    hri_sync.timing.validate."""
+
+    def __init__(self, reason, message):
+        super().__init__(message)
+        self.reason = reason
+
+
 def stamp(t):
-    """A float of seconds as rospy.Time (NaN becomes 0)."""
-    return rospy.Time.from_sec(t) if math.isfinite(t) else rospy.Time()
+    """A float of seconds as rospy.Time, validated first.
+
+    None is the explicit "no time" (a zero time, for fields whose contract
+    says 0 means unknown); a time that is not finite, not positive or not
+    below 2**32 s raises StampError instead of going out.
+    """
+    if t is None:
+        return rospy.Time()
+    try:
+        time_value(t, 'stamp')
+    except Rejected as e:
+        raise StampError(e.reason, str(e))
+    return rospy.Time.from_sec(t)
 
 
 def secs(t):
