@@ -1,0 +1,80 @@
+"""hri_sync.ros.lifeline: children that die with their parent, even when
+the parent is killed with SIGKILL (a real kernel test, no ROS)."""
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import hri_sync
+
+SRC = os.path.dirname(os.path.dirname(os.path.abspath(hri_sync.__file__)))
+LIFELINE = os.path.join(SRC, '..', 'scripts', 'lifeline')
+ENV = dict(os.environ, PYTHONPATH=SRC)
+
+# A parent that starts a long sleep as its child, prints the child's pid
+# and waits; ``how`` sets the child's lifeline.
+PARENT = '''
+import os, subprocess, sys, time
+from hri_sync.ros.lifeline import tie_to
+how = sys.argv[1]
+if how == 'preexec':
+    child = subprocess.Popen(['sleep', '60'], preexec_fn=tie_to(os.getpid()))
+elif how == 'script':
+    child = subprocess.Popen([sys.executable, sys.argv[2], 'sleep', '60'])
+else:
+    child = subprocess.Popen(['sleep', '60'])
+print(child.pid, flush=True)
+time.sleep(60)
+'''
+
+
+def alive(pid):
+    """True unless ``pid`` is gone or a zombie."""
+    try:
+        with open('/proc/%d/stat' % pid) as f:
+            stat = f.read()
+    except OSError:
+        return False
+    return stat[stat.rfind(')') + 2] not in 'ZX'
+
+
+def orphan_after_sigkill(how, deadline=20.0):
+    """Kill the parent with SIGKILL; True if its child outlived it by
+    ``deadline`` s (for the kernel, far above the microseconds it takes)."""
+    parent = subprocess.Popen(
+        [sys.executable, '-c', PARENT, how, LIFELINE], env=ENV,
+        stdout=subprocess.PIPE, text=True)
+    child = int(parent.stdout.readline())
+    time.sleep(0.5)                 # the lifeline script has exec'ed sleep
+    assert alive(child)
+    parent.kill()
+    parent.wait()
+    deadline += time.monotonic()
+    while alive(child) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    survived = alive(child)
+    if survived:
+        os.kill(child, signal.SIGKILL)
+    return survived
+
+
+def test_without_a_lifeline_the_child_is_orphaned():
+    assert orphan_after_sigkill('none', deadline=2.0)
+
+
+def test_a_tied_child_dies_with_its_parent():
+    assert not orphan_after_sigkill('preexec')
+
+
+def test_the_lifeline_script_ties_any_command():
+    assert not orphan_after_sigkill('script')
+
+
+def test_a_parent_already_gone_signals_at_once():
+    code = subprocess.run(
+        [sys.executable, '-c', 'import time\n'
+         'from hri_sync.ros.lifeline import die_with_parent\n'
+         'die_with_parent(parent=1)\n'
+         'time.sleep(10)\n'], env=ENV, timeout=30).returncode
+    assert code == -signal.SIGTERM
