@@ -17,8 +17,10 @@ service) on this test's master, with its screen output in a file, and:
 
 What broke is logged per node (dead nodes, tracebacks by log file).
 """
+import collections
 import glob
 import os
+import re
 import signal
 import subprocess
 import tempfile
@@ -38,6 +40,8 @@ from hri_sync.timing.decision import decide
 
 CLIENTS = ('left', 'right', 'dj_rob', 'music')
 PARTICIPANTS = ('left', 'right')
+FRAME = re.compile(r'File "[^"]*/(?:nodes|lib/hri_sync)/(\w+)"|'
+                   r'File "[^"]*/src/hri_sync/([\w/]+)\.py"')
 
 
 def callerid(msg):
@@ -45,18 +49,47 @@ def callerid(msg):
 
 
 def tracebacks(paths):
-    """{path: number of 'Traceback' lines} of the files that have any."""
+    """{path: [(where, exception line)]} of the tracebacks in the files.
+
+    ``where`` is the innermost frame in nodes/ (the node), else in
+    hri_sync (a module); a traceback chained into a later one (``During
+    handling ...``) counts once, as the later one.
+    """
     out = {}
     for path in paths:
         try:
             with open(path, errors='replace') as f:
-                n = sum('Traceback (most recent call last)' in line
-                        for line in f)
+                lines = f.read().splitlines()
         except OSError:
             continue
-        if n:
-            out[path] = n
+        found = []
+        for i, line in enumerate(lines):
+            if 'Traceback (most recent call last)' not in line:
+                continue
+            nodes, modules, error, end = [], [], '?', len(lines)
+            for j in range(i + 1, min(i + 80, len(lines))):
+                m = FRAME.search(lines[j])
+                if m:
+                    (nodes if m.group(1) else modules).append(
+                        m.group(1) or m.group(2))
+                elif lines[j] and not lines[j][0].isspace():
+                    error, end = lines[j].strip()[:160], j
+                    break
+            after = [x for x in lines[end + 1:end + 3] if x.strip()]
+            if after and after[0].startswith(('During handling',
+                                              'The above exception')):
+                continue
+            found.append(((nodes or modules or ['?'])[-1], error))
+        if found:
+            out[path] = found
     return out
+
+
+def deaths(path):
+    """Lines where roslaunch reports a process that died."""
+    with open(path, errors='replace') as f:
+        return [line.strip()[:200] for line in f
+                if 'process has died' in line or 'has died!' in line]
 
 
 class FuzzDanceOff(unittest.TestCase):
@@ -73,11 +106,14 @@ class FuzzDanceOff(unittest.TestCase):
                              self.on_clock, c)
         self.out = tempfile.NamedTemporaryFile(
             prefix='fuzz_dance_off_', suffix='.log', delete=False)
+        launch = rospy.get_param('~launch', 'dance_off.launch')
+        where = [] if os.path.isabs(launch) else ['hri_sync']
         self.launch = subprocess.Popen(
-            ['roslaunch', 'hri_sync', 'dance_off.launch', 'rounds:=0',
-             'dur:=%s' % rospy.get_param('~dur', 5.0),
-             'ntp_port:=%d' % rospy.get_param('~ntp_port'),
-             'monitor_required:=false'],
+            ['roslaunch'] + where + [
+                launch, 'rounds:=0',
+                'dur:=%s' % rospy.get_param('~dur', 5.0),
+                'ntp_port:=%d' % rospy.get_param('~ntp_port'),
+                'monitor_required:=false'],
             stdout=self.out, stderr=subprocess.STDOUT,
             start_new_session=True)
 
@@ -171,28 +207,51 @@ class FuzzDanceOff(unittest.TestCase):
                         if not rosnode.rosnode_ping(n, max_count=1))
         rospy.loginfo('after fuzzing: dead %s, not answering %s', dead,
                       silent)
-        decision, results = self.clean_round('clean after fuzzing')
+        failures = []
+        try:
+            decision, results = self.clean_round('clean after fuzzing')
+            failures += self.check_decision(decision, results)
+        except AssertionError as e:
+            failures.append(str(e))
+        self.out.flush()
+        for line in deaths(self.out.name):
+            rospy.loginfo('roslaunch: %s', line)
         log_dir = os.path.join(rospkg.get_log_dir(),
                                rosgraph.Master('/fuzz').getParam('/run_id'))
-        self.out.flush()
         found = tracebacks([self.out.name] +
                            glob.glob(os.path.join(log_dir, '*.log')))
-        for path, n in sorted(found.items()):
-            rospy.loginfo('traceback lines: %4d in %s', n, path)
+        for path, blocks in sorted(found.items()):
+            for (where, error), n in sorted(
+                    collections.Counter(blocks).items()):
+                rospy.loginfo('%4d traceback(s) in %s: %s: %s', n,
+                              os.path.basename(path), where, error)
+        if dead:
+            failures.append('nodes died: %s' % dead)
+        if silent:
+            failures.append('nodes not answering: %s' % silent)
+        if found:
+            failures.append('%d tracebacks logged' % sum(
+                len(b) for b in found.values()))
+        self.assertEqual(failures, [])
 
-        self.assertEqual(dead, [], 'nodes died: %s' % dead)
-        self.assertEqual(silent, [], 'nodes not answering: %s' % silent)
-        for c in PARTICIPANTS:
-            self.assertIn(c, results, 'no result of %s from its DPM' % c)
-            self.assertEqual(results[c].status, ClientResult.OK,
-                             '%s: %s' % (c, results[c].status))
+    def check_decision(self, decision, results):
+        """What is wrong with a clean round's decision and results."""
+        wrong = ['no ok result of %s from its DPM (%s)'
+                 % (c, results[c].status if c in results else 'none')
+                 for c in PARTICIPANTS
+                 if c not in results or results[c].status != ClientResult.OK]
+        if wrong:
+            return wrong
         want = decide(list(PARTICIPANTS),
                       {c: (r.status, r.value) for c, r in results.items()},
                       rospy.get_param('~min_expressiveness', 1.0),
                       rospy.get_param('~tie_margin', 0.0), 'partial')
-        self.assertEqual((decision.outcome, decision.winner),
-                         (want.outcome, want.winner), decision.reason)
-        self.assertEqual(found, {}, 'tracebacks logged')
+        if (decision.outcome, decision.winner) != (want.outcome,
+                                                   want.winner):
+            return ['decision %s %d (%s), the results give %s %d'
+                    % (decision.outcome, decision.winner, decision.reason,
+                       want.outcome, want.winner)]
+        return []
 
 
 if __name__ == '__main__':

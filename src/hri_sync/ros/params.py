@@ -1,11 +1,13 @@
 """Node plumbing: ~params, polled waits and rospy.Time conversion."""
 import math
+import signal
 import threading
 import time
 
 import rospy
 
 from hri_sync.ros import master_watch
+from hri_sync.ros.lifeline import die_with_parent
 from hri_sync.timing.validate import Rejected, time_value
 
 
@@ -61,11 +63,13 @@ def run_node(name, main, master_restart='exit'):
     status 2).  A restart of the ROS master (``master_watch``) is logged
     and, with ``master_restart='exit'``, shuts the node down with exit
     status ``master_watch.RESTART_EXIT`` (75) for roslaunch to respawn it;
-    with 'warn' the node keeps running unregistered.
+    with 'warn' the node keeps running unregistered.  The node shuts down
+    (SIGTERM) when its parent, e.g. roslaunch, dies: no orphan nodes.
     """
     if master_restart not in ('exit', 'warn'):
         raise ValueError("master_restart must be 'exit' or 'warn', got %r"
                          % (master_restart,))
+    die_with_parent(signal.SIGTERM)
     rospy.init_node(name)
     watch = master_watch.start(exit_on_restart=master_restart == 'exit')
     try:

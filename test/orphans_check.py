@@ -1,0 +1,126 @@
+#!/usr/bin/python3
+"""Checks that a dance-off killed with SIGKILL leaves no orphans (issue 11).
+
+Starts ``dance_off.launch`` (a client under skewed_client, a bag being
+recorded) on this test's master, waits for its nodes, notes every
+descendant process of that roslaunch, kills the roslaunch with SIGKILL
+and checks that within ~deadline s none of them is alive any more (the
+lifelines of hri_sync.ros.lifeline), and that the bag was closed: no
+``.bag.active`` left, a ``.bag`` there.  The deadline is a liveness bound
+far above what the shutdown takes (a few seconds), not a performance
+figure.
+"""
+import os
+import signal
+import subprocess
+import tempfile
+import time
+import unittest
+
+import rosnode
+import rospy
+import rostest
+
+NODES = ('/control_module', '/decision_module', '/time_server',
+         '/left/cpm', '/left/dpm', '/right/cpm',
+         '/right/dpm', '/left/sensor', '/right/sensor', '/recorder',
+         '/dance_off_config', '/dj_rob', '/music', '/kobuki_sim')
+
+
+def stat(pid):
+    """(parent pid, state, start time) of a process, or None."""
+    try:
+        with open('/proc/%d/stat' % pid) as f:
+            text = f.read()
+    except OSError:
+        return None
+    fields = text[text.rfind(')') + 2:].split()
+    return int(fields[1]), fields[0], fields[19]
+
+
+def descendants(root):
+    """{pid: start time} of the live descendants of ``root``."""
+    children = {}
+    for name in filter(str.isdigit, os.listdir('/proc')):
+        s = stat(int(name))
+        if s and s[1] not in 'ZX':
+            children.setdefault(s[0], []).append((int(name), s[2]))
+    out, todo = {}, list(children.get(root, []))
+    while todo:
+        pid, start = todo.pop()
+        out[pid] = start
+        todo.extend(children.get(pid, []))
+    return out
+
+
+def cmdline(pid):
+    try:
+        with open('/proc/%d/cmdline' % pid, 'rb') as f:
+            return f.read().replace(b'\0', b' ').decode(errors='replace')
+    except OSError:
+        return '?'
+
+
+class Orphans(unittest.TestCase):
+    """kill -9 roslaunch: every node it started ends."""
+
+    launch = None
+
+    def tearDown(self):
+        # A failure before the kill: stop the launch as Ctrl-C would.
+        if self.launch is not None and self.launch.poll() is None:
+            os.killpg(self.launch.pid, signal.SIGINT)
+            try:
+                self.launch.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.launch.pid, signal.SIGKILL)
+
+    def test_sigkill_leaves_no_orphans(self):
+        folder = tempfile.mkdtemp(prefix='orphans_')
+        bag = os.path.join(folder, 'round.bag')
+        self.launch = launch = subprocess.Popen(
+            ['roslaunch', 'hri_sync', 'dance_off.launch', 'rounds:=0',
+             'ntp_port:=%d' % rospy.get_param('~ntp_port'),
+             'left_clock:=+1.5s x1.0001', 'bag:=' + bag,
+             'monitor_required:=false'],
+            stdout=open(os.path.join(folder, 'launch.log'), 'w'),
+            stderr=subprocess.STDOUT, start_new_session=True)
+        deadline = time.monotonic() + 90.0
+        while time.monotonic() < deadline and not (
+                set(NODES) <= set(rosnode.get_node_names())
+                and os.path.exists(bag + '.active')):
+            time.sleep(0.5)
+        missing = set(NODES) - set(rosnode.get_node_names())
+        self.assertFalse(missing, 'nodes never came up: %s' % missing)
+        self.assertTrue(os.path.exists(bag + '.active'), 'no bag recorded')
+        time.sleep(2.0)
+        procs = descendants(launch.pid)
+        rospy.loginfo('%d processes under roslaunch %d; SIGKILL to it',
+                      len(procs), launch.pid)
+        os.kill(launch.pid, signal.SIGKILL)
+        launch.wait()
+
+        def alive():
+            return {pid: cmdline(pid) for pid, start in procs.items()
+                    if (stat(pid) or (0, 'X', ''))[1] not in 'ZX'
+                    and stat(pid)[2] == start}
+        limit = rospy.get_param('~deadline', 60.0)
+        t0 = time.monotonic()
+        while alive() and time.monotonic() - t0 < limit:
+            time.sleep(0.2)
+        survivors = alive()
+        rospy.loginfo('all gone after %.1f s' % (time.monotonic() - t0)
+                      if not survivors else 'survivors: %s' % survivors)
+        for pid in survivors:
+            os.kill(pid, signal.SIGKILL)
+        self.assertFalse(survivors, 'orphans %.0f s after the SIGKILL: %s'
+                         % (limit, '; '.join(c[:100] for c in
+                                             survivors.values())))
+        self.assertFalse(os.path.exists(bag + '.active'),
+                         'the bag was left active')
+        self.assertTrue(os.path.exists(bag), 'no closed bag')
+
+
+if __name__ == '__main__':
+    rospy.init_node('orphans_check')
+    rostest.rosrun('hri_sync', 'orphans_check', Orphans)
