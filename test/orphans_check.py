@@ -3,10 +3,11 @@
 
 Starts ``dance_off.launch`` (a client under skewed_client, a bag being
 recorded) on this test's master, waits for its nodes, notes every
-descendant process of that roslaunch, kills the roslaunch with SIGKILL
-and checks that within ~deadline s none of them is alive any more (the
-lifelines of hri_sync.ros.lifeline), and that the bag was closed: no
-``.bag.active`` left, a ``.bag`` there.  The deadline is a liveness bound
+descendant process of the roslaunch (or of the skewed_client), kills it
+with SIGKILL and checks that within ~deadline s none of them is alive
+any more (the lifelines of hri_sync.ros.lifeline); with roslaunch
+killed, that the bag was closed: no ``.bag.active`` left, a ``.bag``
+there.  The deadline is a liveness bound
 far above what the shutdown takes (a few seconds), not a performance
 figure.
 """
@@ -75,10 +76,11 @@ class Orphans(unittest.TestCase):
             except subprocess.TimeoutExpired:
                 os.killpg(self.launch.pid, signal.SIGKILL)
 
-    def test_sigkill_leaves_no_orphans(self):
+    def start(self):
+        """Start the dance-off; returns its bag's path once it records."""
         folder = tempfile.mkdtemp(prefix='orphans_')
         bag = os.path.join(folder, 'round.bag')
-        self.launch = launch = subprocess.Popen(
+        self.launch = subprocess.Popen(
             ['roslaunch', 'hri_sync', 'dance_off.launch', 'rounds:=0',
              'ntp_port:=%d' % rospy.get_param('~ntp_port'),
              'left_clock:=+1.5s x1.0001', 'bag:=' + bag,
@@ -94,16 +96,20 @@ class Orphans(unittest.TestCase):
         self.assertFalse(missing, 'nodes never came up: %s' % missing)
         self.assertTrue(os.path.exists(bag + '.active'), 'no bag recorded')
         time.sleep(2.0)
-        procs = descendants(launch.pid)
-        rospy.loginfo('%d processes under roslaunch %d; SIGKILL to it',
-                      len(procs), launch.pid)
-        os.kill(launch.pid, signal.SIGKILL)
-        launch.wait()
+        return bag
+
+    def kill(self, pid):
+        """SIGKILL ``pid``; fail if a descendant of it outlives it by
+        ~deadline s."""
+        procs = descendants(pid)
+        rospy.loginfo('%d processes under %d (%s); SIGKILL to it',
+                      len(procs), pid, cmdline(pid)[:60])
+        os.kill(pid, signal.SIGKILL)
 
         def alive():
-            return {pid: cmdline(pid) for pid, start in procs.items()
-                    if (stat(pid) or (0, 'X', ''))[1] not in 'ZX'
-                    and stat(pid)[2] == start}
+            return {p: cmdline(p) for p, start in procs.items()
+                    if (stat(p) or (0, 'X', ''))[1] not in 'ZX'
+                    and stat(p)[2] == start}
         limit = rospy.get_param('~deadline', 60.0)
         t0 = time.monotonic()
         while alive() and time.monotonic() - t0 < limit:
@@ -111,14 +117,26 @@ class Orphans(unittest.TestCase):
         survivors = alive()
         rospy.loginfo('all gone after %.1f s' % (time.monotonic() - t0)
                       if not survivors else 'survivors: %s' % survivors)
-        for pid in survivors:
-            os.kill(pid, signal.SIGKILL)
+        for p in survivors:
+            os.kill(p, signal.SIGKILL)
         self.assertFalse(survivors, 'orphans %.0f s after the SIGKILL: %s'
                          % (limit, '; '.join(c[:100] for c in
                                              survivors.values())))
+
+    def test_killed_roslaunch(self):
+        bag = self.start()
+        self.kill(self.launch.pid)
+        self.launch.wait()
         self.assertFalse(os.path.exists(bag + '.active'),
                          'the bag was left active')
         self.assertTrue(os.path.exists(bag), 'no closed bag')
+
+    def test_killed_skewed_client(self):
+        self.start()
+        client = [p for p in descendants(self.launch.pid)
+                  if 'skewed_client' in cmdline(p)]
+        self.assertEqual(len(client), 1, 'no skewed_client')
+        self.kill(client[0])
 
 
 if __name__ == '__main__':

@@ -28,9 +28,7 @@ import threading
 import time
 import unittest
 
-import rosgraph
 import rosnode
-import rospkg
 import rospy
 import rostest
 from std_srvs.srv import Trigger
@@ -104,8 +102,9 @@ class FuzzDanceOff(unittest.TestCase):
         for c in CLIENTS:
             rospy.Subscriber('/%s/clock_state' % c, ClockState,
                              self.on_clock, c)
-        self.out = tempfile.NamedTemporaryFile(
-            prefix='fuzz_dance_off_', suffix='.log', delete=False)
+        # The launch's output and its nodes' logs, in a folder of ours.
+        self.log_dir = tempfile.mkdtemp(prefix='fuzz_dance_off_')
+        self.out = open(os.path.join(self.log_dir, 'launch.log'), 'w')
         launch = rospy.get_param('~launch', 'dance_off.launch')
         where = [] if os.path.isabs(launch) else ['hri_sync']
         self.launch = subprocess.Popen(
@@ -115,7 +114,8 @@ class FuzzDanceOff(unittest.TestCase):
                 'ntp_port:=%d' % rospy.get_param('~ntp_port'),
                 'monitor_required:=false'],
             stdout=self.out, stderr=subprocess.STDOUT,
-            start_new_session=True)
+            start_new_session=True,
+            env=dict(os.environ, ROS_LOG_DIR=self.log_dir))
 
     def tearDown(self):
         try:
@@ -186,7 +186,8 @@ class FuzzDanceOff(unittest.TestCase):
         self.assertNotEqual(decision.outcome, Decision.ABORTED,
                             decision.reason)
         before = self.nodes()
-        rospy.loginfo('nodes before fuzzing: %s', sorted(before))
+        rospy.loginfo('nodes before fuzzing: %s; logs in %s', sorted(before),
+                      self.log_dir)
 
         thread, _ = self.start_round()
         fuzz = subprocess.run(
@@ -216,10 +217,9 @@ class FuzzDanceOff(unittest.TestCase):
         self.out.flush()
         for line in deaths(self.out.name):
             rospy.loginfo('roslaunch: %s', line)
-        log_dir = os.path.join(rospkg.get_log_dir(),
-                               rosgraph.Master('/fuzz').getParam('/run_id'))
-        found = tracebacks([self.out.name] +
-                           glob.glob(os.path.join(log_dir, '*.log')))
+        found = tracebacks([self.out.name] + sorted({
+            os.path.realpath(p) for p in glob.glob(
+                os.path.join(self.log_dir, '*', '*.log'))}))
         for path, blocks in sorted(found.items()):
             for (where, error), n in sorted(
                     collections.Counter(blocks).items()):
