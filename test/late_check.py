@@ -7,6 +7,11 @@ and the decision is over the others, flagged as partial.
 ~expect 'on_time': STR_AFT is auto: it measures c's dispatch latency from
 the ACKs (sync_time went through the same delay) and exceeds it, so every
 client captures.
+
+Load only delays messages more, so the checks hold on a loaded machine:
+c's lateness is at least the delay minus STR_AFT (less the clocks'
+reported uncertainties), and below a bound that only a wrong unit or
+sign would break; rounds are awaited, not timed.
 """
 import time
 import unittest
@@ -27,7 +32,7 @@ class LateCheck(unittest.TestCase):
         delay = rospy.get_param('~delay')
         expect = rospy.get_param('~expect')
         log = RoundLog(clients)
-        deadline = time.monotonic() + 75.0
+        deadline = time.monotonic() + rospy.get_param('~timeout', 200.0)
         while time.monotonic() < deadline and not all(
                 log.rounds.get(n, {}).get('decision') for n in (1, 2)):
             time.sleep(0.1)
@@ -47,9 +52,14 @@ class LateCheck(unittest.TestCase):
             if expect == 'late':
                 self.assertLess(r['capture'].str_aft, delay)
                 self.assertEqual(res.status, 'late')
-                self.assertGreater(res.wake_lateness, 0.0)
-                self.assertLess(abs(res.wake_lateness -
-                                    (delay - r['capture'].str_aft)), 0.15)
+                late = delay - r['capture'].str_aft
+                # c's clock error and the CM's (on the same time server).
+                slack = 2 * r['acks'][delayed].uncertainty + 0.002
+                self.assertGreater(res.wake_lateness, late - slack,
+                                   'lateness %.3f s, delay - STR_AFT %.3f s'
+                                   % (res.wake_lateness, late))
+                self.assertLess(res.wake_lateness, late + 10.0,
+                                'lateness %.3f s' % res.wake_lateness)
                 self.assertIn('%s has no usable result (late)' % delayed,
                               r['decision'].reason)
             else:

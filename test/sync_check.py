@@ -3,11 +3,24 @@
 
 A reference sensor on the true clock writes each sample's true time into
 the sample; clients (some under libfaketime) stamp samples in their global
-time.  For every round this checks: every ACK ok, each ACK offset near the
-client's fake offset (~expected_offsets), each client's clock error at the
-window start and end within ~max_clock_error of zero, the clients' start
-skew within ~max_skew, the same first sample everywhere, results and a
-decision arrive.
+time at arrival.  For every round this checks: every ACK ok, each ACK
+offset near the client's fake offset (~expected_offsets), results and a
+decision arrive, and, in ways that hold however late the samples are
+delivered on a loaded machine:
+
+- each client's clock error, ``global stamp - true time`` of its
+  least-delayed kept sample (delivery only adds delay), is within the
+  uncertainty its ACK reported plus ~clock_error_margin; this bounds the
+  clients' start skew too (the spread of their errors);
+- no client missed a sample that it should have kept: every sample
+  (kept by any client) taken from ``start + E`` (E: the largest error
+  bound) up to that client's last kept sample is in its window (a delay
+  can move a sample in before the start or out after the end, never out
+  of the middle);
+- the DPM republished as many samples as it used.
+
+The figures themselves (clock errors, start skew, first samples) are
+logged here and measured by bench/sync_skew.py.
 """
 import math
 import time
@@ -28,32 +41,42 @@ class SyncCheck(unittest.TestCase):
         clients = csv_list(rospy.get_param('~clients'))
         rounds = rospy.get_param('~rounds')
         expected = rospy.get_param('~expected_offsets', {})
-        max_error = rospy.get_param('~max_clock_error', 0.002)
-        max_skew = rospy.get_param('~max_skew', 0.001)
+        margin = rospy.get_param('~clock_error_margin', 0.002)
         log = RoundLog(clients, 'hri_sync/Sample')
-        deadline = time.monotonic() + rospy.get_param('~timeout', 150.0)
         t0 = time.monotonic()
+        deadline = t0 + rospy.get_param('~timeout', 400.0)
         while time.monotonic() < deadline and not all(
                 log.rounds.get(n, {}).get('decision') for n in
                 range(1, rounds + 1)):
             time.sleep(0.1)
-        time.sleep(1.0)
-        log.assign_captured()
-        elapsed = time.monotonic() - t0 + 10.0  # the clients ran before us
+
+        def republished():
+            log.assign_captured()
+            return all(len(r['captured'].get(c, [])) >= r['results'][c].frames
+                       for r in log.rounds.values() if r['decision']
+                       for c in clients if c in r['results'])
+        # Captured samples come before the result, but a loaded checker
+        # may read them late: wait for them, not for a fixed time.
+        while time.monotonic() < deadline and not republished():
+            time.sleep(0.2)
+        # The fake clocks started with the launch, before this node.
+        elapsed = time.monotonic() - t0 + 30.0
         for n in range(1, rounds + 1):
             r = log.rounds.get(n)
             self.assertIsNotNone(r, 'round %d never happened' % n)
             self.assertIsNotNone(r['decision'], 'round %d: no decision' % n)
             self.assertIsNotNone(r['capture'], 'round %d: no capture' % n)
             self.assertEqual(sorted(r['capture'].clients), sorted(clients))
-            starts, ends = [], []
+            self.assertTrue(math.isfinite(r['capture'].str_aft))
+            start = r['capture'].cr_t.to_sec() + r['capture'].str_aft
+            timings, kept, bound = [], {}, {}
             for c in clients:
                 ack = r['acks'].get(c)
                 self.assertTrue(ack and ack.ok, 'round %d: %s ACK %r'
                                 % (n, c, ack))
                 want = -float(expected.get(c, 0.0))
                 # The fake clock drifts by up to 200 ppm since it started.
-                slack = 0.002 + 200e-6 * elapsed
+                slack = ack.uncertainty + margin + 200e-6 * elapsed
                 self.assertLess(abs(ack.offset - want), slack,
                                 'round %d: %s ACK offset %.6f s, fake offset '
                                 '%.6f s' % (n, c, ack.offset, want))
@@ -61,32 +84,42 @@ class SyncCheck(unittest.TestCase):
                 self.assertTrue(res, 'round %d: no result from %s' % (n, c))
                 self.assertEqual(res.status, 'ok', 'round %d %s: %s'
                                  % (n, c, res.status))
-                kept = r['captured'].get(c, [])
-                self.assertEqual(len(kept), res.frames)
-                start = client_timing(c, kept)
-                end = client_timing(c, kept, at_end=True)
-                rospy.loginfo('round %d %s: ACK offset %+.6f s; clock error '
-                              'at start %+.3f ms, at end %+.3f ms; first '
-                              'sample %d; wake-up %.2f ms late', n, c,
-                              ack.offset, start.clock_error * 1e3,
-                              end.clock_error * 1e3, start.first_index,
+                kept[c] = r['captured'].get(c, [])
+                self.assertEqual(len(kept[c]), res.frames)
+                t = client_timing(c, kept[c], head=len(kept[c]))
+                bound[c] = ack.uncertainty + margin
+                rospy.loginfo('round %d %s: ACK offset %+.6f s +/- %.3f ms; '
+                              'clock error %+.3f ms (least-delayed of %d '
+                              'samples); first sample %d; wake-up %.2f ms '
+                              'late', n, c, ack.offset,
+                              ack.uncertainty * 1e3, t.clock_error * 1e3,
+                              t.samples, t.first_index,
                               res.wake_lateness * 1e3)
-                for t in (start, end):
-                    self.assertLess(abs(t.clock_error), max_error,
-                                    'round %d: %s clock error %.3f ms'
-                                    % (n, c, t.clock_error * 1e3))
-                starts.append(start)
-                ends.append(end)
-            skew = start_skew(starts)
-            rospy.loginfo('round %d: start skew %.3f ms, end skew %.3f ms',
-                          n, skew * 1e3, start_skew(ends) * 1e3)
-            self.assertLess(skew, max_skew, 'round %d: start skew %.3f ms'
-                            % (n, skew * 1e3))
-            self.assertEqual(len({t.first_index for t in starts}), 1,
-                             'round %d: first samples differ: %s' % (
-                                 n, {t.client_id: t.first_index
-                                     for t in starts}))
-            self.assertTrue(math.isfinite(r['capture'].str_aft))
+                self.assertLess(abs(t.clock_error), bound[c],
+                                'round %d: %s clock error %.3f ms, reported '
+                                'uncertainty %.3f ms + margin %.3f ms'
+                                % (n, c, t.clock_error * 1e3,
+                                   ack.uncertainty * 1e3, margin * 1e3))
+                timings.append(t)
+            rospy.loginfo('round %d: start skew %.3f ms (within %.3f ms by '
+                          'the error bounds); first samples %s', n,
+                          start_skew(timings) * 1e3,
+                          sum(sorted(bound.values())[-2:]) * 1e3,
+                          {t.client_id: t.first_index for t in timings})
+            self.check_no_missed_sample(n, kept, start + max(bound.values()))
+
+    def check_no_missed_sample(self, n, kept, edge):
+        """Every sample taken from ``edge`` (true time) on, up to a
+        client's last kept sample, is in that client's window."""
+        taken = {ident: truth for samples in kept.values()
+                 for _, truth, ident in samples}
+        for c, samples in kept.items():
+            last = max(truth for _, truth, _ in samples)
+            have = {ident for _, _, ident in samples}
+            missed = sorted(i for i, truth in taken.items()
+                            if edge <= truth <= last and i not in have)
+            self.assertFalse(missed, 'round %d: %s missed samples %s that '
+                             'another client kept' % (n, c, missed[:10]))
 
 
 if __name__ == '__main__':
