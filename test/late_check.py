@@ -33,10 +33,13 @@ class LateCheck(unittest.TestCase):
         expect = rospy.get_param('~expect')
         log = RoundLog(clients)
         deadline = time.monotonic() + rospy.get_param('~timeout', 200.0)
+        # Every result comes before its decision, but on a connection of
+        # its own: a loaded checker may read it after.  Wait for both.
         while time.monotonic() < deadline and not all(
-                log.rounds.get(n, {}).get('decision') for n in (1, 2)):
+                log.rounds.get(n, {}).get('decision')
+                and set(log.rounds[n]['results']) >= set(clients)
+                for n in (1, 2)):
             time.sleep(0.1)
-        time.sleep(0.5)
         for n in (1, 2):
             r = log.rounds.get(n)
             self.assertIsNotNone(r and r['decision'], 'round %d: no decision'

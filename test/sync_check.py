@@ -52,11 +52,14 @@ class SyncCheck(unittest.TestCase):
 
         def republished():
             log.assign_captured()
-            return all(len(r['captured'].get(c, [])) >= r['results'][c].frames
-                       for r in log.rounds.values() if r['decision']
-                       for c in clients if c in r['results'])
-        # Captured samples come before the result, but a loaded checker
-        # may read them late: wait for them, not for a fixed time.
+            return all(c in r['results'] and len(r['captured'].get(c, []))
+                       >= r['results'][c].frames
+                       for r in log.rounds.values()
+                       if r['decision'] and r['capture']
+                       for c in r['capture'].clients)
+        # Results and captured samples come before the decision, but each
+        # on its own connection: a loaded checker may read them after it.
+        # Wait for them, not for a fixed time.
         while time.monotonic() < deadline and not republished():
             time.sleep(0.2)
         # The fake clocks started with the launch, before this node.
