@@ -118,13 +118,14 @@ class ClockState(genpy.Message):
     """hri_sync/ClockState's fields, without the generated module."""
 
     __slots__ = ['client_id', 'ok', 'reason', 'local_ref', 'offset',
-                 'drift', 'uncertainty', 'samples']
+                 'drift', 'uncertainty', 'samples', 'round_trip']
     _type = 'hri_sync/ClockState'
 
     def __init__(self, caller, **fields):
         super().__init__()
         values = dict(client_id='left', ok=True, reason='', local_ref=1e9,
-                      offset=0.5, drift=0.0, uncertainty=0.001, samples=3)
+                      offset=0.5, drift=0.0, uncertainty=0.001, samples=3,
+                      round_trip=0.001)
         values.update(fields)
         for k, v in values.items():
             setattr(self, k, v)

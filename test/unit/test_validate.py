@@ -33,7 +33,8 @@ def good(msg_type):
             refused=[], missing=['right'], stamp=NOW),
         'hri_sync/ClockState': dict(
             client_id='left', ok=True, reason='', local_ref=NOW - 3.0,
-            offset=2.0, drift=1e-4, uncertainty=0.0005, samples=4),
+            offset=2.0, drift=1e-4, uncertainty=0.0005, samples=4,
+            round_trip=0.0004),
         'hri_sync/ClientResult': dict(
             round=5, client_id='left', status='ok', capture_start=NOW - 61,
             capture_end=NOW - 1, frames=1200, frames_rejected=0,
@@ -238,7 +239,9 @@ def test_capture_command_rejections(change, reason):
     (dict(uncertainty=math.inf), 'not_finite'),
     (dict(local_ref=NOW + 1e6), 'time_in_future'),
     (dict(local_ref=-5.0), 'time_not_positive'),
-    (dict(samples=0), 'out_of_range')])
+    (dict(samples=0), 'out_of_range'),
+    (dict(round_trip=-0.001), 'out_of_range'),
+    (dict(round_trip=math.inf), 'not_finite')])
 def test_clock_state_rejections(change, reason):
     assert rejected('hri_sync/ClockState', **change).reason == reason
 
@@ -251,6 +254,11 @@ def test_clock_state_must_map_now_to_a_valid_time():
                            (2.0 ** 32, 'time_unrepresentable')):
         assert rejected('hri_sync/ClockState', ctx=ctx, offset=offset,
                         local_ref=NOW - 1.0).reason == reason
+
+
+def test_clock_state_failed_burst_has_no_round_trip():
+    v.check('hri_sync/ClockState', dict(good('hri_sync/ClockState'),
+                                        round_trip=math.nan), CTX)
 
 
 def test_clock_state_not_ok_is_not_checked_further():

@@ -364,7 +364,7 @@ def round_status(*, round, state, reason, acked, refused, missing, stamp,
 
 
 def clock_state(*, client_id, ok, reason, local_ref, offset, drift,
-                uncertainty, samples, ctx):
+                uncertainty, samples, round_trip, ctx):
     """/<id>/clock_state: a host's clock model, for the nodes of that host.
 
     ``ctx.local_now`` is the receiver's local now (the same host's clock):
@@ -379,6 +379,8 @@ def clock_state(*, client_id, ok, reason, local_ref, offset, drift,
     number(offset, 'offset', -lim.max_offset, lim.max_offset)
     number(drift, 'drift', -lim.max_drift, lim.max_drift)
     number(uncertainty, 'uncertainty', 0.0, lim.max_uncertainty)
+    # NaN: the burst just made failed (the model holds over).
+    number(round_trip, 'round_trip', 0.0, lim.max_latency, nan=True)
     count(samples, 'samples', 2 ** 32 - 1)
     if samples < 1:
         raise Rejected('out_of_range', 'an ok clock with no samples',
