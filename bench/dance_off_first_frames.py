@@ -17,7 +17,6 @@ sourced workspace: .venv/bin/python bench/dance_off_first_frames.py
 import argparse
 import json
 import os
-import socket
 import statistics
 import subprocess
 import sys
@@ -27,12 +26,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, 'src'))
 
 from hri_sync.dance_off import verify  # noqa: E402
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
+from hri_sync.tools.harness import free_port  # noqa: E402
 
 
 def main():

@@ -4,7 +4,8 @@
     source <ws>/devel/setup.bash
     sudo /usr/bin/python3 bench/multihost.py --clients 2 --rounds 10
 
-The multi-host variant of ``bench/sync_skew.py`` (whose helpers it reuses):
+The multi-host variant of ``bench/sync_skew.py`` (both are
+``hri_sync.ros.skew_bench`` with their own command wrappers):
 every "host" is a Linux network namespace of its own, with its own
 loopback and one veth link to a bridge in a switch namespace, addresses in
 ``--net`` (default 10.77.0.0/24; nothing leaves the namespaces it creates):
@@ -18,7 +19,9 @@ loopback and one veth link to a bridge in a switch namespace, addresses in
   under one libfaketime clock with a random offset and drift
   (``skewed_client``), ``ROS_MASTER_URI`` and ``ntp_server`` pointing at
   the server across the link, its DPM reading the reference across the
-  link with ``stamp_source: arrival``.
+  link with ``stamp_source: arrival`` (with ``--sensors own``: its own
+  sensor on the true clock in its namespace; ``--stamp-source device``:
+  the sensor's device stamp mapped to global time).
 
 ``--shape c1`` puts a ``tc tbf`` (``--shape-rate``, ``--shape-latency``)
 on both directions of that client's link, and ``--load-kbit`` sends a UDP
@@ -48,9 +51,9 @@ import sys
 import tempfile
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import sync_skew as ss  # noqa: E402  (the one-host bench's helpers)
-from hri_sync.timing.skew import percentiles  # noqa: E402
+from hri_sync.ros import skew_bench
+from hri_sync.timing.skew import percentiles
+from hri_sync.tools import harness
 
 CLONE_NEWNET = 0x40000000
 MASTER_PORT = 11311     # each namespace has its own ports
@@ -82,9 +85,6 @@ while True:
 def log(fmt, *args):
     print('multihost: ' + (fmt % args if args else fmt), file=sys.stderr,
           flush=True)
-
-
-ss.log = log    # the shared process cleanup reports under this name
 
 
 def ip(*argv):
@@ -229,9 +229,10 @@ def in_ns(net, host, argv):
     return ['ip', 'netns', 'exec', ns, 'env', 'ROS_IP=%s' % address] + argv
 
 
-def run(args, procs, net, clocks, result, state):
+def run(bench, net):
     """Make the hosts, start everything and record the rounds."""
-    clients = ['c%d' % (i + 1) for i in range(args.clients)]
+    args, procs, result = bench.args, bench.procs, bench.result
+    clients = bench.clients
     deadline = time.monotonic() + result['timeout_s']
     rng = random.Random(args.seed)
     addresses = list(args.net.hosts())
@@ -253,22 +254,18 @@ def run(args, procs, net, clocks, result, state):
                                     net.hosts.values()))
     enter_netns(net.hosts['server'][0])
 
-    on_server = functools.partial(in_ns, net, 'server')
+    on_server = bench.wrap('server')
     master_uri = procs.env['ROS_MASTER_URI']
-    master = ss.start_ros(procs, 'multihost_bench',
-                          on_server(['roscore', '-p', str(MASTER_PORT)]),
-                          master_uri, clients, state)
-    ts = ss.start_time_server(procs, server_ip, NTP_PORT,
-                              'chronyd on %s:%d' % (server_ip, NTP_PORT),
-                              ['bind_address:=%s' % server_ip,
-                               'allow:=%s' % args.net], on_server)
+    bench.start_ros(on_server(['roscore', '-p', str(MASTER_PORT)]),
+                    master_uri)
+    bench.start_time_server(server_ip, NTP_PORT,
+                            ['bind_address:=%s' % server_ip,
+                             'allow:=%s' % args.net])
     log('roscore %s, chronyd on %s:%d', master_uri, server_ip, NTP_PORT)
-
-    started = [('time_server', ts),
-               ('reference', ss.start_reference(procs, args, on_server))]
+    bench.start_sensors()
 
     def start_load():
-        started.append(('load', procs.start('load', on_server([
+        bench.started.append(('load', procs.start('load', on_server([
             sys.executable, '-c', LOAD_PROGRAM, net.hosts[args.shape][1],
             str(args.load_kbit)]))))
     if args.load_kbit > 0 and args.load_at == 'start':
@@ -276,61 +273,53 @@ def run(args, procs, net, clocks, result, state):
     ntp_args = ['ntp_server:=%s' % server_ip, 'ntp_port:=%d' % NTP_PORT]
     for c in clients:
         if args.max_offset or args.max_drift:
-            offset, rate, spec = ss.random_clock(rng, args)
-            clocks[c] = (offset, rate, time.time())
-            launcher = [ss.node('skewed_client'), '--clock', spec]
-            log('client %s (%s): faketime %r', c, net.hosts[c][1], spec)
+            bench.clocks[c] = harness.random_clock(
+                rng, args.max_offset, args.max_drift, time.time())
+            log('client %s (%s): faketime %r', c, net.hosts[c][1],
+                bench.clocks[c].spec)
         else:
-            clocks[c] = (0.0, 1.0, time.time())
-            launcher = ['roslaunch', '--wait', 'hri_sync']
+            bench.clocks[c] = harness.TRUE_CLOCK
             log('client %s (%s): true clock', c, net.hosts[c][1])
-        started.append((c, ss.start_client(
-            procs, c, launcher, ntp_args, functools.partial(in_ns, net, c))))
-    ss.wait_clients(master, clients, state, started, clocks,
-                    [c for c in clients if clocks[c][1] != 1.0])
-    result['reference_delivery_order'] = ss.delivery_order(master, clients)
+        bench.start_client(c, ntp_args)
+    bench.wait_clients()
     if args.load_kbit > 0 and args.load_at == 'rounds':
         start_load()
-    ss.start_server(procs, args, clients, started, ntp_args, on_server)
-    ss.record_rounds(args, state, clocks, started, result, deadline,
-                     wake=False)
+    bench.start_server(ntp_args)
+    bench.record_rounds(deadline, wake=False)
 
 
-def ack_uncertainties(state, clients):
+def ack_uncertainties(bench):
     """{client: [ACK uncertainty, s]} over the rounds (half the best NTP
     round trip across the link, plus the fit's residual)."""
-    out = {c: [] for c in clients}
-    rlog = state.get('rlog')
-    if rlog is None:
+    out = {c: [] for c in bench.clocks}
+    if bench.rlog is None:
         return out
-    with rlog.lock:
-        for r in rlog.rounds.values():
+    with bench.rlog.lock:
+        for r in bench.rlog.rounds.values():
             for c, a in r['acks'].items():
                 if c in out and a.ok:
                     out[c].append(a.uncertainty)
     return out
 
 
-def clock_uncertainties(state):
+def clock_uncertainties(bench):
     """{client: [ClockState uncertainty, s]} in the order published (every
     resync; the model's bound: best half round trip + largest residual)."""
-    rec = state.get('rec')
-    if rec is None:
+    if bench.rec is None:
         return {}
     return {c: [m.uncertainty for _, m in v]
-            for c, v in sorted(rec.clock_states.items())}
+            for c, v in sorted(bench.rec.clock_states.items())}
 
 
-def stamp_errors(state):
+def stamp_errors(bench):
     """{client: [global stamp - true time, s]} of every sample the client
     kept: its clock error plus that sample's transport delay (queueing
     included; ``start_skew`` takes the minimum of the first ten)."""
-    rlog = state.get('rlog')
-    if rlog is None:
+    if bench.rlog is None:
         return {}
     out = {}
-    with rlog.lock:
-        for r in rlog.rounds.values():
+    with bench.rlog.lock:
+        for r in bench.rlog.rounds.values():
             for c, kept in r['captured'].items():
                 out.setdefault(c, []).extend(g - t for g, t, _ in kept)
     return dict(sorted(out.items()))
@@ -338,8 +327,9 @@ def stamp_errors(state):
 
 def parse_args():
     p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    ss.add_args(p, 10, 'clock offsets within +/- this, s (default 3; 0 '
-                'with --max-drift 0: clients on the true clock)')
+    skew_bench.add_args(p, 10, 'clock offsets within +/- this, s (default '
+                        '3; 0 with --max-drift 0: clients on the true '
+                        'clock)')
     p.add_argument('--net', type=ipaddress.ip_network,
                    default=ipaddress.ip_network('10.77.0.0/24'),
                    help='subnet of the hosts (default 10.77.0.0/24)')
@@ -359,9 +349,9 @@ def parse_args():
                    help='start the load before the clients start (their '
                    'first NTP bursts cross the queue) or once they are '
                    'synced, before round 1 (default)')
-    ss.add_run_args(p)
+    skew_bench.add_run_args(p)
     args = p.parse_args()
-    ss.check_args(p, args)
+    skew_bench.check_args(p, args)
     if args.net.version != 4 or args.net.num_addresses < 16 + args.clients:
         p.error('--net must be an IPv4 subnet with room for %d hosts'
                 % (11 + args.clients))
@@ -393,36 +383,36 @@ def main():
     os.environ.update(ROS_MASTER_URI=master_uri, ROS_LOG_DIR=logdir,
                       ROS_IP=server_ip)
     os.environ.pop('ROS_HOSTNAME', None)
-    procs = ss.Processes(logdir, env)
+    procs = harness.Processes(logdir, env, log)
     net = Network(args.net)
-    clocks = {}
-    result = {'died': {}, 'timeout_s': round(
-        args.timeout or ss.time_budget(args) + NETNS_SETUP, 1)}
+    bench = skew_bench.SkewBench(
+        'multihost_bench', args, procs, log,
+        args.timeout or skew_bench.time_budget(args) + NETNS_SETUP,
+        lambda host: functools.partial(in_ns, net, host))
 
-    def setup_and_run(state):
+    def setup_and_run():
         remove_stale_namespaces()
-        run(args, procs, net, clocks, result, state)
+        run(bench, net)
 
     def stop():
         qdisc = net.qdisc_stats()
         procs.stop()
         net.destroy()
         if qdisc:
-            result['network']['shaped_link_stats'] = qdisc
+            bench.result['network']['shaped_link_stats'] = qdisc
 
-    def more(state):
-        unc = ack_uncertainties(state, clocks)
+    def more():
+        unc = ack_uncertainties(bench)
         return dict(
-            ack_uncertainty_ms={c: ss.ms(percentiles(v)) if v else None
+            ack_uncertainty_ms={c: harness.ms(percentiles(v)) if v else None
                                 for c, v in sorted(unc.items())},
             sample_stamp_error_ms={
-                c: ss.ms(dict(percentiles(v), min=min(v)))
-                for c, v in stamp_errors(state).items() if v},
+                c: harness.ms(dict(percentiles(v), min=min(v)))
+                for c, v in stamp_errors(bench).items() if v},
             clock_state_uncertainty_ms={
                 c: [round(u * 1e3, 3) for u in v]
-                for c, v in clock_uncertainties(state).items()})
-    ss.bench_main(args, started, logdir, result, clocks, setup_and_run,
-                  stop, more)
+                for c, v in clock_uncertainties(bench).items()})
+    bench.main(setup_and_run, stop, logdir, started, more)
 
 
 if __name__ == '__main__':

@@ -22,7 +22,6 @@ streams and, after the round, checks:
 """
 import math
 import os
-import signal
 import subprocess
 import tempfile
 import threading
@@ -34,6 +33,7 @@ import rospy
 import rostest
 
 from hri_sync.msg import ClientResult, Decision, Skeleton
+from hri_sync.tools.harness import stop_group
 
 CLIENTS = ('left', 'right')
 RECORD = ['/sync_time', '/sync_ack', '/capture_data', '/round_status',
@@ -91,11 +91,7 @@ class DanceOffRound(unittest.TestCase):
         if cls.recorder is not None:
             # Ctrl-C to the recorder's process group (rosbag's wrapper and
             # its record child), then wait for the bag to be closed.
-            os.killpg(cls.recorder.pid, signal.SIGINT)
-            try:
-                cls.recorder.wait(timeout=15)
-            except subprocess.TimeoutExpired:
-                os.killpg(cls.recorder.pid, signal.SIGKILL)
+            stop_group(cls.recorder, timeout=15)
             deadline = time.time() + 15
             while time.time() < deadline and (
                     os.path.exists(cls.bag + '.active')

@@ -106,3 +106,10 @@ def test_plugin_params_that_do_not_fit(plugin):
                        r"my_plugin.Scaled: .*unexpected keyword argument "
                        r"'gian'"):
         load_processor(plugin, {'gian': 2.5})
+
+
+def test_device_stamped_count_mean_reads_the_header_stamp():
+    p = load_processor('hri_sync.timing.processors.DeviceStampedCountMean')
+    msg = NS(value=2.0, header=NS(stamp=NS(to_sec=lambda: 1234.5)))
+    assert p.device_stamp(msg) == 1234.5
+    assert p.process(frames(1.0, 3.0), 100.0, 101.0).value == 2.0

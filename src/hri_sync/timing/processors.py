@@ -62,6 +62,14 @@ class CountMean(Processor):
                              diagnostics={'count': len(good)})
 
 
+class DeviceStampedCountMean(CountMean):
+    """CountMean of a sensor whose ``header.stamp`` is its own clock (as
+    ``hri_sync/Sample`` documents it), for ``stamp_source: device``."""
+
+    def device_stamp(self, msg):
+        return msg.header.stamp.to_sec()
+
+
 def load_processor(path, params=None):
     """Instantiate the Processor subclass at class path ``path``.
 

@@ -1,0 +1,382 @@
+"""The test harness the benches, test checkers and ``skewed_client`` share.
+
+Contract: no rospy.  Process groups and their clean shutdown (``Processes``:
+children each in a session of their own, the caller a child subreaper, every
+live descendant found by walking /proc and stopped SIGINT -> SIGTERM ->
+SIGKILL); faketime clients (``FakeClock``: the injected offset and drift of a
+libfaketime clock, its spec, its start read from /proc); the true-clock
+reference (the command line of a ``synthetic_sensor`` whose samples carry
+their true send time); and what every bench needs around them: free ports,
+polled waits that name what they waited for, and a run under a time bound
+that always cleans up (``run_bounded``).
+"""
+import ctypes
+import math
+import os
+import signal
+import socket
+import subprocess
+import time
+from dataclasses import dataclass, replace
+
+PR_SET_CHILD_SUBREAPER = 36
+DEAD_STATES = ('Z', 'X')    # zombie, dead: in /proc but no longer running
+
+
+# --------------------------------------------------------------- processes
+
+@dataclass(frozen=True)
+class ProcInfo:
+    """One process as /proc/PID/stat shows it."""
+
+    ppid: int
+    pgid: int
+    state: str      # R, S, D, Z, ...
+    start: int      # start time, clock ticks after boot
+
+
+def proc_table():
+    """{pid: ProcInfo} of every process in /proc."""
+    table = {}
+    for name in os.listdir('/proc'):
+        if not name.isdigit():
+            continue
+        try:
+            with open('/proc/%s/stat' % name) as f:
+                stat = f.read()
+        except OSError:
+            continue    # ended while we listed
+        fields = stat[stat.rfind(')') + 2:].split()
+        table[int(name)] = ProcInfo(int(fields[1]), int(fields[2]), fields[0],
+                                    int(fields[19]))
+    return table
+
+
+def descendants(root=None, table=None):
+    """{pid: ProcInfo} of the live (not zombie) descendants of ``root``
+    (default: this process), from ``table`` (default: /proc now)."""
+    table = proc_table() if table is None else table
+    root = os.getpid() if root is None else root
+    kids = {}
+    for pid, info in table.items():
+        kids.setdefault(info.ppid, []).append(pid)
+    out, todo = {}, list(kids.get(root, []))
+    while todo:
+        pid = todo.pop()
+        if table[pid].state not in DEAD_STATES:
+            out[pid] = table[pid]
+        todo.extend(kids.get(pid, []))
+    return out
+
+
+def cmdline(pid, words=3):
+    """The first ``words`` words of a process's command line (base names),
+    for messages; '?' when it is gone."""
+    try:
+        with open('/proc/%d/cmdline' % pid, 'rb') as f:
+            argv = f.read().split(b'\0')
+    except OSError:
+        return '?'
+    return ' '.join(os.path.basename(a.decode(errors='replace'))
+                    for a in argv[:words])
+
+
+def become_subreaper():
+    """Make this process a child subreaper: descendants whose parent died
+    are re-parented to it instead of init, so they stay in its tree.
+    Returns whether the kernel accepted it."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0) == 0
+    except (OSError, AttributeError):
+        return False
+
+
+def reap():
+    """Collect every child of this process that has ended (non-blocking)."""
+    while True:
+        try:
+            pid, _ = os.waitpid(-1, os.WNOHANG)
+        except ChildProcessError:
+            return
+        if pid == 0:
+            return
+
+
+def signal_each(pids, sig):
+    """Send ``sig`` to each pid that still exists."""
+    for pid in pids:
+        try:
+            os.kill(pid, sig)
+        except (ProcessLookupError, PermissionError):
+            pass
+
+
+def stop_group(proc, timeout=15.0):
+    """SIGINT the process group of ``proc`` (a Popen started with
+    ``start_new_session``), wait up to ``timeout`` s for it to exit, else
+    SIGKILL the group.  Returns its exit status (None if SIGKILL was not
+    enough to see it exit within 5 s)."""
+    for sig, wait in ((signal.SIGINT, timeout), (signal.SIGKILL, 5.0)):
+        try:
+            os.killpg(proc.pid, sig)
+        except ProcessLookupError:
+            pass
+        try:
+            return proc.wait(timeout=wait)
+        except subprocess.TimeoutExpired:
+            continue
+    return None
+
+
+def _log_nowhere(fmt, *args):
+    pass
+
+
+class Processes:
+    """Child processes, each in its own session, and their cleanup.
+
+    This process becomes a child subreaper, so descendants whose parent
+    died stay in its tree; ``stop`` signals the process group of every
+    live descendant (roslaunch puts each node in a group of its own).
+    ``log(fmt, *args)`` reports what cleanup had to do.
+    """
+
+    def __init__(self, logdir, env, log=_log_nowhere):
+        self.logdir = logdir
+        self.env = env
+        self.log = log
+        self.children = []      # (name, Popen)
+        self.me = os.getpid()
+        self.my_pgid = os.getpgid(0)
+        become_subreaper()
+
+    def start(self, name, argv):
+        """Start ``argv`` in a new session, output to LOGDIR/name.log."""
+        with open(os.path.join(self.logdir, name + '.log'), 'w') as out:
+            proc = subprocess.Popen(argv, env=self.env, stdout=out,
+                                    stderr=subprocess.STDOUT,
+                                    stdin=subprocess.DEVNULL,
+                                    start_new_session=True)
+        self.children.append((name, proc))
+        return proc
+
+    def descendants(self):
+        """{pid: ProcInfo} of the live descendants."""
+        return descendants(self.me)
+
+    def _reap(self):
+        for _, p in self.children:
+            p.poll()
+        reap()
+
+    def _signal_all(self, sig, targets):
+        live = self.descendants()
+        for pid, info in targets.items():
+            now = live.get(pid)
+            if now is None or (now.pgid, now.start) != (info.pgid,
+                                                        info.start):
+                continue  # gone (or the pid was reused)
+            if info.pgid not in (self.my_pgid, 0):
+                try:
+                    os.killpg(info.pgid, sig)
+                except (ProcessLookupError, PermissionError):
+                    pass
+            signal_each([pid], sig)
+
+    def _wait_gone(self, timeout):
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            self._reap()
+            if not self.descendants():
+                return True
+            time.sleep(0.1)
+        return not self.descendants()
+
+    def stop(self, grace=6.0):
+        """SIGINT the launchers (``skewed_client`` kills its client 3 s
+        later), then SIGTERM and SIGKILL what is left.  Returns the pids
+        that survived (none, normally)."""
+        for _, p in reversed(self.children):
+            if p.poll() is None:
+                try:
+                    os.killpg(p.pid, signal.SIGINT)
+                except ProcessLookupError:
+                    pass
+        end = time.monotonic() + grace
+        while time.monotonic() < end and any(
+                p.poll() is None for _, p in self.children):
+            time.sleep(0.1)
+        for sig, wait in ((signal.SIGTERM, 3.0), (signal.SIGKILL, 2.0)):
+            left = self.descendants()
+            if not left:
+                break
+            self.log('%s to %d leftover processes: %s', sig.name, len(left),
+                     ', '.join('%d %s' % (pid, cmdline(pid))
+                               for pid in left))
+            self._signal_all(sig, left)
+            if self._wait_gone(wait):
+                break
+        left = sorted(self.descendants())
+        if left:
+            self.log('WARNING: processes survived cleanup: %s', left)
+        self._reap()
+        return left
+
+
+# -------------------------------------------------------- faketime clients
+
+@dataclass(frozen=True)
+class FakeClock:
+    """A libfaketime clock ``faketime -f '+OFFSETs xRATE'``: at true time t
+    it reads t + offset + (rate - 1) (t - t0), t0 the true time the
+    faketime process started (libfaketime's drift starts there)."""
+
+    offset: float   # s
+    rate: float     # 1 + drift
+    t0: float       # true time, s
+
+    @property
+    def spec(self):
+        """The ``faketime -f`` argument."""
+        return '%+.6fs x%.9f' % (self.offset, self.rate)
+
+    @property
+    def drift_ppm(self):
+        return (self.rate - 1.0) * 1e6
+
+    def local(self, true):
+        """The faked (local) clock's reading at true time ``true``."""
+        return true + self.offset + (self.rate - 1.0) * (true - self.t0)
+
+    def offset_at(self, true):
+        """Global minus local at true time ``true``, for a global clock
+        that is the true clock: what a client's ACK offset should be."""
+        return true - self.local(true)
+
+    def started(self, t0):
+        """The same clock, its drift referred to ``t0``."""
+        return replace(self, t0=t0)
+
+
+TRUE_CLOCK = FakeClock(0.0, 1.0, 0.0)
+
+
+def random_clock(rng, max_offset, max_drift_ppm, t0):
+    """A FakeClock with an offset within +/- ``max_offset`` s and a drift
+    within +/- ``max_drift_ppm``, drawn from ``rng`` (offset first)."""
+    offset = rng.uniform(-max_offset, max_offset)
+    rate = 1.0 + rng.uniform(-max_drift_ppm, max_drift_ppm) * 1e-6
+    return FakeClock(offset, rate, t0)
+
+
+def start_time(info):
+    """True time (s) a process started, from its ProcInfo (10 ms
+    resolution: the kernel counts clock ticks after boot)."""
+    since_boot = time.clock_gettime(time.CLOCK_BOOTTIME)
+    return (time.time() - since_boot
+            + info.start / os.sysconf('SC_CLK_TCK'))
+
+
+def faketime_start(parent):
+    """True time (s) the ``faketime`` child of ``parent`` started, or None
+    when it has none (see ``start_time``)."""
+    for pid, info in proc_table().items():
+        if info.ppid == parent and cmdline(pid).startswith('faketime'):
+            return start_time(info)
+    return None
+
+
+# ------------------------------------------------ the true-clock reference
+
+def sensor_argv(node, name, rate, phase):
+    """Command of a ``synthetic_sensor`` (executable ``node``) named
+    ``name`` on the true clock: each sample's ``value`` and
+    ``header.stamp`` are its true send time, ``rate`` Hz at ``phase`` of
+    the period; it publishes ``/NAME/samples``."""
+    return [node, '__name:=%s' % name, '_rate:=%g' % rate,
+            '_phase:=%g' % phase, '_signal:=true_time']
+
+
+def node_path(name, package='hri_sync'):
+    """The path of an executable of ``package`` (the catkin one first);
+    RuntimeError when the workspace is not built and sourced."""
+    import roslib.packages  # the catkin index; not needed by the rest
+    path = roslib.packages.find_node(package, name)
+    if not path:
+        raise RuntimeError('node %s/%s not found: build and source the '
+                           'workspace first' % (package, name))
+    return path[0]
+
+
+# ----------------------------------------------------------- around a run
+
+def free_port(kind=socket.SOCK_STREAM, host='127.0.0.1'):
+    """A free port chosen by the kernel (random ephemeral), TCP or UDP."""
+    with socket.socket(socket.AF_INET, kind) as s:
+        s.bind((host, 0))
+        return s.getsockname()[1]
+
+
+def wait_until(what, predicate, timeout, procs=(), poll=0.1):
+    """Poll until ``predicate()``; RuntimeError naming ``what`` when
+    ``timeout`` s pass, or when one of ``procs`` ((name, Popen)) exits
+    first."""
+    end = time.monotonic() + timeout
+    while True:
+        if predicate():
+            return
+        for name, p in procs:
+            if p.poll() is not None:
+                raise RuntimeError('%s exited with status %s while waiting '
+                                   'for %s' % (name, p.returncode, what))
+        if time.monotonic() > end:
+            raise RuntimeError('timed out after %.0f s waiting for %s'
+                               % (timeout, what))
+        time.sleep(poll)
+
+
+def ms(stats):
+    """Seconds -> ms in a dict of figures, NaN -> None (valid JSON)."""
+    return {k: round(v * 1e3, 4) if math.isfinite(v) else None
+            for k, v in stats.items()}
+
+
+class Interrupted(Exception):
+    """SIGINT, SIGTERM, SIGHUP or the hard time bound (SIGALRM)."""
+
+
+def run_bounded(run, stop, hard_bound, log=_log_nowhere):
+    """Run ``run()`` with SIGINT/SIGTERM/SIGHUP and a SIGALRM after
+    ``hard_bound`` s raising ``Interrupted``, then ``stop()`` whatever
+    happened (signals during it only log).  Returns (exit status,
+    failures): 0 and [] when ``run`` returned, 130 when interrupted, 2 when
+    it raised RuntimeError (a setup failure) or anything else (a bug, still
+    cleaned up); failures are (kind, note) pairs."""
+    def on_signal(signum, _frame):
+        raise Interrupted(signal.Signals(signum).name)
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP,
+                signal.SIGALRM):
+        signal.signal(sig, on_signal)
+    status, failures = 0, []
+    try:
+        signal.alarm(max(1, int(math.ceil(hard_bound))))
+        run()
+    except Interrupted as e:
+        failures.append(('interrupted', 'interrupted by %s' % e))
+        log('interrupted (%s): cleaning up', e)
+        status = 130
+    except RuntimeError as e:
+        failures.append(('setup_failed', 'setup failed: %s' % e))
+        log('ERROR: setup failed: %s', e)
+        status = 2
+    except Exception as e:  # a bench bug: still clean up and report it
+        failures.append(('error', 'bench error: %r' % e))
+        log('ERROR: %r', e)
+        status = 2
+    finally:
+        signal.alarm(0)
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+            signal.signal(sig, lambda *_: log('cleaning up, please wait'))
+        stop()
+    return status, failures

@@ -1,0 +1,239 @@
+"""hri_sync.tools.harness on real processes: the /proc walker, process
+groups and their shutdown, faketime clocks, waits and the bounded run.
+
+``Processes`` makes this test process a child subreaper (for the rest of
+the session: orphans of later tests are re-parented to it, which is
+harmless).  Waits poll until a condition holds, with generous limits that
+only stop a broken test; no duration is asserted.
+"""
+import os
+import random
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import pytest
+
+from hri_sync.tools import harness
+
+LIMIT = 30.0    # s: only a broken test waits this long
+
+
+def eventually(predicate, what):
+    harness.wait_until(what, predicate, LIMIT, poll=0.02)
+
+
+def live_group(pgid):
+    """Live processes of process group ``pgid``."""
+    return [pid for pid, info in harness.proc_table().items()
+            if info.pgid == pgid and info.state not in harness.DEAD_STATES]
+
+
+@pytest.fixture
+def signals_restored():
+    saved = {s: signal.getsignal(s) for s in (
+        signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGALRM)}
+    yield
+    signal.alarm(0)
+    for s, handler in saved.items():
+        signal.signal(s, handler)
+
+
+# ------------------------------------------------------------ the walker
+
+def test_descendants_of_a_real_process_tree():
+    child = subprocess.Popen(['sh', '-c', 'sleep 60 & sleep 60 & wait'],
+                             start_new_session=True)
+    try:
+        eventually(lambda: len(harness.descendants()) >= 3,
+                   'sh and its two sleeps')
+        tree = harness.descendants()
+        assert child.pid in tree
+        sleeps = [pid for pid, info in tree.items()
+                  if info.ppid == child.pid]
+        assert len(sleeps) == 2
+        # The grandchildren are in the child's session and process group.
+        assert {tree[pid].pgid for pid in sleeps} == {child.pid}
+        assert tree[child.pid].pgid == child.pid
+        assert harness.cmdline(child.pid).startswith('sh -c')
+        # Rooted at the child: only the grandchildren.
+        assert set(harness.descendants(child.pid)) == set(sleeps)
+    finally:
+        os.killpg(child.pid, signal.SIGKILL)
+        child.wait()
+    eventually(lambda: not live_group(child.pid), 'the group to end')
+
+
+def test_descendants_skip_zombies_but_walk_through_them():
+    table = {
+        10: harness.ProcInfo(1, 10, 'S', 0),     # the root
+        11: harness.ProcInfo(10, 11, 'Z', 5),    # a zombie child
+        12: harness.ProcInfo(11, 11, 'S', 6),    # its live child
+        13: harness.ProcInfo(10, 13, 'R', 7),
+        20: harness.ProcInfo(1, 20, 'S', 0),     # not ours
+    }
+    assert set(harness.descendants(10, table)) == {12, 13}
+
+
+def test_an_unreaped_child_is_not_a_live_descendant():
+    child = subprocess.Popen(['true'])
+    eventually(lambda: harness.proc_table().get(
+        child.pid, harness.ProcInfo(0, 0, 'Z', 0)).state == 'Z',
+        'the child to be a zombie')
+    assert child.pid not in harness.descendants()
+    child.wait()
+
+
+def test_cmdline_of_a_gone_process():
+    child = subprocess.Popen(['true'])
+    child.wait()
+    assert harness.cmdline(child.pid) == '?'
+
+
+# ------------------------------------------------- groups and their stop
+
+def test_processes_stop_a_tree_with_an_orphan_and_a_stubborn_one(tmp_path):
+    procs = harness.Processes(str(tmp_path), dict(os.environ))
+    # An orphan in a session of its own (its parent exits at once), found
+    # because this process is a subreaper; and one ignoring SIGINT/SIGTERM.
+    procs.start('orphaner', ['sh', '-c', 'setsid sleep 60 & exit 0'])
+    stubborn = procs.start('stubborn',
+                           ['sh', '-c', 'trap "" INT TERM; sleep 60'])
+    eventually(lambda: any(harness.cmdline(p).startswith('sleep 60')
+                           and info.ppid == os.getpid()
+                           for p, info in harness.descendants().items()),
+               'the orphaned sleep re-parented to us')
+    eventually(lambda: len(harness.descendants(stubborn.pid)) == 1,
+               'the stubborn sleep')
+    assert procs.stop(grace=0.5) == []
+    assert procs.descendants() == {}
+    assert stubborn.returncode == -signal.SIGKILL
+    assert os.path.exists(tmp_path / 'orphaner.log')
+
+
+def test_stop_group_interrupts_the_whole_group():
+    child = subprocess.Popen(['sh', '-c', 'sleep 60; echo not reached'],
+                             start_new_session=True)
+    eventually(lambda: len(live_group(child.pid)) == 2, 'sh and sleep')
+    assert harness.stop_group(child) == -signal.SIGINT
+    eventually(lambda: not live_group(child.pid), 'the sleep to end')
+
+
+def test_stop_group_kills_a_group_that_ignores_sigint():
+    child = subprocess.Popen(['sh', '-c', 'trap "" INT; sleep 60'],
+                             start_new_session=True)
+    eventually(lambda: len(live_group(child.pid)) == 2, 'sh and sleep')
+    assert harness.stop_group(child, timeout=0.2) == -signal.SIGKILL
+    eventually(lambda: not live_group(child.pid), 'the sleep to end')
+
+
+# --------------------------------------------------------- fake clocks
+
+def test_fake_clock_spec_and_readings():
+    clock = harness.FakeClock(offset=1.5, rate=1.0002, t0=1000.0)
+    assert clock.spec == '+1.500000s x1.000200000'
+    assert harness.FakeClock(-0.25, 0.9999, 0.0).spec == \
+        '-0.250000s x0.999900000'
+    assert clock.drift_ppm == pytest.approx(200.0)
+    assert clock.local(1000.0) == pytest.approx(1001.5)
+    assert clock.local(1100.0) == pytest.approx(1101.52)
+    assert clock.offset_at(1100.0) == pytest.approx(-1.52)
+    moved = clock.started(1050.0)
+    assert moved.local(1100.0) == pytest.approx(1101.51)
+    assert harness.TRUE_CLOCK.offset_at(1e9) == 0.0
+
+
+def test_random_clock_is_seeded_and_within_bounds():
+    def draw(seed):
+        rng = random.Random(seed)
+        return [harness.random_clock(rng, 3.0, 200.0, 5.0)
+                for _ in range(50)]
+    clocks = draw(7)
+    assert clocks == draw(7)
+    assert all(abs(c.offset) <= 3.0 and abs(c.drift_ppm) <= 200.0
+               and c.t0 == 5.0 for c in clocks)
+    # The offset is drawn first, then the rate (the benches' seeds).
+    rng = random.Random(7)
+    first = (rng.uniform(-3.0, 3.0), 1 + rng.uniform(-200, 200) * 1e-6)
+    assert (clocks[0].offset, clocks[0].rate) == first
+
+
+@pytest.mark.skipif(shutil.which('faketime') is None,
+                    reason='faketime is not installed')
+def test_faketime_start_reads_when_the_faketime_process_started():
+    before = time.time()
+    child = subprocess.Popen(['faketime', '-f', '+10s', 'sleep', '60'],
+                             start_new_session=True)
+    after = time.time()
+    try:
+        eventually(lambda: harness.cmdline(child.pid).startswith(
+            'faketime'), 'faketime to run')
+        t0 = harness.faketime_start(os.getpid())
+        # /proc counts 10 ms ticks: the start is floored to one.
+        assert before - 0.02 <= t0 <= after + 0.02
+    finally:
+        os.killpg(child.pid, signal.SIGKILL)
+        child.wait()
+    assert harness.faketime_start(child.pid) is None
+    eventually(lambda: not live_group(child.pid), 'the group to end')
+
+
+# ------------------------------------------------- reference and a run
+
+def test_sensor_argv_is_a_true_clock_synthetic_sensor():
+    assert harness.sensor_argv('/x/synthetic_sensor', 'reference', 100.0,
+                               0.5) == [
+        '/x/synthetic_sensor', '__name:=reference', '_rate:=100',
+        '_phase:=0.5', '_signal:=true_time']
+
+
+def test_free_port_can_be_bound():
+    for kind in (socket.SOCK_STREAM, socket.SOCK_DGRAM):
+        port = harness.free_port(kind)
+        with socket.socket(socket.AF_INET, kind) as s:
+            s.bind(('127.0.0.1', port))
+
+
+def test_wait_until_names_what_it_waited_for():
+    with pytest.raises(RuntimeError, match='waiting for the moon'):
+        harness.wait_until('the moon', lambda: False, 0.0)
+    child = subprocess.Popen([sys.executable, '-c', 'raise SystemExit(3)'])
+    child.wait()
+    with pytest.raises(RuntimeError, match='roscore exited with status 3 '
+                       'while waiting for it'):
+        harness.wait_until('it', lambda: False, LIMIT, [('roscore', child)])
+    harness.wait_until('done', lambda: True, 0.0)
+
+
+def test_ms_rounds_and_maps_nan_to_none():
+    assert harness.ms({'p50': 0.0012345678, 'max': float('nan')}) == {
+        'p50': 1.2346, 'max': None}
+
+
+@pytest.mark.parametrize('body, status, kind', [
+    (lambda: None, 0, None),
+    (lambda: (_ for _ in ()).throw(RuntimeError('no roscore')), 2,
+     'setup_failed'),
+    (lambda: (_ for _ in ()).throw(KeyError('bug')), 2, 'error'),
+])
+def test_run_bounded_reports_how_the_run_ended(signals_restored, body,
+                                               status, kind):
+    stopped = []
+    got, failures = harness.run_bounded(body, lambda: stopped.append(1),
+                                        LIMIT)
+    assert got == status and stopped == [1]
+    assert [k for k, _ in failures] == ([kind] if kind else [])
+
+
+def test_run_bounded_turns_sigterm_into_an_interrupt(signals_restored):
+    def run():
+        os.kill(os.getpid(), signal.SIGTERM)
+        harness.wait_until('the signal', lambda: False, LIMIT)
+    stopped = []
+    status, failures = harness.run_bounded(run, lambda: stopped.append(1),
+                                           LIMIT)
+    assert status == 130 and stopped == [1]
+    assert failures == [('interrupted', 'interrupted by SIGTERM')]
