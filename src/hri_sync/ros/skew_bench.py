@@ -65,6 +65,10 @@ def add_args(p, rounds, max_offset_help):
                    default='arrival',
                    help="the DPMs stamp samples at arrival (default) or "
                    "map the sensor's device stamp (header.stamp)")
+    p.add_argument('--warmup', type=float, default=0.0,
+                   help='s from the clients being ready to the first '
+                   'round (default 0), e.g. to let device clock maps fill '
+                   'their window')
 
 
 def add_run_args(p):
@@ -85,6 +89,8 @@ def check_args(p, args):
         p.error('--clients and --rounds must be >= 1')
     if not (args.dur > 0 and args.rate > 0):
         p.error('--dur and --rate must be > 0')
+    if not args.warmup >= 0:
+        p.error('--warmup must be >= 0')
     if args.str_aft != 'auto':
         try:
             if float(args.str_aft) <= 0:
@@ -102,7 +108,7 @@ def time_budget(args):
                                      if args.str_aft != 'auto' else 2.0)
                  + args.dur + 7.0)
     return args.timeout or (SETUP_TIME + SETUP_PER_CLIENT * args.clients
-                            + 20.0 + args.rounds * per_round)
+                            + 20.0 + args.warmup + args.rounds * per_round)
 
 
 # --------------------------------------------------------------- recording
@@ -244,7 +250,8 @@ class SkewBench:
             'publishers': len(phases),
             'clients_per_publisher': n if self.same_sensor else 1,
             'stamp_source': self.args.stamp_source,
-            'sensor_phases': [round(p, 4) for p in phases]}
+            'sensor_phases': [round(p, 4) for p in phases],
+            'warmup_s': self.args.warmup}
 
     def start_client(self, client, ntp_args):
         """Start ``client.launch`` of ``client`` (under ``skewed_client``
@@ -314,6 +321,10 @@ class SkewBench:
         """Start the server (control and decision modules) for the
         rounds."""
         a = self.args
+        if a.warmup > 0:
+            self.log('%d clients ready; warming up for %g s', len(
+                self.clients), a.warmup)
+            time.sleep(a.warmup)
         self.log('%d clients ready; starting the server for %d rounds (dur '
                  '%g s, str_aft %s)', len(self.clients), a.rounds, a.dur,
                  a.str_aft)
