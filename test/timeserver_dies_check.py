@@ -21,6 +21,7 @@ import rostest
 
 from hri_sync.msg import CaptureData, RoundStatus
 from hri_sync.ros.round_log import RoundLog
+from hri_sync.tools.harness import alive, descendants
 
 CALLER = '/timeserver_dies_check'
 SURVIVORS = ['/control_module', '/decision_module', '/a/cpm', '/a/dpm',
@@ -38,26 +39,8 @@ def node_pid(name):
 
 def children(pid):
     """[(pid, command name)] of the live children of ``pid``."""
-    out = []
-    for name in filter(str.isdigit, os.listdir('/proc')):
-        try:
-            with open('/proc/%s/stat' % name) as f:
-                stat = f.read()
-        except OSError:
-            continue
-        comm = stat[stat.find('(') + 1:stat.rfind(')')]
-        fields = stat[stat.rfind(')') + 2:].split()
-        if fields[0] not in ('Z', 'X') and int(fields[1]) == pid:
-            out.append((int(name), comm))
-    return out
-
-
-def alive(pid):
-    try:
-        with open('/proc/%d/stat' % pid) as f:
-            return f.read().split(') ')[1][0] not in ('Z', 'X')
-    except OSError:
-        return False
+    return [(p, info.name) for p, info in descendants(pid).items()
+            if info.ppid == pid]
 
 
 def wait(predicate, timeout):

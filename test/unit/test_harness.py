@@ -59,6 +59,8 @@ def test_descendants_of_a_real_process_tree():
         assert {tree[pid].pgid for pid in sleeps} == {child.pid}
         assert tree[child.pid].pgid == child.pid
         assert harness.cmdline(child.pid).startswith('sh -c')
+        assert tree[child.pid].name == 'sh'
+        assert {tree[pid].name for pid in sleeps} == {'sleep'}
         # Rooted at the child: only the grandchildren.
         assert set(harness.descendants(child.pid)) == set(sleeps)
     finally:
@@ -84,7 +86,10 @@ def test_an_unreaped_child_is_not_a_live_descendant():
         child.pid, harness.ProcInfo(0, 0, 'Z', 0)).state == 'Z',
         'the child to be a zombie')
     assert child.pid not in harness.descendants()
+    assert not harness.alive(child.pid)
     child.wait()
+    assert not harness.alive(child.pid)
+    assert harness.alive(os.getpid())
 
 
 def test_cmdline_of_a_gone_process():

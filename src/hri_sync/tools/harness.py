@@ -33,6 +33,12 @@ class ProcInfo:
     pgid: int
     state: str      # R, S, D, Z, ...
     start: int      # start time, clock ticks after boot
+    name: str = ''  # the command name (comm), e.g. 'chronyd'
+
+    @property
+    def live(self):
+        """Running, not a zombie."""
+        return self.state not in DEAD_STATES
 
 
 def proc_table():
@@ -48,8 +54,15 @@ def proc_table():
             continue    # ended while we listed
         fields = stat[stat.rfind(')') + 2:].split()
         table[int(name)] = ProcInfo(int(fields[1]), int(fields[2]), fields[0],
-                                    int(fields[19]))
+                                    int(fields[19]),
+                                    stat[stat.find('(') + 1:stat.rfind(')')])
     return table
+
+
+def alive(pid):
+    """Whether process ``pid`` exists and is not a zombie."""
+    info = proc_table().get(pid)
+    return info is not None and info.live
 
 
 def descendants(root=None, table=None):
@@ -63,7 +76,7 @@ def descendants(root=None, table=None):
     out, todo = {}, list(kids.get(root, []))
     while todo:
         pid = todo.pop()
-        if table[pid].state not in DEAD_STATES:
+        if table[pid].live:
             out[pid] = table[pid]
         todo.extend(kids.get(pid, []))
     return out
