@@ -22,44 +22,16 @@ import rosnode
 import rospy
 import rostest
 
+from hri_sync.tools import harness
+
 NODES = ('/control_module', '/decision_module', '/time_server',
          '/left/cpm', '/left/dpm', '/right/cpm',
          '/right/dpm', '/left/sensor', '/right/sensor', '/recorder',
          '/dance_off_config', '/dj_rob', '/music', '/kobuki_sim')
 
 
-def stat(pid):
-    """(parent pid, state, start time) of a process, or None."""
-    try:
-        with open('/proc/%d/stat' % pid) as f:
-            text = f.read()
-    except OSError:
-        return None
-    fields = text[text.rfind(')') + 2:].split()
-    return int(fields[1]), fields[0], fields[19]
-
-
-def descendants(root):
-    """{pid: start time} of the live descendants of ``root``."""
-    children = {}
-    for name in filter(str.isdigit, os.listdir('/proc')):
-        s = stat(int(name))
-        if s and s[1] not in 'ZX':
-            children.setdefault(s[0], []).append((int(name), s[2]))
-    out, todo = {}, list(children.get(root, []))
-    while todo:
-        pid, start = todo.pop()
-        out[pid] = start
-        todo.extend(children.get(pid, []))
-    return out
-
-
 def cmdline(pid):
-    try:
-        with open('/proc/%d/cmdline' % pid, 'rb') as f:
-            return f.read().replace(b'\0', b' ').decode(errors='replace')
-    except OSError:
-        return '?'
+    return harness.cmdline(pid, None)
 
 
 class Orphans(unittest.TestCase):
@@ -70,11 +42,7 @@ class Orphans(unittest.TestCase):
     def tearDown(self):
         # A failure before the kill: stop the launch as Ctrl-C would.
         if self.launch is not None and self.launch.poll() is None:
-            os.killpg(self.launch.pid, signal.SIGINT)
-            try:
-                self.launch.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                os.killpg(self.launch.pid, signal.SIGKILL)
+            harness.stop_group(self.launch, timeout=30)
 
     def start(self):
         """Start the dance-off; returns its bag's path once it records."""
@@ -101,15 +69,16 @@ class Orphans(unittest.TestCase):
     def kill(self, pid):
         """SIGKILL ``pid``; fail if a descendant of it outlives it by
         ~deadline s."""
-        procs = descendants(pid)
+        procs = harness.descendants(pid)
         rospy.loginfo('%d processes under %d (%s); SIGKILL to it',
                       len(procs), pid, cmdline(pid)[:60])
         os.kill(pid, signal.SIGKILL)
 
         def alive():
-            return {p: cmdline(p) for p, start in procs.items()
-                    if (stat(p) or (0, 'X', ''))[1] not in 'ZX'
-                    and stat(p)[2] == start}
+            table = harness.proc_table()
+            return {p: cmdline(p) for p, info in procs.items()
+                    if p in table and table[p].live
+                    and table[p].start == info.start}
         limit = rospy.get_param('~deadline', 60.0)
         t0 = time.monotonic()
         while alive() and time.monotonic() - t0 < limit:
@@ -133,7 +102,7 @@ class Orphans(unittest.TestCase):
 
     def test_killed_skewed_client(self):
         self.start()
-        client = [p for p in descendants(self.launch.pid)
+        client = [p for p in harness.descendants(self.launch.pid)
                   if 'skewed_client' in cmdline(p)]
         self.assertEqual(len(client), 1, 'no skewed_client')
         self.kill(client[0])

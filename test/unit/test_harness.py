@@ -59,6 +59,8 @@ def test_descendants_of_a_real_process_tree():
         assert {tree[pid].pgid for pid in sleeps} == {child.pid}
         assert tree[child.pid].pgid == child.pid
         assert harness.cmdline(child.pid).startswith('sh -c')
+        assert harness.cmdline(child.pid, None) == \
+            'sh -c sleep 60 & sleep 60 & wait'
         assert tree[child.pid].name == 'sh'
         assert {tree[pid].name for pid in sleeps} == {'sleep'}
         # Rooted at the child: only the grandchildren.

@@ -83,11 +83,11 @@ def descendants(root=None, table=None):
 
 
 def cmdline(pid, words=3):
-    """The first ``words`` words of a process's command line (base names),
-    for messages; '?' when it is gone."""
+    """The first ``words`` words (None: all) of a process's command line,
+    base names, for messages; '?' when it is gone."""
     try:
         with open('/proc/%d/cmdline' % pid, 'rb') as f:
-            argv = f.read().split(b'\0')
+            argv = f.read().rstrip(b'\0').split(b'\0')
     except OSError:
         return '?'
     return ' '.join(os.path.basename(a.decode(errors='replace'))
