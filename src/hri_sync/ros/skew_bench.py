@@ -39,7 +39,7 @@ DEVICE_PROCESSOR = 'hri_sync.timing.processors.DeviceStampedCountMean'
 # ------------------------------------------------------------------- flags
 
 def add_args(p, rounds, max_offset_help):
-    """The flags of both benches up to --stamp-source (``rounds``: the
+    """The flags of both benches up to --warmup (``rounds``: the
     default of --rounds)."""
     p.add_argument('--clients', type=int, default=2)
     p.add_argument('--rounds', type=int, default=rounds)
