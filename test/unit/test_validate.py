@@ -1,4 +1,5 @@
 """hri_sync.timing.validate: every incoming message type's boundary check."""
+import dataclasses
 import inspect
 import math
 import os
@@ -217,6 +218,20 @@ def test_sync_ack_latency_against_the_sync_time_stamp():
     with pytest.raises(Rejected) as e:
         v.sync_ack(**fields, ctx=CTX, sent=NOW - 100.0)
     assert e.value.reason == 'latency_out_of_range'
+
+
+def test_sync_ack_latency_from_the_context():
+    # An ACK claiming it received sync_time 1e6 s ahead would inflate
+    # STR_AFT auto; the CM's context carries the sync_time stamp.
+    fields = dict(good('hri_sync/SyncAck'), sync_received=NOW + 1e6,
+                  stamp=NOW + 1e6 + 0.001)
+    ctx = dataclasses.replace(CTX, sync_sent=NOW - 0.003,
+                              limits=Limits(future=2e6))
+    with pytest.raises(Rejected) as e:
+        v.check('hri_sync/SyncAck', fields, ctx)
+    assert e.value.reason == 'latency_out_of_range'
+    v.check('hri_sync/SyncAck', good('hri_sync/SyncAck'),
+            dataclasses.replace(CTX, sync_sent=NOW - 0.003))
 
 
 def test_client_must_match_the_context():

@@ -78,13 +78,16 @@ class Context:
     ``now``: the receiver's global now (None: unknown, no window check);
     ``local_now``: its local now (for a ClockState of its own host);
     ``round``: the round in progress (None: any round >= 1); ``client``:
-    the client id a message must name (None: any).
+    the client id a message must name (None: any); ``sync_sent``: the
+    stamp of the round's SyncTime, for an ACK's dispatch latency (None:
+    unknown).
     """
 
     now: float = None
     local_now: float = None
     round: int = None
     client: str = None
+    sync_sent: float = None
     limits: Limits = field(default_factory=Limits)
 
 
@@ -301,11 +304,13 @@ def sync_ack(*, round, client_id, ok, reason, offset, uncertainty, drift,
              sync_received, stamp, ctx, sent=None):
     """/sync_ack: a client's ACK or NACK.
 
-    ``sent``: the stamp of the round's SyncTime, when known: then the
-    dispatch latency (``sync_received - sent``) must lie within
-    [-max_uncertainty, max_latency].
+    ``sent`` (else ``ctx.sync_sent``): the stamp of the round's SyncTime,
+    when known: then the dispatch latency (``sync_received - sent``) must
+    lie within [-max_uncertainty, max_latency].
     """
     lim = ctx.limits
+    if sent is None:
+        sent = ctx.sync_sent
     round_number(round, ctx)
     client_name(client_id, 'client_id', ctx)
     text(reason, 'reason', ctx)
