@@ -6,9 +6,12 @@ from collections import Counter
 import rospy
 
 from hri_sync.msg import CaptureData, SyncAck, SyncTime
+from hri_sync.ros.inbox import Inbox
+from hri_sync.ros.outbox import Publisher
 from hri_sync.ros.params import param, positive, stamp
 from hri_sync.ros.synced_clock import SyncedClock
 from hri_sync.timing.protocol import Capture, ClientSchedule, Late
+from hri_sync.timing.validate import Context
 
 
 class ClientProcess:
@@ -16,10 +19,12 @@ class ClientProcess:
 
     Keeps a ``SyncedClock``; on ``/sync_time`` measures and publishes the
     schedule's ACK or NACK (``~max_uncertainty``); turns ``/capture_data``
-    into ``on_capture(Scheduled)`` or ``on_late(Late)``.
+    into ``on_capture(Scheduled)`` or ``on_late(Late)``.  Both topics
+    are taken only from the CM and validated (``inbox``; a node may
+    subscribe its own topics through it too).
     """
 
-    def __init__(self, client_id, on_capture, on_late=None):
+    def __init__(self, client_id, on_capture, on_late=None, inbox=None):
         self.client_id = client_id
         self.on_capture = on_capture
         self.on_late = on_late
@@ -28,11 +33,23 @@ class ClientProcess:
                              '> 0 s'))
         self.synced_clock = SyncedClock(client_id)
         self.clock = self.synced_clock.clock
-        self._ack_pub = rospy.Publisher('/sync_ack', SyncAck, queue_size=10)
-        rospy.Subscriber('/sync_time', SyncTime, self._on_sync_time,
-                         queue_size=10)
-        rospy.Subscriber('/capture_data', CaptureData, self._on_capture_data,
-                         queue_size=10)
+        self._ack_pub = Publisher('/sync_ack', SyncAck, queue_size=10)
+        self.inbox = inbox if inbox is not None else Inbox()
+        self.inbox.subscribe('/sync_time', SyncTime, self._on_sync_time,
+                             'cm', context=lambda: self.context(None),
+                             queue_size=10)
+        self.inbox.subscribe('/capture_data', CaptureData,
+                             self._on_capture_data, 'cm',
+                             context=lambda: self.context(
+                                 self.schedule.acked_round),
+                             queue_size=10)
+
+    def context(self, round_id):
+        """The global now (when the clock is usable) and ``round_id``
+        (None: any; the CM numbers the rounds), to judge the CM's
+        messages against."""
+        return Context(now=self.clock.now() if self.clock.ready else None,
+                       round=round_id)
 
     def _on_sync_time(self, msg):
         received = time.time()
