@@ -89,3 +89,14 @@ def test_no_winner_decision_names_nobody(round_msgs):
     text, _ = round_report(1, acks, capture, results, captured, decision)
     assert text.split('\n')[-1] == ('  decision: no_winner: every score is '
                                     'below min_expressiveness 3')
+
+
+def test_winner_beyond_the_client_list_is_reported_not_raised(round_msgs):
+    # A forged Decision killed round_monitor with an IndexError (issue 11).
+    acks, capture, results, captured, _ = round_msgs
+    decision = NS(outcome='winner', winner=7, clients=['alice', 'bob'],
+                  reason='forged')
+    text, _ = round_report(1, acks, capture, results, captured, decision)
+    assert text.split('\n')[-1] == (
+        "  decision: winner participant 7 (not in its client list "
+        "['alice', 'bob']): forged")

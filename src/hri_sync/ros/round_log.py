@@ -23,18 +23,27 @@ class RoundLog:
 
     ``rounds[n]`` holds 'acks' {client: SyncAck}, 'capture' (CaptureData),
     'results' {client: ClientResult}, 'captured' {client: [(global stamp,
-    true time, id)]}, 'decision' (Decision).
+    true time, id)]}, 'decision' (Decision).  With an ``inbox``
+    (``hri_sync.ros.inbox.Inbox``), only valid messages from their
+    rightful senders are recorded (a result from any node: a late window's
+    comes from the CPM).
     """
 
-    def __init__(self, clients, captured_type=None):
+    def __init__(self, clients, captured_type=None, inbox=None):
         self.rounds = {}
         self.lock = threading.Lock()
-        rospy.Subscriber('/sync_ack', SyncAck, self._put, ('acks',))
-        rospy.Subscriber('/capture_data', CaptureData, self._put,
-                         ('capture',))
-        rospy.Subscriber('/client_result', ClientResult, self._put,
-                         ('results',))
-        rospy.Subscriber('/decision', Decision, self._put, ('decision',))
+        topics = (('/sync_ack', SyncAck, 'acks', 'cpm'),
+                  ('/capture_data', CaptureData, 'capture', 'cm'),
+                  ('/client_result', ClientResult, 'results', None),
+                  ('/decision', Decision, 'decision', 'dm'))
+        for topic, cls, key, role in topics:
+            if inbox is None:
+                rospy.Subscriber(topic, cls, self._put, (key,))
+            else:
+                inbox.subscribe(
+                    topic, cls, lambda m, k=key: self._put(m, (k,)), role,
+                    client=(lambda m: m.client_id) if key == 'acks'
+                    else None)
         if captured_type:
             cls = roslib.message.get_message_class(captured_type)
             for c in clients:

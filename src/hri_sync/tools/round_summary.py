@@ -48,9 +48,13 @@ def round_report(n, acks, capture, results, captured, decision):
         lines.append('  start skew across clients (true time): %.3f ms'
                      % (skew * 1e3))
     if decision:
-        who = (' participant %d (%s)' % (decision.winner,
-                                         decision.clients[decision.winner - 1])
-               if decision.winner else '')
+        who = ''
+        if decision.winner:
+            listed = 0 < decision.winner <= len(decision.clients)
+            who = ' participant %d (%s)' % (
+                decision.winner, decision.clients[decision.winner - 1]
+                if listed else 'not in its client list %s'
+                % list(decision.clients))
         lines.append('  decision: %s%s: %s' % (decision.outcome, who,
                                                decision.reason))
     else:
