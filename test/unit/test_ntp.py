@@ -15,6 +15,9 @@ from hri_sync.timing import ntp
 from hri_sync.timing.clock import NtpSample
 
 PACKET = struct.Struct('!B B b b 11I')
+# s: a call that has not returned by then hangs; a liveness bound far
+# beyond any delay load causes (the timeouts here are 0.1-0.3 s).
+HANG = 30.0
 
 
 def to_ntp(t):
@@ -124,8 +127,10 @@ def test_real_time_offset_against_a_fake_server_1_7_s_ahead(fake_server):
     m = ntp.measure('127.0.0.1', srv.port, exchanges=4, timeout=1.0,
                     pause=0)
     assert m.exchanges == 4
-    assert m.offset == pytest.approx(1.7, abs=0.005)   # generous: loopback
-    assert 0 <= m.delay < 0.05
+    # NTP's own bound: the offset is off by at most half the round trip
+    # (plus the server's 20 us), however long load makes the trip.
+    assert m.delay >= 0
+    assert abs(m.offset - 1.7) <= m.delay / 2 + 20e-6 + 1e-6
     assert len(srv.requests) == 4
 
 
@@ -153,7 +158,8 @@ def test_silent_server_times_out_with_a_reason(fake_server):
                        match=r'127\.0\.0\.1:%d did not answer within 0\.20 s'
                        % srv.port):
         ntp.query('127.0.0.1', srv.port, timeout=0.2)
-    assert 0.15 < time.monotonic() - t0 < 2.0
+    assert time.monotonic() - t0 > 0.15     # it waited for the timeout
+    assert time.monotonic() - t0 < HANG     # and returned
 
 
 def test_measure_gives_up_fast_when_nothing_answers(fake_server):
@@ -164,7 +170,7 @@ def test_measure_gives_up_fast_when_nothing_answers(fake_server):
                     pause=0)
     # Two failures in a row without an answer: no more attempts.
     assert len(srv.requests) == 2
-    assert time.monotonic() - t0 < 2.0
+    assert time.monotonic() - t0 < HANG
 
 
 def test_nobody_listening_is_an_error_not_a_hang():
@@ -175,7 +181,7 @@ def test_nobody_listening_is_an_error_not_a_hang():
     t0 = time.monotonic()
     with pytest.raises(ntp.NtpError, match='127.0.0.1:%d' % port):
         ntp.measure('127.0.0.1', port, exchanges=3, timeout=0.2, pause=0)
-    assert time.monotonic() - t0 < 2.0
+    assert time.monotonic() - t0 < HANG
 
 
 def test_unresolvable_host():
@@ -304,9 +310,10 @@ def test_against_a_real_chronyd(tmp_path):
                 time.sleep(0.2)
         assert answered, 'chronyd never answered: %s' % error
         m = ntp.measure('127.0.0.1', port, exchanges=4, timeout=0.3)
-        # chronyd reads the same system clock: the offset is ~0.
-        assert abs(m.offset) < 0.002
-        assert 0 <= m.delay < 0.05
+        # chronyd reads the same system clock: the offset is 0 within
+        # half the round trip (and chronyd's timestamping, < 1 ms).
+        assert m.delay >= 0
+        assert abs(m.offset) <= m.delay / 2 + 1e-3
         assert m.exchanges == 4
     finally:
         proc.terminate()
