@@ -87,7 +87,13 @@ class DanceOffRound(unittest.TestCase):
                 if cls.decisions:
                     break
             time.sleep(0.1)
-        time.sleep(1.0)     # late captured frames
+        # Results and captured frames come on connections of their own: a
+        # loaded checker may read them after the decision.  Wait for every
+        # result and, in each window, the frames the result counts.
+        deadline = time.time() + cls.timeout
+        while not rospy.is_shutdown() and time.time() < deadline \
+                and not cls.all_arrived():
+            time.sleep(0.1)
         if cls.recorder is not None:
             # Ctrl-C to the recorder's process group (rosbag's wrapper and
             # its record child), then wait for the bag to be closed.
@@ -97,6 +103,21 @@ class DanceOffRound(unittest.TestCase):
                     os.path.exists(cls.bag + '.active')
                     or not os.path.exists(cls.bag)):
                 time.sleep(0.1)
+
+    @classmethod
+    def all_arrived(cls):
+        """True once every client's result and each result's captured
+        frames arrived."""
+        with cls.lock:
+            if set(cls.results) < set(CLIENTS):
+                return False
+            for c, r in cls.results.items():
+                window = [m for m in cls.captured.get(c, [])
+                          if r.capture_start <= m.header.stamp
+                          < r.capture_end]
+                if len(window) < r.frames + r.frames_rejected:
+                    return False
+        return True
 
     @classmethod
     def on_result(cls, msg):
