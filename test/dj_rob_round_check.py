@@ -21,7 +21,8 @@ process's (unfaked) clock, and after the round checks:
   whole round, every stop ends with an explicit zero, and the base never
   had to clamp, slew or time out a command;
 - no_winner round: decisions with a winner out of range, for an unknown
-  round or with an unknown outcome are logged as errors and ignored.
+  round or with an unknown outcome are logged (rejected by the robot's
+  inbox or its own checks) and ignored.
 """
 import math
 import os
@@ -94,7 +95,7 @@ class DjRobRound(unittest.TestCase):
         sub('/diagnostics', DiagnosticArray, cls.on_diag)
         cls.errors = []
         sub('/rosout', Log, lambda m: cls.errors.append(m.msg)
-            if m.name == '/dj_rob' and m.level >= Log.ERROR else None,
+            if m.name == '/dj_rob' and m.level >= Log.WARN else None,
             queue_size=100)
         threading.Thread(target=cls.publish_samples, daemon=True).start()
         cls.wait_round()
@@ -162,19 +163,25 @@ class DjRobRound(unittest.TestCase):
     @classmethod
     def send_bad_decisions(cls):
         """Decisions the robot must log and ignore: a winner out of
-        range, an unknown round, an unknown outcome."""
-        pub = rospy.Publisher('/decision', Decision, queue_size=10)
+        range, an unknown round, an unknown outcome, sent under the DM's
+        caller id so that their content is judged (a wrong sender is
+        inbox_sender.test's: rospy shares one connection per topic and
+        node, so this node can publish /decision under one id only)."""
+        forged = rospy.Publisher('/decision', Decision, queue_size=10,
+                                 headers={'callerid': '/decision_module'})
         deadline = time.time() + 5.0
-        while pub.get_num_connections() < 1 and time.time() < deadline:
+        while forged.get_num_connections() < 1 and time.time() < deadline:
             time.sleep(0.05)
         time.sleep(1.0)                   # every subscriber connected
         cls.bad_sent = time.time()
         n = cls.capture.round if cls.capture else 1
-        for d in (Decision(round=n, outcome=Decision.WINNER, winner=7),
-                  Decision(round=n + 1000, outcome=Decision.WINNER,
-                           winner=1),
-                  Decision(round=n, outcome='bogus', winner=1)):
-            pub.publish(d)
+        clients = dict(clients=['a', 'b'], scores=[1.0, 2.0])
+        for d in (Decision(round=n, outcome=Decision.WINNER, winner=7,
+                           **clients),
+                  Decision(round=n + 1000, outcome=Decision.WINNER, winner=1,
+                           **clients),
+                  Decision(round=n, outcome='bogus', winner=1, **clients)):
+            forged.publish(d)
             time.sleep(0.2)
         time.sleep(2.0)
 
@@ -289,9 +296,10 @@ class DjRobRound(unittest.TestCase):
         if self.expect != 'no_winner':
             self.skipTest('sent in the no_winner round only')
         text = '\n'.join(self.errors)
-        self.assertIn('winner 7 out of range 1..2', text)
-        self.assertIn('not a round this robot was scheduled in', text)
-        self.assertIn("unknown decision outcome 'bogus'", text)
+        self.assertIn('winner=7 is outside [0, 2]', text)
+        self.assertTrue('round_future' in text or 'not a round this robot '
+                        'was scheduled in' in text, text)
+        self.assertIn("outcome='bogus' is not one of", text)
         with self.lock:
             moved = [c for t, c in self.cmds
                      if t > self.bad_sent and c != (0.0, 0.0)]
