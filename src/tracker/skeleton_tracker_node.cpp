@@ -34,6 +34,14 @@ namespace {
 // faketime of the client applies to both alike).
 double localNow() { return ros::WallTime::now().toSec(); }
 
+/// OpenNI's extended errors span lines and tabs: one line for logs and diagnostics.
+std::string oneLine(const std::string& text) {
+  std::istringstream words(text);
+  std::string out, w;
+  while (words >> w) out += (out.empty() ? "" : " ") + w;
+  return out;
+}
+
 std::string fmt(double v, int prec = 3) {
   std::ostringstream ss;
   ss.setf(std::ios::fixed);
@@ -130,18 +138,36 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     error_ = e;
   }
 
+  /// A failed open: ERROR with the reason, which is logged again when it
+  /// changes and every 30 s while it lasts; the run loop retries every
+  /// reopen_period (not after a fatal error: a backend that cannot work).
+  void openFailed(const std::string& why) {
+    std::lock_guard<std::mutex> lock(mu_);
+    ++open_failures_;
+    error_ = why;
+    if (!fatal_) {
+      error_ += "; retrying every " + fmt(reopen_period_, 1) + " s (attempt " + std::to_string(open_failures_) + ")";
+    }
+    const double now = localNow();
+    if (error_kind_ != why || now - open_logged_ >= 30.0) {
+      ROS_ERROR_STREAM("skeleton_tracker: " << error_);
+      open_logged_ = now;
+    }
+    error_kind_ = why;
+  }
+
   void openDevice() {
     auto dev = std::make_unique<openni::Device>();
     const char* uri = device_uri_.empty() ? openni::ANY_DEVICE : device_uri_.c_str();
     if (dev->open(uri) != openni::STATUS_OK) {
-      std::string why = openni::OpenNI::getExtendedError();
+      std::string why = oneLine(openni::OpenNI::getExtendedError());
       if (is_file_) why = std::ifstream(device_uri_).good() ? "not a readable .oni recording (corrupt?) " + why : "no such file";
-      setError("cannot open " + uriLabel() + ": " + why);
+      openFailed("cannot open " + uriLabel() + ": " + why);
       return;
     }
     auto depth = std::make_unique<openni::VideoStream>();
     if (depth->create(*dev, openni::SENSOR_DEPTH) != openni::STATUS_OK) {
-      setError(uriLabel() + " has no depth stream: " + openni::OpenNI::getExtendedError());
+      openFailed(uriLabel() + " has no depth stream: " + oneLine(openni::OpenNI::getExtendedError()));
       dev->close();
       return;
     }
@@ -152,7 +178,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
       pb->setSpeed(1.0f);
       total = pb->getNumberOfFrames(*depth);
       if (total <= 0) {
-        setError("recording " + uriLabel() + " holds no depth frames (corrupt .oni?)");
+        openFailed("recording " + uriLabel() + " holds no depth frames (corrupt .oni?)");
         depth->destroy();
         dev->close();
         return;
@@ -165,7 +191,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     cam.hfov = depth->getHorizontalFieldOfView();
     cam.vfov = depth->getVerticalFieldOfView();
     if (mode.getPixelFormat() != openni::PIXEL_FORMAT_DEPTH_1_MM || cam.width <= 0 || !(cam.hfov > 0.1)) {
-      setError(uriLabel() + ": unsupported depth mode (need 1 mm depth with a field of view)");
+      openFailed(uriLabel() + ": unsupported depth mode (need 1 mm depth with a field of view)");
       depth->destroy();
       dev->close();
       return;
@@ -175,14 +201,14 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
       try {
         nite = std::make_unique<NiteBackend>(dev.get());
       } catch (const std::exception& e) {
-        setError(e.what());
         fatal_ = true;
+        openFailed(e.what());
         depth->destroy();
         dev->close();
         return;
       }
     } else if (depth->start() != openni::STATUS_OK) {
-      setError("cannot start depth on " + uriLabel() + ": " + openni::OpenNI::getExtendedError());
+      openFailed("cannot start depth on " + uriLabel() + ": " + oneLine(openni::OpenNI::getExtendedError()));
       depth->destroy();
       dev->close();
       return;
@@ -200,6 +226,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     opened_local_ = localNow();
     resolution_ = std::to_string(cam.width) + "x" + std::to_string(cam.height);
     state_ = "opened";
+    open_failures_ = 0;
     error_.clear();
     error_kind_.clear();
     ROS_INFO_STREAM("skeleton_tracker: " << client_id_ << " reads " << uriLabel() << " (" << resolution_
@@ -230,7 +257,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     } else {
       openni::VideoFrameRef f;
       if (depth_->readFrame(&f) != openni::STATUS_OK || !f.isValid()) {
-        setError("readFrame failed: " + std::string(openni::OpenNI::getExtendedError()));
+        setError("readFrame failed: " + oneLine(openni::OpenNI::getExtendedError()));
         return;
       }
       arrival = localNow();
@@ -323,6 +350,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
       kv("skeletons_published", std::to_string(published_));
       kv("dropped_frames", std::to_string(dropped_));
       kv("withheld_no_clock", std::to_string(withheld_));
+      kv("failed_opens", std::to_string(open_failures_));
       kv("tracking_state", state_);
       kv("global_clock", clock_.ready ? "ok" : clock_.reason);
       kv("device_clock_offset_s", fmt(mapper_.offset(), 6));
@@ -354,7 +382,8 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
   std::string state_ = "starting", error_, error_kind_, resolution_ = "?";
   std::deque<double> fps_window_;
   int total_frames_ = 0, last_index_ = 0;
-  double last_frame_local_ = 0, opened_local_ = 0;
+  double last_frame_local_ = 0, opened_local_ = 0, open_logged_ = 0;
+  unsigned long open_failures_ = 0;  // since the last successful open
   unsigned long frames_ = 0, tracked_ = 0, published_ = 0, dropped_ = 0, withheld_ = 0;
 };
 
