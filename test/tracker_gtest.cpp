@@ -332,20 +332,31 @@ TEST(ClockModel, ClockStateIsCheckedBeforeUse) {
   ClockStatus none;
   EXPECT_FALSE(none.ready);
   EXPECT_EQ(none.reason, "no clock_state received yet");
-  ClockStatus s = clockStatus(true, "", 100, 2.5, 1e-4, 0.001);
+  ClockStatus s = clockStatus("a", true, "", 1.7e9, -0.9, 2e-4, 0.0003);
   EXPECT_TRUE(s.ready);
   EXPECT_EQ(s.reason, "");
-  EXPECT_DOUBLE_EQ(s.model.toGlobal(100), 102.5);
-  s = clockStatus(false, "NTP server 10.0.0.1:123 unreachable", 100, 2.5, 0, 0.001);
+  EXPECT_DOUBLE_EQ(s.model.toGlobal(1.7e9), 1.7e9 - 0.9);
+  s = clockStatus("a", false, "did not answer", 1.7e9, -0.9, 0, 0.001);
   EXPECT_FALSE(s.ready);
-  EXPECT_EQ(s.reason, "CPM reports: NTP server 10.0.0.1:123 unreachable");
-  for (double bad : {std::nan(""), HUGE_VAL}) {
-    EXPECT_FALSE(clockStatus(true, "", bad, 2.5, 0, 0.001).ready);
-    EXPECT_FALSE(clockStatus(true, "", 100, bad, 0, 0.001).ready);
-    EXPECT_FALSE(clockStatus(true, "", 100, 2.5, bad, 0.001).ready);
-    s = clockStatus(true, "", 100, 2.5, 0, bad);
-    EXPECT_FALSE(s.ready);
-    EXPECT_EQ(s.reason, "clock_state has non-finite values");
+  EXPECT_EQ(s.reason, "a has no clock model: did not answer");
+  EXPECT_EQ(clockStatus("", false, "", 1.7e9, 0, 0, 1e9).reason, "the sender has no clock model: no reason given");
+  // The cases of Python's test_clock_state.py, with its reasons.
+  struct Bad {
+    double local_ref, offset, drift, uncertainty;
+    std::string what;
+  };
+  const double nan = std::nan("");
+  for (const Bad& b : {Bad{1.7e9, nan, 2e-4, 0.0003, "clock model offset=nan is not finite"},
+                       Bad{1.7e9, -0.9, HUGE_VAL, 0.0003, "clock model drift=inf is not finite"},
+                       Bad{nan, -0.9, 2e-4, 0.0003, "clock model local_ref=nan is not finite"},
+                       Bad{1.7e9, -0.9, 2e-4, nan, "clock model uncertainty=nan is not finite"},
+                       Bad{1.7e9, -0.9, 2e-4, -0.001, "clock model uncertainty=-0.001 is negative"},
+                       Bad{1e10, -0.9, 2e-4, 0.0003, "clock model local_ref=1e+10 s is outside [0, 2**32)"},
+                       Bad{1.7e9, 4e9, 2e-4, 0.0003, "clock model global time at local_ref=5.7e+09 s is outside"},
+                       Bad{100, 0, 0.5, 0.001, "clock model drift=0.5 exceeds +/-0.01"}}) {
+    s = clockStatus("a", true, "", b.local_ref, b.offset, b.drift, b.uncertainty);
+    EXPECT_FALSE(s.ready) << b.what;
+    EXPECT_EQ(s.reason.rfind("clock_state of a: " + b.what, 0), 0u) << s.reason;
   }
 }
 

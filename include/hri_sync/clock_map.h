@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <deque>
+#include <limits>
 #include <string>
 
 namespace hri_sync {
@@ -65,15 +66,16 @@ class DeviceClockMapper {
 /// A linear map from local to global time, as Python's
 /// hri_sync.timing.clock.ClockModel:
 /// global(local) = local + offset + drift * (local - local_ref).
+/// The default is the identity with an unbounded uncertainty, as in Python.
 struct ClockModel {
-  double local_ref = 0, offset = 0, drift = 0, uncertainty = 0;
+  double local_ref = 0, offset = 0, drift = 0, uncertainty = std::numeric_limits<double>::infinity();
   double offsetAt(double local) const { return offset + drift * (local - local_ref); }
   double toGlobal(double local) const { return local + offsetAt(local); }
   double toLocal(double global) const { return (global - offset + drift * local_ref) / (1.0 + drift); }
 };
 
 /// A client's global clock as its CPM publishes it (hri_sync/ClockState),
-/// checked: ready only when the CPM says ok and every value is finite;
+/// checked: ready only when the CPM says ok and the model is usable;
 /// otherwise `reason` says why.
 struct ClockStatus {
   bool ready = false;
@@ -81,15 +83,25 @@ struct ClockStatus {
   ClockModel model;
 };
 
-/// The one ClockState -> ClockModel conversion of the C++ side.
-ClockStatus clockStatus(bool ok, const std::string& reason, double local_ref, double offset, double drift,
-                        double uncertainty);
+/// The limits of a usable model, as Python's hri_sync.timing.clock:
+/// |drift| <= kMaxDrift (MAX_DRIFT, 1 %: ten times any crystal's), local_ref
+/// and its global time in [0, kTimeLimit) (TIME_LIMIT, 2^32 s: what a ROS
+/// time can carry).
+constexpr double kMaxDrift = 0.01;
+constexpr double kTimeLimit = 4294967296.0;
+
+/// The one ClockState -> ClockModel conversion of the C++ side, with the
+/// checks and reasons of Python's hri_sync.ros.clock_state.model_from_msg:
+/// the CPM's reason when it is not ok; a value that is not finite, a
+/// negative uncertainty, a drift or time outside the limits above, named.
+ClockStatus clockStatus(const std::string& client_id, bool ok, const std::string& reason, double local_ref,
+                        double offset, double drift, double uncertainty);
 
 /// The same from an hri_sync/ClockState message (kept out of this ROS-free
 /// header's dependencies by the template).
 template <class ClockStateMsg>
 ClockStatus clockStatus(const ClockStateMsg& m) {
-  return clockStatus(m.ok, m.reason, m.local_ref, m.offset, m.drift, m.uncertainty);
+  return clockStatus(m.client_id, m.ok, m.reason, m.local_ref, m.offset, m.drift, m.uncertainty);
 }
 
 }  // namespace hri_sync

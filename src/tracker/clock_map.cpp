@@ -1,9 +1,12 @@
 #include "hri_sync/clock_map.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
+#include <utility>
 #include <vector>
 
 namespace hri_sync {
@@ -103,22 +106,55 @@ void DeviceClockMapper::fit() {
   offset_ = base + shift;
 }
 
-ClockStatus clockStatus(bool ok, const std::string& reason, double local_ref, double offset, double drift,
-                        double uncertainty) {
+namespace {
+
+/// The shortest text that reads back as `v` (as Python's repr, near enough).
+std::string num(double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, r.ptr);
+}
+
+/// Why a model is not usable, or "" (Python's ClockModel.validate).
+std::string invalid(const ClockModel& m) {
+  const std::pair<const char*, double> fields[] = {
+      {"local_ref", m.local_ref}, {"offset", m.offset}, {"drift", m.drift}, {"uncertainty", m.uncertainty}};
+  for (const auto& f : fields) {
+    if (!std::isfinite(f.second)) return std::string("clock model ") + f.first + "=" + num(f.second) + " is not finite";
+  }
+  const std::pair<const char*, double> times[] = {{"local_ref", m.local_ref},
+                                                  {"global time at local_ref", m.local_ref + m.offset}};
+  for (const auto& t : times) {
+    if (!(t.second >= 0 && t.second < kTimeLimit)) {
+      return std::string("clock model ") + t.first + "=" + num(t.second) + " s is outside [0, 2**32)";
+    }
+  }
+  if (m.uncertainty < 0) return "clock model uncertainty=" + num(m.uncertainty) + " is negative";
+  if (std::fabs(m.drift) > kMaxDrift) return "clock model drift=" + num(m.drift) + " exceeds +/-" + num(kMaxDrift);
+  return "";
+}
+
+}  // namespace
+
+ClockStatus clockStatus(const std::string& client_id, bool ok, const std::string& reason, double local_ref,
+                        double offset, double drift, double uncertainty) {
+  const std::string sender = client_id.empty() ? "the sender" : client_id;
   ClockStatus s;
   s.model.local_ref = local_ref;
   s.model.offset = offset;
   s.model.drift = drift;
   s.model.uncertainty = uncertainty;
   if (!ok) {
-    s.reason = "CPM reports: " + (reason.empty() ? std::string("not synced") : reason);
-  } else if (!std::isfinite(local_ref) || !std::isfinite(offset) || !std::isfinite(drift) ||
-             !std::isfinite(uncertainty)) {
-    s.reason = "clock_state has non-finite values";
-  } else {
-    s.ready = true;
-    s.reason.clear();
+    s.reason = sender + " has no clock model: " + (reason.empty() ? std::string("no reason given") : reason);
+    return s;
   }
+  const std::string why = invalid(s.model);
+  if (!why.empty()) {
+    s.reason = "clock_state of " + sender + ": " + why;
+    return s;
+  }
+  s.ready = true;
+  s.reason.clear();
   return s;
 }
 
