@@ -3,6 +3,8 @@
 
 set(CMAKE_CXX_STANDARD 17)
 set(CMAKE_CXX_STANDARD_REQUIRED ON)
+# Every C++ target below builds warning-free with these (issue 13).
+add_compile_options(-Wall -Wextra)
 
 find_path(OPENNI2_INCLUDE_DIR OpenNI.h PATH_SUFFIXES openni2)
 find_library(OPENNI2_LIBRARY NAMES OpenNI2)

@@ -3,13 +3,14 @@
 
 The checks of tracker_dance_off_check.py (the winner, both results ok, the
 tracker client's ~30 Hz frames), and that the tracker's skeletons are
-stamped in global time although its client's clock is faked: this node
-runs on the true host clock, which the loopback time server serves, so
+stamped in global time although its client's local clock is faked: this
+node runs on the true clock, which the loopback time server serves, so
 each skeleton's true arrival time minus its header.stamp is its delay
 after capture: never below -~max_early (the client's clock uncertainty)
 and in the median below ~max_latency (measured: 1-12 ms, median 3 ms). A
-tracker that converts the host clock with the faked clock's ClockState is
-off by the fake offset (measured: 1.505 s with a +1.5 s clock).
+tracker outside the faketime (reading the true clock) that converts it with
+the faked clock's ClockState is off by the fake offset (measured: 1.505 s
+with a +1.5 s clock).
 """
 import time
 

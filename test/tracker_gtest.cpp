@@ -8,7 +8,10 @@
 #include <cstdio>
 #include <fstream>
 #include <random>
+#include <sstream>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "hri_sync/body.h"
 #include "hri_sync/clock_map.h"
@@ -21,6 +24,7 @@ using namespace hri_sync;
 namespace {
 
 const std::string kMotion = std::string(HRI_SYNC_SOURCE_DIR) + "/data/motion/cmu_60_01_salsa.track";
+const std::string kClockVectors = std::string(HRI_SYNC_SOURCE_DIR) + "/test/data/clock_map/";
 
 const Track& motion() {
   static const Track t = Track::load(kMotion);
@@ -219,35 +223,141 @@ TEST(Calibration, ModelSearchMovesTheLegsTowardsTheirLength) {
   EXPECT_LT(std::fabs(b.thigh + b.shin - leg), std::fabs(start.thigh + start.shin - leg));
 }
 
-TEST(DeviceClock, LowerEnvelopeFitsOffsetAndDrift) {
-  // Device clock: 150 ppm fast, starts at 12.5 s; frames reach the host 2-40 ms late.
-  std::mt19937 rng(3);
-  std::exponential_distribution<double> late(1.0 / 0.008);
-  DeviceClockMapper map;
-  const double host0 = 1.7e9, drift = 150e-6;
-  double worst = 0;
-  for (int n = 0; n < 30 * 40; ++n) {
-    double capture = host0 + n / 30.0;
-    double device = 12.5 + (capture - host0) * (1 + drift);
-    double arrival = capture + 0.002 + std::min(late(rng), 0.04);
-    map.add(device, arrival);
-    if (n > 30 * 10) worst = std::max(worst, std::fabs(map.toHost(device) - capture));
+// The shared test vectors of the device clock map (test/data/clock_map/,
+// scripts/make_clock_map_vectors.py), held to the same bounds as Python's map
+// in test/unit/test_clock_map_vectors.py, and to the same map: the `mapped`
+// column is Python's DeviceClockMapper output.
+namespace {
+
+struct VectorCase {
+  std::string name;
+  double bound_ms, skip_s, settle_bound_ms;
+  unsigned long resets;
+};
+
+std::vector<VectorCase> vectorCases() {
+  std::ifstream in(kClockVectors + "cases.csv");
+  std::string line;
+  std::getline(in, line);
+  std::vector<VectorCase> cases;
+  while (std::getline(in, line)) {
+    std::istringstream ss(line);
+    VectorCase c;
+    std::string field;
+    std::getline(ss, c.name, ',');
+    std::getline(ss, field, ',');
+    c.bound_ms = std::stod(field);
+    std::getline(ss, field, ',');
+    c.skip_s = std::stod(field);
+    std::getline(ss, field, ',');
+    c.settle_bound_ms = std::stod(field);
+    std::getline(ss, field, ',');
+    c.resets = std::stoul(field);
+    cases.push_back(c);
   }
-  EXPECT_LT(worst, 0.004) << "mapped times off by up to " << worst << " s";
-  EXPECT_NEAR(map.drift(), -drift, 30e-6);
-  // A jump back (a recording that loops) starts the estimate over.
-  EXPECT_FALSE(map.add(1.0, host0 + 100));
-  EXPECT_FALSE(map.ready());
+  return cases;
 }
 
-TEST(DeviceClock, GlobalClockModel) {
-  GlobalClockModel c;
-  c.ok = true;
+}  // namespace
+
+TEST(DeviceClock, SharedVectorsMeetPythonsBounds) {
+  const auto cases = vectorCases();
+  ASSERT_EQ(cases.size(), 5u) << "cannot read " << kClockVectors << "cases.csv";
+  double worst_agreement = 0;
+  for (const VectorCase& c : cases) {
+    SCOPED_TRACE(c.name);
+    std::ifstream in(kClockVectors + c.name + ".csv");
+    std::string line;
+    ASSERT_TRUE(std::getline(in, line)) << "cannot read " << c.name << ".csv";
+    DeviceClockMapper map;
+    double fit_start = 0, prev = 0, worst = 0, worst_settled = 0;
+    int n = 0;
+    while (std::getline(in, line)) {
+      double device, arrival, truth, mapped;
+      const int fields = std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf", &device, &arrival, &truth, &mapped);
+      ASSERT_GE(fields, 3) << line;
+      if (n++ == 0 || device < prev) fit_start = device;  // a new fit (first or reset)
+      prev = device;
+      map.observe(device, arrival);
+      ASSERT_EQ(map.ready(), fields == 4) << "row " << n << ": " << line;
+      if (!map.ready()) continue;
+      const double local = map.toLocal(device);
+      worst_agreement = std::max(worst_agreement, std::fabs(local - mapped));
+      ASSERT_NEAR(local, mapped, 10e-6) << "row " << n << ": not Python's map";
+      ASSERT_LE(local, arrival + 1e-6) << "row " << n << ": later than the arrival";
+      const double err = std::fabs(local - truth);
+      worst = std::max(worst, err);
+      if (device - fit_start >= c.skip_s) worst_settled = std::max(worst_settled, err);
+    }
+    EXPECT_GT(n, 500);
+    EXPECT_EQ(map.resets(), c.resets);
+    EXPECT_LT(worst_settled, c.bound_ms * 1e-3);
+    EXPECT_LT(worst, c.settle_bound_ms * 1e-3);
+    std::printf("clock map %-12s worst %.3f ms (bound %.1f), settling %.3f ms (bound %.0f)\n", c.name.c_str(),
+                worst_settled * 1e3, c.bound_ms, worst * 1e3, c.settle_bound_ms);
+  }
+  std::printf("clock map: C++ vs Python at most %.3g s apart\n", worst_agreement);
+}
+
+TEST(DeviceClock, ShortSpanTakesTheMinimumDelayWithoutDrift) {
+  DeviceClockMapper map;
+  EXPECT_THROW(map.toLocal(1.0), std::logic_error);
+  map.observe(10.0, 15.25);
+  map.observe(10.5, 15.5);  // the least-delayed sample
+  map.observe(11.0, 16.125);
+  EXPECT_EQ(map.offset(), 5.0);
+  EXPECT_EQ(map.drift(), 0.0);
+  EXPECT_EQ(map.toLocal(12.0), 17.0);
+  EXPECT_FALSE(map.ready());
+  map.observe(11.5, 16.5);
+  map.observe(12.0, 17.0);
+  EXPECT_TRUE(map.ready());
+  map.reset();  // a new device: forgotten, not a reset of its clock
+  EXPECT_FALSE(map.ready());
+  EXPECT_EQ(map.resets(), 0u);
+  EXPECT_THROW(map.toLocal(1.0), std::logic_error);
+}
+
+TEST(ClockModel, LocalToGlobalAndBack) {
+  ClockModel c;
   c.local_ref = 100;
   c.offset = 2.5;
   c.drift = 1e-4;
   EXPECT_DOUBLE_EQ(c.toGlobal(100), 102.5);
   EXPECT_NEAR(c.toGlobal(200), 200 + 2.5 + 0.01, 1e-9);
+  EXPECT_NEAR(c.toLocal(c.toGlobal(1.7e9)), 1.7e9, 1e-6);
+}
+
+TEST(ClockModel, ClockStateIsCheckedBeforeUse) {
+  ClockStatus none;
+  EXPECT_FALSE(none.ready);
+  EXPECT_EQ(none.reason, "no clock_state received yet");
+  ClockStatus s = clockStatus("a", true, "", 1.7e9, -0.9, 2e-4, 0.0003);
+  EXPECT_TRUE(s.ready);
+  EXPECT_EQ(s.reason, "");
+  EXPECT_DOUBLE_EQ(s.model.toGlobal(1.7e9), 1.7e9 - 0.9);
+  s = clockStatus("a", false, "did not answer", 1.7e9, -0.9, 0, 0.001);
+  EXPECT_FALSE(s.ready);
+  EXPECT_EQ(s.reason, "a has no clock model: did not answer");
+  EXPECT_EQ(clockStatus("", false, "", 1.7e9, 0, 0, 1e9).reason, "the sender has no clock model: no reason given");
+  // The cases of Python's test_clock_state.py, with its reasons.
+  struct Bad {
+    double local_ref, offset, drift, uncertainty;
+    std::string what;
+  };
+  const double nan = std::nan("");
+  for (const Bad& b : {Bad{1.7e9, nan, 2e-4, 0.0003, "clock model offset=nan is not finite"},
+                       Bad{1.7e9, -0.9, HUGE_VAL, 0.0003, "clock model drift=inf is not finite"},
+                       Bad{nan, -0.9, 2e-4, 0.0003, "clock model local_ref=nan is not finite"},
+                       Bad{1.7e9, -0.9, 2e-4, nan, "clock model uncertainty=nan is not finite"},
+                       Bad{1.7e9, -0.9, 2e-4, -0.001, "clock model uncertainty=-0.001 is negative"},
+                       Bad{1e10, -0.9, 2e-4, 0.0003, "clock model local_ref=1e+10 s is outside [0, 2**32)"},
+                       Bad{1.7e9, 4e9, 2e-4, 0.0003, "clock model global time at local_ref=5.7e+09 s is outside"},
+                       Bad{100, 0, 0.5, 0.001, "clock model drift=0.5 exceeds +/-0.01"}}) {
+    s = clockStatus("a", true, "", b.local_ref, b.offset, b.drift, b.uncertainty);
+    EXPECT_FALSE(s.ready) << b.what;
+    EXPECT_EQ(s.reason.rfind("clock_state of a: " + b.what, 0), 0u) << s.reason;
+  }
 }
 
 int main(int argc, char** argv) {

@@ -30,7 +30,17 @@
 namespace hri_sync {
 namespace {
 
-double hostNow() { return ros::WallTime::now().toSec(); }  // CLOCK_REALTIME, the CPM's local clock
+// The local clock: CLOCK_REALTIME, the clock the CPM's time.time() reads (so a
+// faketime of the client applies to both alike).
+double localNow() { return ros::WallTime::now().toSec(); }
+
+/// OpenNI's extended errors span lines and tabs: one line for logs and diagnostics.
+std::string oneLine(const std::string& text) {
+  std::istringstream words(text);
+  std::string out, w;
+  while (words >> w) out += (out.empty() ? "" : " ") + w;
+  return out;
+}
 
 std::string fmt(double v, int prec = 3) {
   std::ostringstream ss;
@@ -74,8 +84,8 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     while (ros::ok()) {
       if (fatal_) { ros::WallDuration(0.2).sleep(); continue; }
       if (!depth_) {
-        if (hostNow() - last_attempt < reopen_period_) { ros::WallDuration(0.05).sleep(); continue; }
-        last_attempt = hostNow();
+        if (localNow() - last_attempt < reopen_period_) { ros::WallDuration(0.05).sleep(); continue; }
+        last_attempt = localNow();
         openDevice();
         continue;
       }
@@ -86,10 +96,10 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
       openni::VideoStream* streams[] = {depth_.get()};
       int ready = -1;
       openni::Status st = openni::OpenNI::waitForAnyStream(streams, 1, &ready, 200);
-      const double now = hostNow();
+      const double now = localNow();
       if (st != openni::STATUS_OK) {
         std::lock_guard<std::mutex> lock(mu_);
-        double silent = now - (last_frame_host_ > 0 ? last_frame_host_ : opened_host_);
+        double silent = now - (last_frame_local_ > 0 ? last_frame_local_ : opened_local_);
         if (ended()) {
           state_ = "end of recording";
         } else if (lost_ || silent > frame_timeout_) {
@@ -114,14 +124,8 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
   }
 
   void onClock(const hri_sync::ClockState::ConstPtr& msg) {
+    ClockStatus c = clockStatus(*msg);
     std::lock_guard<std::mutex> lock(mu_);
-    GlobalClockModel c;
-    c.ok = msg->ok && std::isfinite(msg->offset) && std::isfinite(msg->drift) && std::isfinite(msg->local_ref);
-    c.reason = msg->ok ? (c.ok ? "" : "clock_state has non-finite values") : "CPM reports: " + msg->reason;
-    c.local_ref = msg->local_ref;
-    c.offset = msg->offset;
-    c.drift = msg->drift;
-    c.uncertainty = msg->uncertainty;
     clock_ = c;
   }
 
@@ -134,18 +138,36 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     error_ = e;
   }
 
+  /// A failed open: ERROR with the reason, which is logged again when it
+  /// changes and every 30 s while it lasts; the run loop retries every
+  /// reopen_period (not after a fatal error: a backend that cannot work).
+  void openFailed(const std::string& why) {
+    std::lock_guard<std::mutex> lock(mu_);
+    ++open_failures_;
+    error_ = why;
+    if (!fatal_) {
+      error_ += "; retrying every " + fmt(reopen_period_, 1) + " s (attempt " + std::to_string(open_failures_) + ")";
+    }
+    const double now = localNow();
+    if (error_kind_ != why || now - open_logged_ >= 30.0) {
+      ROS_ERROR_STREAM("skeleton_tracker: " << error_);
+      open_logged_ = now;
+    }
+    error_kind_ = why;
+  }
+
   void openDevice() {
     auto dev = std::make_unique<openni::Device>();
     const char* uri = device_uri_.empty() ? openni::ANY_DEVICE : device_uri_.c_str();
     if (dev->open(uri) != openni::STATUS_OK) {
-      std::string why = openni::OpenNI::getExtendedError();
+      std::string why = oneLine(openni::OpenNI::getExtendedError());
       if (is_file_) why = std::ifstream(device_uri_).good() ? "not a readable .oni recording (corrupt?) " + why : "no such file";
-      setError("cannot open " + uriLabel() + ": " + why);
+      openFailed("cannot open " + uriLabel() + ": " + why);
       return;
     }
     auto depth = std::make_unique<openni::VideoStream>();
     if (depth->create(*dev, openni::SENSOR_DEPTH) != openni::STATUS_OK) {
-      setError(uriLabel() + " has no depth stream: " + openni::OpenNI::getExtendedError());
+      openFailed(uriLabel() + " has no depth stream: " + oneLine(openni::OpenNI::getExtendedError()));
       dev->close();
       return;
     }
@@ -156,7 +178,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
       pb->setSpeed(1.0f);
       total = pb->getNumberOfFrames(*depth);
       if (total <= 0) {
-        setError("recording " + uriLabel() + " holds no depth frames (corrupt .oni?)");
+        openFailed("recording " + uriLabel() + " holds no depth frames (corrupt .oni?)");
         depth->destroy();
         dev->close();
         return;
@@ -169,7 +191,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     cam.hfov = depth->getHorizontalFieldOfView();
     cam.vfov = depth->getVerticalFieldOfView();
     if (mode.getPixelFormat() != openni::PIXEL_FORMAT_DEPTH_1_MM || cam.width <= 0 || !(cam.hfov > 0.1)) {
-      setError(uriLabel() + ": unsupported depth mode (need 1 mm depth with a field of view)");
+      openFailed(uriLabel() + ": unsupported depth mode (need 1 mm depth with a field of view)");
       depth->destroy();
       dev->close();
       return;
@@ -179,14 +201,14 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
       try {
         nite = std::make_unique<NiteBackend>(dev.get());
       } catch (const std::exception& e) {
-        setError(e.what());
         fatal_ = true;
+        openFailed(e.what());
         depth->destroy();
         dev->close();
         return;
       }
     } else if (depth->start() != openni::STATUS_OK) {
-      setError("cannot start depth on " + uriLabel() + ": " + openni::OpenNI::getExtendedError());
+      openFailed("cannot start depth on " + uriLabel() + ": " + oneLine(openni::OpenNI::getExtendedError()));
       depth->destroy();
       dev->close();
       return;
@@ -200,10 +222,11 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     lost_ = false;
     total_frames_ = total;
     last_index_ = 0;
-    last_frame_host_ = 0;
-    opened_host_ = hostNow();
+    last_frame_local_ = 0;
+    opened_local_ = localNow();
     resolution_ = std::to_string(cam.width) + "x" + std::to_string(cam.height);
     state_ = "opened";
+    open_failures_ = 0;
     error_.clear();
     error_kind_.clear();
     ROS_INFO_STREAM("skeleton_tracker: " << client_id_ << " reads " << uriLabel() << " (" << resolution_
@@ -220,13 +243,13 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
 
   void handleFrame() {
     SkeletonEstimate est;
-    double host = 0;
+    double arrival = 0;  // local: the fit uses the earliest arrivals only
     unsigned long long device_us = 0;
     int index = 0;
     if (nite_) {
       try {
         est = nite_->read(&device_us, &index);
-        host = hostNow();
+        arrival = localNow();
       } catch (const std::exception& e) {
         setError(e.what());
         return;
@@ -234,10 +257,10 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     } else {
       openni::VideoFrameRef f;
       if (depth_->readFrame(&f) != openni::STATUS_OK || !f.isValid()) {
-        setError("readFrame failed: " + std::string(openni::OpenNI::getExtendedError()));
+        setError("readFrame failed: " + oneLine(openni::OpenNI::getExtendedError()));
         return;
       }
-      host = hostNow();  // arrival: the fit uses the earliest arrivals only
+      arrival = localNow();
       device_us = f.getTimestamp();
       index = f.getFrameIndex();
       est = tracker_->update(static_cast<const uint16_t*>(f.getData()), device_us * 1e-6);
@@ -251,24 +274,26 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
       error_kind_.clear();
     }
     if (last_index_ > 0 && index > last_index_ + 1) dropped_ += index - last_index_ - 1;
-    if (!mapper_.add(device_s, host)) {
-      ++clock_restarts_;
+    const unsigned long resets = mapper_.resets();
+    mapper_.observe(device_s, arrival);
+    if (mapper_.resets() != resets) {
       if (tracker_) tracker_->reset();
-      ROS_WARN_STREAM("skeleton_tracker: device clock jumped (recording looped or sensor reset); "
+      fps_window_.clear();
+      ROS_WARN_STREAM("skeleton_tracker: device clock went back (recording looped or sensor reset); "
                       "re-estimating the device clock");
     }
     last_index_ = index;
-    last_frame_host_ = host;
+    last_frame_local_ = arrival;
     fps_window_.push_back(device_s);
     while (fps_window_.size() > 1 && fps_window_.back() - fps_window_.front() > 2.0) fps_window_.pop_front();
     state_ = est.state;
     tracked_ += est.tracked;
     if (!est.tracked) return;
-    if (!clock_.ok) { ++withheld_; return; }
+    if (!clock_.ready) { ++withheld_; return; }
     if (!mapper_.ready()) { ++withheld_; return; }
 
     hri_sync::Skeleton msg;
-    const double global = clock_.toGlobal(mapper_.toHost(device_s));
+    const double global = clock_.model.toGlobal(mapper_.toLocal(device_s));
     msg.header.stamp.fromSec(global);
     msg.header.frame_id = frame_id_;
     msg.client_id = client_id_;
@@ -294,11 +319,11 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     {
       std::lock_guard<std::mutex> lock(mu_);
       double fps = fps_window_.size() > 1 ? (fps_window_.size() - 1) / (fps_window_.back() - fps_window_.front()) : 0.0;
-      if (depth_ && last_frame_host_ > 0 && hostNow() - last_frame_host_ > frame_timeout_) fps = 0.0;
+      if (depth_ && last_frame_local_ > 0 && localNow() - last_frame_local_ > frame_timeout_) fps = 0.0;
       if (!error_.empty()) {
         s.level = diagnostic_msgs::DiagnosticStatus::ERROR;
         s.message = error_;
-      } else if (!clock_.ok) {
+      } else if (!clock_.ready) {
         s.level = diagnostic_msgs::DiagnosticStatus::WARN;
         s.message = "not publishing: no valid global clock (" + clock_.reason + ") on /" + client_id_ + "/clock_state";
       } else if (!depth_) {
@@ -325,11 +350,12 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
       kv("skeletons_published", std::to_string(published_));
       kv("dropped_frames", std::to_string(dropped_));
       kv("withheld_no_clock", std::to_string(withheld_));
+      kv("failed_opens", std::to_string(open_failures_));
       kv("tracking_state", state_);
-      kv("global_clock", clock_.ok ? "ok" : clock_.reason);
+      kv("global_clock", clock_.ready ? "ok" : clock_.reason);
       kv("device_clock_offset_s", fmt(mapper_.offset(), 6));
       kv("device_clock_drift_ppm", fmt(mapper_.drift() * 1e6, 1));
-      kv("device_clock_restarts", std::to_string(clock_restarts_));
+      kv("device_clock_restarts", std::to_string(mapper_.resets()));
       kv("mean_arrival_delay_ms", fmt(mapper_.meanDelay() * 1e3, 2));
     }
     arr.status.push_back(s);
@@ -352,12 +378,13 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
   std::unique_ptr<NiteBackend> nite_;
   std::unique_ptr<DepthTracker> tracker_;
   DeviceClockMapper mapper_;
-  GlobalClockModel clock_;
+  ClockStatus clock_;
   std::string state_ = "starting", error_, error_kind_, resolution_ = "?";
   std::deque<double> fps_window_;
   int total_frames_ = 0, last_index_ = 0;
-  double last_frame_host_ = 0, opened_host_ = 0;
-  unsigned long frames_ = 0, tracked_ = 0, published_ = 0, dropped_ = 0, withheld_ = 0, clock_restarts_ = 0;
+  double last_frame_local_ = 0, opened_local_ = 0, open_logged_ = 0;
+  unsigned long open_failures_ = 0;  // since the last successful open
+  unsigned long frames_ = 0, tracked_ = 0, published_ = 0, dropped_ = 0, withheld_ = 0;
 };
 
 }  // namespace

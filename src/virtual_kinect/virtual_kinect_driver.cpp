@@ -199,8 +199,8 @@ class DepthStream : public oni::driver::StreamBase {
       const auto due = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(n * period));
       while (running_ && Clock::now() < due) std::this_thread::sleep_for(std::chrono::milliseconds(2));
       if (!running_) break;
-      double host_elapsed = n * period;
-      if (cfg_.lose_after > 0 && host_elapsed >= cfg_.lose_after) {
+      const double elapsed = n * period;  // true time since the start (the frames' schedule)
+      if (cfg_.lose_after > 0 && elapsed >= cfg_.lose_after) {
         if (on_lost_) on_lost_();
         while (running_) std::this_thread::sleep_for(std::chrono::milliseconds(20));
         break;
@@ -219,7 +219,7 @@ class DepthStream : public oni::driver::StreamBase {
       frame->dataSize = static_cast<int>(depth.size() * sizeof(uint16_t));
       frame->sensorType = ONI_SENSOR_DEPTH;
       frame->frameIndex = static_cast<int>(n + 1);
-      frame->timestamp = static_cast<uint64_t>(cfg_.offset_us + host_elapsed * 1e6 * (1.0 + cfg_.drift_ppm * 1e-6));
+      frame->timestamp = static_cast<uint64_t>(cfg_.offset_us + elapsed * 1e6 * (1.0 + cfg_.drift_ppm * 1e-6));
       frame->width = cam.width;
       frame->height = cam.height;
       frame->videoMode = mode_;

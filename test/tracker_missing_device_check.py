@@ -1,0 +1,57 @@
+#!/usr/bin/python3
+"""Checks a client whose tracker names a sensor that does not exist (issue 13).
+
+client.launch runs the skeleton_tracker with required="true", so a tracker
+that gave up would take the launch down with it.  Over ``~duration`` s:
+every /diagnostics status of the tracker is an ERROR naming the device URI
+and the retry, its failed_opens count goes up (it keeps retrying), no
+skeleton is published, and the tracker, CPM and DPM still answer at the end.
+"""
+import time
+import unittest
+
+import rosnode
+import rospy
+import rostest
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from hri_sync.msg import Skeleton
+
+PKG = 'hri_sync'
+
+
+class TrackerMissingDeviceTest(unittest.TestCase):
+
+    def test_names_the_device_and_keeps_retrying(self):
+        client = rospy.get_param('~client_id')
+        device = rospy.get_param('~device')
+        statuses, skeletons = [], []
+        rospy.Subscriber('/diagnostics', DiagnosticArray,
+                         lambda m: statuses.extend(
+                             s for s in m.status
+                             if s.name == 'skeleton_tracker: ' + client))
+        rospy.Subscriber('/%s/skeleton' % client, Skeleton,
+                         lambda m: skeletons.append(m))
+        deadline = time.time() + rospy.get_param('~duration')
+        while time.time() < deadline and not rospy.is_shutdown():
+            time.sleep(0.1)
+        self.assertGreaterEqual(len(statuses), 3, 'no tracker diagnostics')
+        for s in statuses:
+            self.assertEqual(s.level, DiagnosticStatus.ERROR, s.message)
+            self.assertIn("cannot open '%s'" % device, s.message)
+            self.assertIn('retrying every', s.message)
+            self.assertEqual(s.hardware_id, device)
+        failed = [int(dict((v.key, v.value) for v in s.values)
+                      ['failed_opens']) for s in statuses]
+        self.assertGreater(failed[-1], failed[0],
+                           'no new open attempt: %s' % failed)
+        self.assertEqual(skeletons, [])
+        for node in ('tracker', 'cpm', 'dpm'):
+            name = '/%s/%s' % (client, node)
+            self.assertTrue(rosnode.rosnode_ping(name, max_count=1),
+                            '%s is not running' % name)
+
+
+if __name__ == '__main__':
+    rospy.init_node('tracker_missing_device_check')
+    rostest.rosrun(PKG, 'tracker_missing_device',
+                   TrackerMissingDeviceTest)
