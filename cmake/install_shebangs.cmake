@@ -8,7 +8,7 @@ foreach(program ${programs})
     continue()
   endif()
   file(READ "${program}" head LIMIT 2)
-  if(NOT head STREQUAL "#!")
+  if(NOT head MATCHES "^#!")
     continue()
   endif()
   execute_process(
