@@ -9,7 +9,8 @@ APT_PACKAGES := $(shell grep -v '^\#' $(ROOT)/scripts/apt-packages.txt)
 PIP_PACKAGES := rosbags
 SOURCE := source $(WS)/devel/setup.bash
 
-.PHONY: setup apt venv build test unit check test-install rostest demo bench \
+.PHONY: setup apt venv build test unit check test-install test-site rostest \
+	demo bench \
 	bench-dj-rob clean
 
 setup: apt venv build
@@ -54,6 +55,10 @@ check: setup
 test-install: setup
 	@$(ROOT)/test/install_space.sh
 
+# The site launch files on four network namespaces (root; test/site_multihost.py).
+test-site: setup
+	@$(SOURCE) && $(ROS_PY) $(ROOT)/test/site_multihost.py
+
 rostest: setup
 	@$(SOURCE) && $(ROS_PY) $(ROOT)/scripts/run_rostests.py $(ROOT)/test
 
@@ -62,6 +67,7 @@ test: setup
 	$(MAKE) --no-print-directory unit || status=1; \
 	$(MAKE) --no-print-directory check || status=1; \
 	$(MAKE) --no-print-directory test-install || status=1; \
+	$(MAKE) --no-print-directory test-site || status=1; \
 	$(MAKE) --no-print-directory rostest || status=1; \
 	exit $$status
 

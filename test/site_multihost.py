@@ -55,14 +55,25 @@ def ip(*argv):
     return r.stdout
 
 
+def kill(pids):
+    """SIGKILL each pid still alive (not this process, which lives in the
+    server namespace)."""
+    for pid in pids:
+        if int(pid) == os.getpid():
+            continue
+        try:
+            os.kill(int(pid), signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+
+
 def remove_stale():
     """Namespaces of earlier runs whose process is gone."""
     for line in ip('netns', 'list').splitlines():
         name = line.split()[0] if line.strip() else ''
         m = re.match(r'^%s(\d+)-' % PREFIX, name)
         if m and not os.path.exists('/proc/%s' % m.group(1)):
-            for pid in ip('netns', 'pids', name).split():
-                os.kill(int(pid), signal.SIGKILL)
+            kill(ip('netns', 'pids', name).split())
             ip('netns', 'del', name)
             log('removed stale namespace %s', name)
 
@@ -126,8 +137,7 @@ class Site:
                 os.killpg(p.pid, signal.SIGKILL)
                 p.wait()
         for name in self.made:
-            for pid in ip('netns', 'pids', name).split():
-                os.kill(int(pid), signal.SIGKILL)
+            kill(ip('netns', 'pids', name).split())
         for name in reversed(self.made):
             ip('netns', 'del', name)
 
