@@ -3,7 +3,8 @@
 #   rosdep   every key of package.xml resolves and is installed
 #            (rosdep check --from-paths . --ignore-src);
 #   lint     catkin_lint -W1 reports no error;
-#   launch   roslaunch-check passes on every launch file.
+#   launch   roslaunch-check passes on every launch file, and every arg
+#            a user can set (no value=) has a doc.
 # Without a rosdep database (no `rosdep update`, or no network) rosdep and
 # catkin_lint use an offline one in .ws/rosdep: Debian's own list of the
 # ROS keys plus scripts/rosdep/system-keys.yaml for the system keys.
@@ -46,6 +47,18 @@ for f in "$ROOT"/launch/*.launch; do
   fi
 done
 echo "check_package: roslaunch-check on launch/*.launch done"
+
+echo "check_package: every settable launch arg has a doc"
+/usr/bin/python3 - "$ROOT"/launch/*.launch <<'PY' || fail "launch args without a doc"
+import sys
+import xml.etree.ElementTree as ET
+missing = ['%s: %s' % (f.rsplit('/', 1)[-1], a.get('name'))
+           for f in sys.argv[1:] for a in ET.parse(f).getroot().iter('arg')
+           if 'value' not in a.attrib and not a.get('doc')]
+if missing:
+    print('\n'.join(missing))
+sys.exit(1 if missing else 0)
+PY
 
 [ $status = 0 ] && echo "check_package: all passed"
 exit $status

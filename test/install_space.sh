@@ -5,7 +5,9 @@
 #   - every installed script's shebang is the ROS Python's;
 #   - dance_off.launch runs one round with a replay client under
 #     libfaketime (skewed_client) and a skeleton_tracker client on a
-#     virtual Kinect, DJ Rob on kobuki_sim and the music, recording a bag;
+#     virtual Kinect, DJ Rob on kobuki_sim and the music, the site frames
+#     (static_frame), recording a bag; preflight says GO; rviz.launch's
+#     skeleton_markers publishes markers;
 #   - verify_decisions recomputes that bag (with the install's rosbags venv);
 #   - system.launch runs a round (synthetic_sensor);
 #   - the C++ tools record_oni, oni_info and tracker_eval run.
@@ -66,14 +68,24 @@ run "roscore -p $PORT" > "$TMP/roscore.log" 2>&1 &
 MASTER_PID=$!
 run 'until rostopic list >/dev/null 2>&1; do sleep 0.2; done'
 
-say "dance_off.launch: left under faketime, right on a virtual Kinect"
+say "dance_off.launch: left under faketime, right on a virtual Kinect, preflight, rviz markers"
 bag=$TMP/round.bag
+run "roslaunch --wait hri_sync rviz.launch rviz:=false" > "$TMP/rviz.log" 2>&1 &
+RVIZ_PID=$!
+run "rostopic echo -n 1 /skeleton_markers" > "$TMP/markers.log" 2>&1 &
+ECHO_PID=$!
 if ! run "roslaunch --wait hri_sync dance_off.launch dur:=3 rounds:=1 \
       left_clock:='+1.2s x1.0002' right_sensor:=tracker right_motion:=cmu_61_01_salsa \
-      ntp_port:=$(free_port) bag:=$bag" > "$TMP/dance_off.log" 2>&1; then
+      preflight:=true ntp_port:=$(free_port) bag:=$bag" > "$TMP/dance_off.log" 2>&1; then
   tail -30 "$TMP/dance_off.log"
   fail "dance_off.launch"
 fi
+grep -q '^preflight: GO' "$TMP/dance_off.log" \
+  || fail "preflight did not say GO: $(grep '^preflight:' "$TMP/dance_off.log")"
+kill -INT "$RVIZ_PID" 2>/dev/null; kill "$ECHO_PID" 2>/dev/null
+wait "$RVIZ_PID" "$ECHO_PID" 2>/dev/null
+grep -q 'SPHERE_LIST\|type: 7' "$TMP/markers.log" \
+  || fail "no skeleton markers: $(tail -3 "$TMP/markers.log")"
 grep -rqs "fake python3 ran" "$TMP"/*.log "$TMP/ros/log" \
   && fail "something ran the python3 first on PATH"
 if run "rosrun hri_sync verify_decisions $bag" > "$TMP/verify.log" 2>&1; then
