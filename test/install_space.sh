@@ -64,15 +64,15 @@ for f in "$WS"/install/lib/hri_sync/*; do
 done
 say "shebangs checked"
 
-run "roscore -p $PORT" > "$TMP/roscore.log" 2>&1 &
+run "exec roscore -p $PORT" > "$TMP/roscore.log" 2>&1 &
 MASTER_PID=$!
 run 'until rostopic list >/dev/null 2>&1; do sleep 0.2; done'
 
 say "dance_off.launch: left under faketime, right on a virtual Kinect, preflight, rviz markers"
 bag=$TMP/round.bag
-run "roslaunch --wait hri_sync rviz.launch rviz:=false" > "$TMP/rviz.log" 2>&1 &
+run "exec roslaunch --wait hri_sync rviz.launch rviz:=false" > "$TMP/rviz.log" 2>&1 &
 RVIZ_PID=$!
-run "rostopic echo -n 1 /skeleton_markers" > "$TMP/markers.log" 2>&1 &
+run "exec rostopic echo -n 1 /skeleton_markers" > "$TMP/markers.log" 2>&1 &
 ECHO_PID=$!
 if ! run "roslaunch --wait hri_sync dance_off.launch dur:=3 rounds:=1 \
       left_clock:='+1.2s x1.0002' right_sensor:=tracker right_motion:=cmu_61_01_salsa \
@@ -82,7 +82,8 @@ if ! run "roslaunch --wait hri_sync dance_off.launch dur:=3 rounds:=1 \
 fi
 grep -q '^preflight: GO' "$TMP/dance_off.log" \
   || fail "preflight did not say GO: $(grep '^preflight:' "$TMP/dance_off.log")"
-kill -INT "$RVIZ_PID" 2>/dev/null; kill "$ECHO_PID" 2>/dev/null
+# (background jobs of a script ignore SIGINT: roslaunch stops on SIGTERM)
+kill "$RVIZ_PID" "$ECHO_PID" 2>/dev/null
 wait "$RVIZ_PID" "$ECHO_PID" 2>/dev/null
 grep -q 'SPHERE_LIST\|type: 7' "$TMP/markers.log" \
   || fail "no skeleton markers: $(tail -3 "$TMP/markers.log")"
