@@ -20,12 +20,14 @@ DJ Rob's dance start reported and its winner gesture (dj_rob_monitor's
 "gesture done" line, heading within 10 deg of participant 1). It also
 checks that a site file without master:= stops, naming the arg. Needs
 root (ip netns). Every namespace and process it made is removed on exit;
-namespaces of a killed earlier run are removed at start. Exit 0 on pass.
+namespaces of a killed earlier run are removed at start. Exit 0 on pass;
+the logs are kept (and named) on a failure.
 """
 import ctypes
 import json
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -248,7 +250,11 @@ def main():
     finally:
         site.stop()
     ok = passed(result) and 'error' not in result
-    log('%s (logs in %s)', 'PASS' if ok else 'FAIL', logdir)
+    if ok:
+        shutil.rmtree(logdir)
+        result['logs'] = None
+    log('%s%s', 'PASS' if ok else 'FAIL', '' if ok else ' (logs in %s)'
+        % logdir)
     print(json.dumps(result))
     sys.exit(0 if ok else 1)
 
