@@ -8,7 +8,8 @@
 #     virtual Kinect, DJ Rob on kobuki_sim and the music, the site frames
 #     (static_frame), recording a bag; preflight says GO; rviz.launch's
 #     skeleton_markers publishes markers;
-#   - verify_decisions recomputes that bag (with the install's rosbags venv);
+#   - verify_decisions recomputes that bag and report writes its HTML (with
+#     the install's rosbags venv);
 #   - system.launch runs a round (synthetic_sensor);
 #   - the C++ tools record_oni, oni_info and tracker_eval run.
 # Exit 0 when all of it passed. KEEP=1 keeps the workspace.
@@ -94,6 +95,16 @@ if run "rosrun hri_sync verify_decisions $bag" > "$TMP/verify.log" 2>&1; then
 else
   cat "$TMP/verify.log"
   fail "verify_decisions"
+fi
+
+# report: exit 0 (every round passed) or 1 (a verdict failed) both mean it ran.
+run "rosrun hri_sync report $bag --out $TMP/report" > "$TMP/report.log" 2>&1
+code=$?
+if [ $code -le 1 ] && [ -s "$TMP/report/index.html" ]; then
+  say "report: $TMP/report/index.html (exit $code)"
+else
+  tail -20 "$TMP/report.log"
+  fail "report (exit $code)"
 fi
 
 say "system.launch"
