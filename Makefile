@@ -9,7 +9,9 @@ APT_PACKAGES := $(shell grep -v '^\#' $(ROOT)/scripts/apt-packages.txt)
 PIP_PACKAGES := rosbags
 SOURCE := source $(WS)/devel/setup.bash
 
-.PHONY: setup apt venv build test unit rostest demo bench bench-dj-rob clean
+.PHONY: setup apt venv build test unit check test-install test-site rostest \
+	demo bench \
+	bench-dj-rob clean
 
 setup: apt venv build
 
@@ -45,12 +47,27 @@ build:
 unit: setup
 	cd $(ROOT) && PYTHONPATH=$(ROOT)/src:$$PYTHONPATH $(VENV)/bin/python -m pytest -q test/unit
 
+# rosdep keys, catkin_lint, roslaunch-check (scripts/check_package.sh).
+check: setup
+	@$(ROOT)/scripts/check_package.sh
+
+# A fresh catkin_make install runs the nodes and tools (test/install_space.sh).
+test-install: setup
+	@$(ROOT)/test/install_space.sh
+
+# The site launch files on four network namespaces (root; test/site_multihost.py).
+test-site: setup
+	@$(SOURCE) && $(ROS_PY) $(ROOT)/test/site_multihost.py
+
 rostest: setup
 	@$(SOURCE) && $(ROS_PY) $(ROOT)/scripts/run_rostests.py $(ROOT)/test
 
 test: setup
 	@status=0; \
 	$(MAKE) --no-print-directory unit || status=1; \
+	$(MAKE) --no-print-directory check || status=1; \
+	$(MAKE) --no-print-directory test-install || status=1; \
+	$(MAKE) --no-print-directory test-site || status=1; \
 	$(MAKE) --no-print-directory rostest || status=1; \
 	exit $$status
 

@@ -78,6 +78,8 @@ hri_sync_openni2_program(skeleton_tracker
 target_link_libraries(skeleton_tracker hri_sync_tracker_core ${catkin_LIBRARIES} ${CMAKE_DL_LIBS})
 add_dependencies(skeleton_tracker ${${PROJECT_NAME}_EXPORTED_TARGETS} ${catkin_EXPORTED_TARGETS})
 
+# catkin_lint does not follow the add_executable in hri_sync_openni2_program.
+#catkin_lint: ignore_once undefined_target
 install(TARGETS skeleton_tracker record_oni oni_info tracker_eval
   RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 install(TARGETS VirtualKinect

@@ -118,7 +118,8 @@ def test_every_hri_sync_message_a_node_subscribes_has_a_validator():
                 subscribed |= set(re.findall(
                     r'Subscriber\([^,]+,\s*([A-Z]\w+)', f.read()))
     known = {t.split('/')[1] for t in v.VALIDATORS}
-    assert subscribed - {'cls', 'msg_class'} <= known
+    ours = {f[:-len('.msg')] for f in os.listdir(MSG_DIR)}
+    assert subscribed & ours <= known
 
 
 @pytest.mark.parametrize('t,reason', [

@@ -3,8 +3,10 @@
 ROS runs nodes with /usr/bin/python3; the PyPI-only ``rosbags`` lives in
 the package's venv (``make venv``). ``ensure(modules, prog, script)``
 returns if every module imports, else re-executes ``script`` under the
-first venv that exists (``$HRI_SYNC_VENV``, the source tree's ``.venv``,
-the ROS package's ``.venv``), or exits with what to install.
+first venv that exists (``$HRI_SYNC_VENV``, the source tree's ``.venv``
+when ``script`` runs from one, the ROS package's ``.venv``, an install
+space's ``share/hri_sync/venv`` made by ``catkin_make install``), or exits
+with what to install.
 """
 import importlib
 import os
@@ -26,13 +28,15 @@ def ensure(modules, prog, script):
     missing = _missing(modules)
     if not missing:
         return
-    here = os.path.dirname(os.path.realpath(script))
-    candidates = [os.environ.get('HRI_SYNC_VENV', ''),
-                  os.path.join(os.path.dirname(here), '.venv')]
+    source = os.path.dirname(os.path.dirname(os.path.realpath(script)))
+    candidates = [os.environ.get('HRI_SYNC_VENV', '')]
+    if os.path.exists(os.path.join(source, 'package.xml')):
+        candidates.append(os.path.join(source, '.venv'))
     try:
         import rospkg
-        candidates.append(os.path.join(
-            rospkg.RosPack().get_path('hri_sync'), '.venv'))
+        share = rospkg.RosPack().get_path('hri_sync')
+        candidates += [os.path.join(share, '.venv'),
+                       os.path.join(share, 'venv')]
     except Exception:   # no ROS environment: the other candidates remain
         pass
     if not os.environ.get('HRI_SYNC_REEXEC'):
