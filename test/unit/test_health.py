@@ -235,8 +235,20 @@ def test_result_and_decision_tallies():
 
 # -- ServerTally -----------------------------------------------------------
 
+def test_every_client_s_counts_are_shown_from_zero():
+    h = ServerTally(['left', 'right']).health()
+    assert [k for k, _ in h.values][-4:] == [
+        'left refused_count', 'left missing_count', 'right refused_count',
+        'right missing_count']
+    assert {v for _, v in h.values[-4:]} == {'0'}
+    t = decision_tally(['left', 'right'])
+    t.count('missing', ['other'])
+    keys = [k for k, _ in t.health().values]
+    assert keys.index('right missing_count') < keys.index('other ok_count')
+
+
 def test_a_decided_round_and_a_quorum_round():
-    t = ServerTally()
+    t = ServerTally(['left', 'right'])
     t.on_status(1, 'syncing', '', [], ['left', 'right'])
     assert t.health().message == 'round 1: syncing'
     t.on_status(1, 'capturing', 'quorum without right', ['right'], [])
@@ -246,6 +258,7 @@ def test_a_decided_round_and_a_quorum_round():
                                     'round 1: decided: winner: participant 1')
     assert h.value('right refused_count') == '1'
     assert h.value('right missing_count') == '0'
+    assert h.value('left refused_count') == '0'
     assert h.value('syncing_count') == '1'
     assert h.value('decided_count') == '1'
 

@@ -133,14 +133,16 @@ class RoundTally:
     clients)`` counts an outcome per client (a NACK, a missing result).
     ``outcomes`` are the outcomes counted (their counts are shown from
     0), ``levels`` the level of the status while an outcome is the last
-    one (OK when not listed).  ``version`` grows at every change.
-    Thread-safe.
+    one (OK when not listed); the per-client counts of ``clients`` are
+    shown from 0 too.  ``version`` grows at every change.  Thread-safe.
     """
 
-    def __init__(self, outcomes, levels=None, client_outcomes=()):
+    def __init__(self, outcomes, levels=None, client_outcomes=(),
+                 clients=()):
         self.outcomes = tuple(outcomes)
         self.levels = dict(levels or {})
         self.client_outcomes = tuple(client_outcomes)
+        self.clients = tuple(clients)
         unknown = set(self.levels) - set(self.outcomes)
         if unknown:
             raise ValueError('levels for outcomes not counted: %s'
@@ -191,7 +193,8 @@ class RoundTally:
                       ('last_outcome', outcome), ('last_reason', reason)]
         values += [('%s_count' % o, text(counts.get(o, 0)))
                    for o in self.outcomes]
-        clients = sorted({c for c, _ in per_client})
+        clients = list(self.clients) + sorted(
+            {c for c, _ in per_client} - set(self.clients))
         values += [('%s %s_count' % (c, o), text(per_client.get((c, o), 0)))
                    for c in clients for o in self.client_outcomes]
         return Health(level, message, tuple(values))
@@ -211,14 +214,15 @@ class ServerTally(RoundTally):
     """The CM's rounds: their state changes and how each ended.
 
     An abort is WARN, a round captured without a decision ERROR (the DM
-    did not answer); per client, NACKs ('refused') and missing ACKs.
+    did not answer); per client of ``clients``, NACKs ('refused') and
+    missing ACKs.
     """
 
-    def __init__(self):
+    def __init__(self, clients=()):
         super().__init__(
             ('syncing', 'capturing', 'decided', 'aborted', 'no_decision'),
             {'aborted': WARN, 'no_decision': ERROR},
-            client_outcomes=('refused', 'missing'))
+            client_outcomes=('refused', 'missing'), clients=clients)
 
     def on_status(self, round_id, state, reason, refused, missing):
         """A RoundStatus the CM published (state 'syncing', 'capturing' or
@@ -253,12 +257,14 @@ def result_tally():
                                         'late': WARN, 'error': ERROR})
 
 
-def decision_tally():
-    """The DM's decisions by outcome (an abort is WARN) and, per client,
-    its results by status and the results that never came ('missing')."""
+def decision_tally(participants=()):
+    """The DM's decisions by outcome (an abort is WARN) and, per
+    participant, its results by status and the results that never came
+    ('missing')."""
     return RoundTally(('winner', 'no_winner', 'tie', 'aborted'),
                       {'aborted': WARN},
-                      client_outcomes=RESULT_STATUSES + ('missing',))
+                      client_outcomes=RESULT_STATUSES + ('missing',),
+                      clients=participants)
 
 
 class RateMeter:
