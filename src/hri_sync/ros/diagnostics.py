@@ -68,8 +68,7 @@ class NodeDiagnostics:
     def add_tally(self, name, tally):
         """Publish a ``health.RoundTally`` as status ``name``, and every
         status within 50 ms of each change of it (a round's event), from
-        the publishing thread: the node never waits for a check (a
-        clock's status waits while an NTP burst runs)."""
+        the publishing thread: the node never waits for a check."""
         self.add(name, tally.health)
         self._tallies.append(tally)
 
@@ -98,10 +97,11 @@ def round_diagnostics(hardware_id, tally, synced_clock=None,
 
 
 def clock_check(synced_clock, max_uncertainty=None):
-    """The status of a ``SyncedClock`` (``health.clock_health``): a good
-    sync is overdue after three resync periods plus one NTP burst."""
+    """The status of a ``SyncedClock`` (``health.clock_health``) from its
+    latest measurement, never waiting for one in progress; a good sync is
+    overdue after three resync periods plus one NTP burst."""
     sync = synced_clock.sync
     stale_after = (3 * sync.resync_period
                    + synced_clock.exchanges * synced_clock.timeout)
-    return lambda: clock_health(sync.status(), time.time(), max_uncertainty,
+    return lambda: clock_health(sync.latest, time.time(), max_uncertainty,
                                 stale_after)
