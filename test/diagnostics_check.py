@@ -1,9 +1,9 @@
 #!/usr/bin/python3
 """Checks /diagnostics during a round (issue 13).
 
-Every node of the round publishes its statuses: the CM (clock, rounds),
-each CPM (clock, rounds, input: left and right's, and the robot's dj_rob
-and music); the synced clients' clocks are synced and their rounds show
+Every node of the round publishes its statuses: the CM (clock, rounds,
+input), each CPM (clock, rounds, input: left and right's, and the robot's
+dj_rob and music); the synced clients' clocks are synced and their rounds show
 the capture scheduled for round 1; the CM shows the round captured with
 ~unreachable refused, then decided.  ~unreachable's time server
 (~ntp_server) does not answer: its clock is ERROR naming it, its rounds
@@ -135,6 +135,9 @@ class DiagnosticsCheck(unittest.TestCase):
                   'with the NACK of round 1 and its reason')
 
     def test_the_cm_shows_the_quorum_round_then_its_decision(self):
+        self.seen('control_module: input',
+                  lambda level, msg, v, hw: 'rejected_total' in v,
+                  'counting rejected input')
         self.seen('control_module: clock',
                   lambda level, msg, v, hw: v['synced'] == 'true'
                   and level != DiagnosticStatus.ERROR and hw == 'server',

@@ -2,17 +2,19 @@
 fake clocks."""
 
 import math
+from types import SimpleNamespace
 
 import pytest
 
 from hri_sync.timing.clock import ClockModel, OffsetMeasurement
 from hri_sync.timing.clock_sync import ClockStatus, ClockSync
+from hri_sync.timing.control import ControlSession, RoundEnd, StatusUpdate
 from hri_sync.timing.health import (ERROR, OK, WARN, Health, RateMeter,
                                     RejectionWatch, RoundTally, ServerTally,
                                     clock_health, client_tally,
                                     decision_tally, result_tally, text)
 from hri_sync.timing.ntp import NtpError
-from hri_sync.timing.protocol import ClientSchedule
+from hri_sync.timing.protocol import ClientSchedule, StrAftPolicy
 
 DOWN = 'time server 127.0.0.1:11742 did not answer within 0.50 s'
 CLOCK_KEYS = ['synced', 'reason', 'uncertainty_ms', 'max_uncertainty_ms',
@@ -252,10 +254,9 @@ def test_a_decided_round_and_a_quorum_round():
     t.on_status(1, 'syncing', '', [], ['left', 'right'])
     assert t.health().message == 'round 1: syncing'
     t.on_status(1, 'capturing', 'quorum without right', ['right'], [])
-    t.on_decision(1, 'winner', 'participant 1')
+    t.on_end(1, 'decided', 'round 1 decided')
     h = t.health()
-    assert (h.level, h.message) == (OK,
-                                    'round 1: decided: winner: participant 1')
+    assert (h.level, h.message) == (OK, 'round 1: decided: round 1 decided')
     assert h.value('right refused_count') == '1'
     assert h.value('right missing_count') == '0'
     assert h.value('left refused_count') == '0'
@@ -267,26 +268,60 @@ def test_an_abort_is_a_warning_counted_once():
     t = ServerTally()
     t.on_status(2, 'syncing', '', [], ['c'])
     t.on_status(2, 'aborted', 'round 2 aborted: no ACK from c', [], ['c'])
-    t.on_decision(2, 'aborted', 'round 2 aborted: no ACK from c')
+    t.on_end(2, 'aborted', 'round 2 aborted: no ACK from c')
     h = t.health()
     assert (h.level, h.message) == (
         WARN, 'round 2: aborted: round 2 aborted: no ACK from c')
     assert h.value('aborted_count') == '1'
     assert h.value('c missing_count') == '1'
+    t.on_end(3, 'aborted', 'round 3 aborted: no server clock')
+    assert t.health().value('aborted_count') == '2'
 
 
-def test_an_abort_by_the_dm_and_a_missing_decision():
+def test_a_missing_decision_and_a_shutdown():
     t = ServerTally()
-    t.on_status(3, 'capturing', '', [], [])
-    t.on_decision(3, 'aborted', 'no result from right')
-    h = t.health()
-    assert (h.level, h.value('aborted_count')) == (WARN, '1')
     t.on_status(4, 'capturing', '', [], [])
-    t.on_no_decision(4, 'no decision within 5.0 s of the window end')
+    t.on_end(4, 'no_decision', 'round 4 captured, no decision')
     h = t.health()
-    assert h.level == ERROR
-    assert h.message == ('round 4: no_decision: no decision within 5.0 s '
-                         'of the window end')
+    assert (h.level, h.message) == (
+        ERROR, 'round 4: no_decision: round 4 captured, no decision')
+    t.on_status(5, 'syncing', '', [], [])
+    t.on_end(5, 'shutdown', 'round 5: shut down')
+    assert t.health().level == WARN
+
+
+def test_the_cm_s_session_events_feed_the_tally():
+    """A quorum round and an abort through ControlSession, its outputs
+    fed as the control module feeds them."""
+    session = ControlSession(['a', 'b', 'c'], 2.0, StrAftPolicy(fixed=0.5),
+                             min_clients=2)
+    t = ServerTally(['a', 'b', 'c'])
+
+    def feed(outputs):
+        for out in outputs:
+            if isinstance(out, StatusUpdate):
+                t.on_status(out.round, out.state, out.reason, out.refused,
+                            out.missing)
+            elif isinstance(out, RoundEnd):
+                t.on_end(out.round, out.outcome, out.message)
+    feed(session.start(100.0))
+    for client, ok in (('a', True), ('b', True), ('c', False)):
+        feed(session.on_ack(SimpleNamespace(
+            round=1, client_id=client, ok=ok, reason='' if ok else 'far',
+            offset=0.0, uncertainty=0.001, sync_received=100.01)))
+    feed(session.poll(100.1))
+    assert t.health().value('last_outcome') == 'capturing'
+    feed(session.on_decision(1))
+    feed(session.poll(103.0))
+    h = t.health()
+    assert (h.level, h.value('last_outcome')) == (OK, 'decided')
+    assert h.value('c refused_count') == '1'
+    feed(session.start(110.0))
+    feed(session.poll(120.0))
+    h = t.health()
+    assert (h.level, h.value('last_round')) == (WARN, '2')
+    assert h.value('aborted_count') == '1'
+    assert [h.value('%s missing_count' % c) for c in 'abc'] == ['1'] * 3
 
 
 # -- RateMeter -------------------------------------------------------------

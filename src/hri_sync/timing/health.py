@@ -213,38 +213,38 @@ def client_tally():
 class ServerTally(RoundTally):
     """The CM's rounds: their state changes and how each ended.
 
-    An abort is WARN, a round captured without a decision ERROR (the DM
-    did not answer); per client of ``clients``, NACKs ('refused') and
-    missing ACKs.
+    An abort or a shutdown mid-round is WARN, a round captured without a
+    decision ERROR (the DM did not answer); per client of ``clients``,
+    NACKs ('refused') and missing ACKs.  The events are those of the
+    CM's ``timing.control.ControlSession``: its status updates and its
+    round ends.
     """
 
     def __init__(self, clients=()):
         super().__init__(
-            ('syncing', 'capturing', 'decided', 'aborted', 'no_decision'),
-            {'aborted': WARN, 'no_decision': ERROR},
+            ('syncing', 'capturing', 'decided', 'aborted', 'no_decision',
+             'shutdown'),
+            {'aborted': WARN, 'no_decision': ERROR, 'shutdown': WARN},
             client_outcomes=('refused', 'missing'), clients=clients)
 
     def on_status(self, round_id, state, reason, refused, missing):
-        """A RoundStatus the CM published (state 'syncing', 'capturing' or
-        'aborted'); once the ACKs are in, count who refused or is
+        """A round's state change ('syncing', 'capturing' or 'aborted', as
+        on /round_status); once the ACKs are in, count who refused or is
         missing."""
         self.record(round_id, state, reason)
         if state != 'syncing':
             self.count('refused', refused)
             self.count('missing', missing)
 
-    def on_decision(self, round_id, outcome, reason):
-        """The DM's decision of the CM's round: 'decided', or 'aborted'
-        when the DM aborted it (an abort the CM itself announced is not
-        counted twice)."""
-        if outcome != 'aborted':
-            self.record(round_id, 'decided', '%s: %s' % (outcome, reason))
-        elif self.last is None or self.last[:2] != (round_id, 'aborted'):
-            self.record(round_id, 'aborted', reason)
-
-    def on_no_decision(self, round_id, reason):
-        """The round's decision did not come in time."""
-        self.record(round_id, 'no_decision', reason)
+    def on_end(self, round_id, outcome, message):
+        """How a round ended: 'decided', 'aborted', 'no_decision' or
+        'shutdown' (an abort its status update announced is not counted
+        twice)."""
+        last = self.last
+        if outcome == 'aborted' and last and last[:2] == (round_id,
+                                                          'aborted'):
+            return
+        self.record(round_id, outcome, message)
 
 
 RESULT_STATUSES = ('ok', 'partial', 'no_data', 'late', 'error')
