@@ -11,8 +11,9 @@ from hri_sync.timing.clock_sync import ClockStatus, ClockSync
 from hri_sync.timing.control import ControlSession, RoundEnd, StatusUpdate
 from hri_sync.timing.health import (ERROR, OK, WARN, Health, RateMeter,
                                     RejectionWatch, RoundTally, ServerTally,
-                                    clock_health, client_tally,
-                                    decision_tally, result_tally, text)
+                                    DecisionTally, clock_health,
+                                    clock_state_health, client_tally,
+                                    result_tally, text)
 from hri_sync.timing.ntp import NtpError
 from hri_sync.timing.protocol import ClientSchedule, StrAftPolicy
 
@@ -154,6 +155,29 @@ def test_the_status_is_an_error_exactly_when_the_cpm_nacks():
     assert WARN in seen and seen[-1] == ERROR
 
 
+def test_a_clock_state_read_by_another_node():
+    model = ClockModel(1000.0, 1.7, 2e-6, 0.0005)
+    h = clock_state_health('left/cpm', model, '', 6, 1004.0, 4.0, 20.0)
+    assert (h.level, h.message) == (OK, 'synced: uncertainty 0.500 ms, '
+                                    'drift +2.00 ppm')
+    assert h.value('since_last_sync_s') == '4.0'
+    assert h.value('clock_state_age_s') == '4.0'
+    h = clock_state_health('left/cpm', model, '', 6, 1030.0, 30.0, 20.0)
+    assert (h.level, h.message) == (
+        WARN, 'no clock_state from left/cpm for 30.0 s, more than 20.0 s')
+    hold = 'holdover: no good sync for 12.0 s (%s); uncertainty 0.680 ms' \
+        % DOWN
+    h = clock_state_health('left/cpm', model, hold, 6, 1012.0, 0.1)
+    assert (h.level, h.message, h.value('reason')) == (WARN, hold, hold)
+    h = clock_state_health('left/cpm', None, DOWN, 0, 1000.0, 0.2)
+    assert (h.level, h.message) == (ERROR, 'not synced: ' + DOWN)
+    assert h.value('since_last_sync_s') == 'never'
+    h = clock_state_health('/server/clock_state', None, '', 0, 1000.0, None)
+    assert (h.level, h.message) == (
+        ERROR, 'no clock_state from /server/clock_state yet')
+    assert h.value('clock_state_age_s') == 'never'
+
+
 # -- RoundTally ------------------------------------------------------------
 
 def test_a_tally_before_any_round():
@@ -210,7 +234,7 @@ def test_the_version_changes_with_every_event():
     assert len(set(versions)) == 3
 
 
-def test_result_and_decision_tallies():
+def test_a_dpm_s_results():
     r = result_tally()
     r.record(1, 'no_data', 'no sample in the window')
     assert r.health().level == WARN
@@ -222,17 +246,28 @@ def test_result_and_decision_tallies():
     assert [h.value('%s_count' % s) for s in
             ('ok', 'partial', 'no_data', 'late', 'error')] == \
         ['1', '0', '1', '0', '1']
-    d = decision_tally()
-    d.record(1, 'winner', 'participant 1')
-    d.count('late', ['right'])
-    d.count('missing', ['right'])
+
+
+def test_the_dm_counts_results_and_missing_ones_per_participant():
+    d = DecisionTally(['left', 'right'])
+    d.on_result(1, 'left', 'ok')
+    d.on_result(1, 'right', 'late')
+    d.on_decision(1, 'winner', 'left scored highest')
+    d.on_result(2, 'left', 'no_data')
+    d.on_decision(2, 'no_winner', 'no usable result')
     h = d.health()
-    assert h.level == OK
-    assert h.value('right late_count') == '1'
-    assert h.value('right missing_count') == '1'
-    assert h.value('right ok_count') == '0'
-    d.record(2, 'aborted', 'round 2 aborted')
-    assert d.health().level == WARN
+    assert (h.level, h.message) == (OK, 'round 2: no_winner: no usable '
+                                    'result')
+    assert [h.value('left %s_count' % s) for s in
+            ('ok', 'no_data', 'missing')] == ['1', '1', '0']
+    assert [h.value('right %s_count' % s) for s in
+            ('late', 'missing')] == ['1', '1']
+    d.on_decision(3, 'aborted', 'round 3 aborted: no ACK from right',
+                  count_missing=False)
+    h = d.health()
+    assert h.level == WARN and h.value('right missing_count') == '1'
+    d.on_result(4, 'left', 'weird')
+    assert d.health().value('left error_count') == '1'
 
 
 # -- ServerTally -----------------------------------------------------------
@@ -243,7 +278,7 @@ def test_every_client_s_counts_are_shown_from_zero():
         'left refused_count', 'left missing_count', 'right refused_count',
         'right missing_count']
     assert {v for _, v in h.values[-4:]} == {'0'}
-    t = decision_tally(['left', 'right'])
+    t = DecisionTally(['left', 'right'])
     t.count('missing', ['other'])
     keys = [k for k, _ in t.health().values]
     assert keys.index('right missing_count') < keys.index('other ok_count')

@@ -11,7 +11,9 @@ ordered (key, text) pairs.
 - ``RoundTally``: what a node did in its rounds, counted per outcome (and
   per client), and the last round's outcome with its reason; one for
   each role: ``client_tally`` (CPM), ``ServerTally`` (CM),
-  ``result_tally`` (DPM), ``decision_tally`` (DM).
+  ``result_tally`` (DPM), ``DecisionTally`` (DM).
+- ``clock_state_health``: the clock a node reads from a ClockState (the
+  DPM's from its CPM, the DM's from the server).
 - ``RateMeter``: the rate a sensor's samples arrive at, and its silences.
 - ``RejectionWatch``: counts of rejected input messages per
   (topic, reason); WARN while they grow.
@@ -123,6 +125,51 @@ def clock_health(status, local_now, max_uncertainty=None, stale_after=None,
         ('offset_ms', text(offset_ms)),
         ('samples', text(status.samples)),
         ('last_error', error)))
+
+
+def clock_state_health(source, model, reason, samples, local_now, age,
+                       stale_after=None):
+    """The health of a clock a node reads from a ClockState (the DPM from
+    its CPM, the DM from the server).
+
+    ``model`` is the ClockModel it carries (None: none received yet, or
+    one with ok false, then ``reason`` says why), ``samples`` its NTP
+    bursts, ``age`` the s since the last ClockState arrived (the sender
+    republishes after every sync), ``stale_after`` how old it may get
+    (None: any age).  ERROR without a model, WARN when the ClockState is
+    old or says holdover, else OK.
+    """
+    values = [('synced', text(model is not None))]
+    if model is None:
+        level = ERROR
+        message = ('not synced: %s' % reason if reason
+                   else 'no clock_state from %s yet' % source)
+        unc, since, drift, offset = math.inf, None, math.nan, math.nan
+    else:
+        unc = model.uncertainty_at(local_now) * 1e3
+        since = local_now - model.local_ref
+        drift = model.drift * 1e6
+        offset = model.offset_at(local_now) * 1e3
+        if stale_after is not None and age > stale_after:
+            level = WARN
+            message = ('no clock_state from %s for %.1f s, more than %.1f s'
+                       % (source, age, stale_after))
+        elif reason:
+            level, message = WARN, reason
+        else:
+            level = OK
+            message = ('synced: uncertainty %.3f ms, drift %+.2f ppm'
+                       % (unc, drift))
+    values += [
+        ('reason', '' if level == OK else message),
+        ('uncertainty_ms', text(unc)),
+        ('since_last_sync_s', 'never' if since is None
+         else text(since, '%.1f')),
+        ('drift_ppm', text(drift, '%+.3f')),
+        ('offset_ms', text(offset)),
+        ('samples', text(samples)),
+        ('clock_state_age_s', 'never' if age is None else text(age, '%.1f'))]
+    return Health(level, message, tuple(values))
 
 
 class RoundTally:
@@ -257,14 +304,34 @@ def result_tally():
                                         'late': WARN, 'error': ERROR})
 
 
-def decision_tally(participants=()):
+class DecisionTally(RoundTally):
     """The DM's decisions by outcome (an abort is WARN) and, per
     participant, its results by status and the results that never came
-    ('missing')."""
-    return RoundTally(('winner', 'no_winner', 'tie', 'aborted'),
-                      {'aborted': WARN},
-                      client_outcomes=RESULT_STATUSES + ('missing',),
-                      clients=participants)
+    ('missing').  A status that is not a ClientResult status is counted
+    as 'error'."""
+
+    def __init__(self, participants):
+        super().__init__(('winner', 'no_winner', 'tie', 'aborted'),
+                         {'aborted': WARN},
+                         client_outcomes=RESULT_STATUSES + ('missing',),
+                         clients=participants)
+        self._reported = {}     # open round -> clients with a result
+
+    def on_result(self, round_id, client_id, status):
+        """A result the DM took into round ``round_id``."""
+        self._reported.setdefault(round_id, set()).add(client_id)
+        self.count(status if status in RESULT_STATUSES else 'error',
+                   [client_id])
+
+    def on_decision(self, round_id, outcome, reason, count_missing=True):
+        """The decision of ``round_id``; the participants without a
+        result are counted missing unless ``count_missing`` is false (the
+        CM aborted the round before its capture: nobody was asked)."""
+        reported = self._reported.pop(round_id, set())
+        if count_missing:
+            self.count('missing', [c for c in self.clients
+                                   if c not in reported])
+        self.record(round_id, outcome, reason)
 
 
 class RateMeter:
