@@ -10,9 +10,8 @@ of a change of a round tally it watches (``add_tally``).  Each status is named
 
 ``clock_check`` is the status of a ``SyncedClock``; ``round_diagnostics``
 makes a node's ``clock`` and ``rounds`` statuses;
-``NodeDiagnostics.rejections`` adds the counts of rejected input (the
-``ignored`` counters of the protocol state machines today; an inbox's
-per-(topic, reason) counts are one more source).
+``NodeDiagnostics.rejections`` adds the counts of rejected input (an
+inbox's per-(topic, reason) ``summary``, a state machine's ``ignored``).
 """
 import threading
 import time
