@@ -6,8 +6,10 @@ each within a deadline: the time_server node exits and the launch goes on
 (it is not required); round 1 ends in a decision from both clients'
 results; in round 2, client a (drift bound 15 ppm) ACKs in holdover and
 client b (2 ms/s) NACKs because its grown uncertainty exceeds
-~max_uncertainty, so round 2 aborts naming b and that reason; round 3
-happens too; the CM, the DM and both clients' nodes stay alive.
+~max_uncertainty, so round 2 aborts naming b and that reason; /diagnostics
+says so (a's clock WARN in holdover, b's ERROR past its limit, the CM's
+rounds WARN on the abort); round 3 happens too; the CM, the DM and both
+clients' nodes stay alive.
 """
 import os
 import signal
@@ -18,6 +20,7 @@ from xmlrpc.client import ServerProxy
 import rosgraph
 import rospy
 import rostest
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 from hri_sync.msg import CaptureData, RoundStatus
 from hri_sync.ros.round_log import RoundLog
@@ -63,6 +66,15 @@ class TimeServerDies(unittest.TestCase):
         rospy.Subscriber('/round_status', RoundStatus, statuses.append)
         captures = []
         rospy.Subscriber('/capture_data', CaptureData, captures.append)
+        diagnostics = []
+        rospy.Subscriber('/diagnostics', DiagnosticArray,
+                         lambda m: diagnostics.extend(m.status),
+                         queue_size=100)
+
+        def diagnosed(name, level, *parts):
+            return any(s.name == name and s.level == level
+                       and all(p in s.message for p in parts)
+                       for s in list(diagnostics))
 
         def decision(n):
             return log.rounds.get(n, {}).get('decision')
@@ -121,6 +133,19 @@ class TimeServerDies(unittest.TestCase):
         self.assertEqual(list(aborted[0].refused), ['b'])
         self.assertEqual(r2['decision'].outcome, 'aborted')
         self.assertIn('~max_uncertainty', r2['decision'].reason)
+        for name, level, parts in (
+                ('a/cpm: clock', DiagnosticStatus.WARN,
+                 ('holdover: no good sync for', server)),
+                ('b/cpm: clock', DiagnosticStatus.ERROR,
+                 ('exceeds its limit 5.000 ms', server)),
+                ('b/cpm: rounds', DiagnosticStatus.WARN,
+                 ('round 2: nacked',)),
+                ('control_module: rounds', DiagnosticStatus.WARN,
+                 ('round 2: aborted', 'b refused'))):
+            self.assertTrue(wait(lambda: diagnosed(name, level, *parts),
+                                 10.0),
+                            '/diagnostics: no %s at level %d saying %s'
+                            % (name, level, parts))
 
         # The session goes on: round 3 gets its outcome too.
         self.assertTrue(wait(lambda: decision(3), 40.0),

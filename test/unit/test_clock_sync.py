@@ -128,6 +128,26 @@ def test_status_is_a_copy_not_the_live_fit():
     assert sync.status().model.local_ref == 110.0
 
 
+def test_latest_is_read_without_waiting_for_a_measurement_in_progress():
+    host = FakeHost(100.0)
+    seen = []
+
+    def measure():      # runs with the sync's lock held
+        seen.append(sync.latest)
+        return host.measure()
+    sync = ClockSync(measure, host.clock)
+    assert not sync.latest.ok and sync.latest.error == 'not measured yet'
+    first = sync.sync()
+    assert sync.latest == first and first.ok
+    host.t = 105.0
+    host.server_up = False
+    second = sync.sync()
+    assert seen == [seen[0], first]
+    assert not seen[0].ok
+    assert sync.latest == second and second.error == DOWN
+    assert second.model.local_ref == 100.0
+
+
 # -- holdover ----------------------------------------------------------------
 
 def test_holdover_keeps_the_model_and_grows_its_uncertainty():

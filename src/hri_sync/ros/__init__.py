@@ -7,7 +7,8 @@ server and publishes its ``ClockState`` (``clock_state``: the one
 ClockState <-> ClockModel conversion), ``client_process`` is the CPM on
 ROS, ``round_log`` records what each round put on the wire,
 ``master_watch`` (started by ``params.run_node`` for every node) ends a
-node for respawn when the ROS master restarted, and ``skew_bench`` is the
-start-skew benches' stack and recording node.  Logic
+node for respawn when the ROS master restarted, ``skew_bench`` is the
+start-skew benches' stack and recording node, and ``diagnostics``
+publishes the core's health checks on /diagnostics.  Logic
 lives in the core; these modules wire it to topics.
 """

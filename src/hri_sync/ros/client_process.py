@@ -6,10 +6,12 @@ from collections import Counter
 import rospy
 
 from hri_sync.msg import CaptureData, SyncAck, SyncTime
+from hri_sync.ros.diagnostics import round_diagnostics
 from hri_sync.ros.inbox import Inbox
 from hri_sync.ros.outbox import Publisher
 from hri_sync.ros.params import param, positive, stamp
 from hri_sync.ros.synced_clock import SyncedClock
+from hri_sync.timing.health import client_tally
 from hri_sync.timing.protocol import Capture, ClientSchedule, Late
 from hri_sync.timing.validate import Context
 
@@ -21,7 +23,10 @@ class ClientProcess:
     schedule's ACK or NACK (``~max_uncertainty``); turns ``/capture_data``
     into ``on_capture(Scheduled)`` or ``on_late(Late)``.  Both topics
     are taken only from the CM and validated (``inbox``; a node may
-    subscribe its own topics through it too).
+    subscribe its own topics through it too).  Its health is on
+    /diagnostics: ``clock``, ``rounds`` and ``input`` (the inbox's
+    counts, and capture orders the schedule ignored; one for other
+    clients is not counted).
     """
 
     def __init__(self, client_id, on_capture, on_late=None, inbox=None):
@@ -43,6 +48,14 @@ class ClientProcess:
                              context=lambda: self.context(
                                  self.schedule.acked_round),
                              queue_size=10)
+        self.tally = client_tally()
+        self.diagnostics = round_diagnostics(
+            client_id, self.tally, self.synced_clock,
+            self.schedule.max_uncertainty)
+        self.diagnostics.rejections(self.inbox.summary, lambda: {
+            '/capture_data ' + why: n
+            for why, n in dict(self.schedule.ignored).items()
+            if why != 'not_a_participant'})
 
     def context(self, round_id):
         """The global now (when the clock is usable) and ``round_id``
@@ -62,6 +75,7 @@ class ClientProcess:
             # The core's NaN times: no clock model yet, so no time.
             sync_received=stamp(None if no_model else r.sync_received),
             stamp=stamp(None if no_model else r.stamp)))
+        self.tally.record(r.round, 'acked' if r.ok else 'nacked', r.reason)
         if not r.ok:
             rospy.logerr('%s: NACK round %d: %s', self.client_id, msg.round,
                          r.reason)
@@ -82,8 +96,11 @@ class ClientProcess:
                 dict(self.schedule.ignored))
             return
         if isinstance(order, Late):
+            self.tally.record(order.round, 'late', order.reason)
             rospy.logerr('%s: %s', self.client_id, order.reason)
             if self.on_late:
                 self.on_late(order)
             return
+        self.tally.record(order.round, 'scheduled', 'order %.0f ms ahead of '
+                          'the window' % (order.lead * 1e3))
         self.on_capture(order)

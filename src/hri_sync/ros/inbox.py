@@ -225,11 +225,11 @@ class Inbox:
         """Counts for /diagnostics: {'<topic> <reason>': n}, the accepted
         ones as '<topic> accepted', callback errors as '<topic>
         callback_error <Type>'."""
-        out = {}
-        for topic, n in self.accepted.items():
+        out = {}     # dict(): a copy, as callbacks count meanwhile
+        for topic, n in dict(self.accepted).items():
             out['%s accepted' % topic] = n
-        for (topic, reason), n in self.rejected.items():
+        for (topic, reason), n in dict(self.rejected).items():
             out['%s %s' % (topic, reason)] = n
-        for (topic, kind), n in self.errors.items():
+        for (topic, kind), n in dict(self.errors).items():
             out['%s callback_error %s' % (topic, kind)] = n
         return dict(sorted(out.items()))

@@ -10,5 +10,6 @@ server with its holdover (``clock_sync``), the CM/CPM protocol state
 machines (``protocol``; the CM's session of rounds, ``control``), the
 DPM's capture window and time mapping (``capture``), processors and
 decisions (``processors``, ``decision``), skew measurement against the
-true clock (``skew``, ``truth``).
+true clock (``skew``, ``truth``), and the nodes' health for /diagnostics
+from plain values (``health``).
 """

@@ -62,7 +62,10 @@ class ClockSync:
     burst): a failure is kept as ``last_error`` and the model is left as
     it was.  ``local_clock()`` is the local clock the measurements and
     the model use; ``drift_bound`` and ``fit`` are the GlobalClock's
-    options.  ``sync`` and ``status`` may be called from several threads.
+    options.  ``sync`` and ``status`` may be called from several threads;
+    ``latest`` is the status after the last measurement, read without
+    waiting for one in progress (an NTP burst to a server that does not
+    answer takes seconds).
     """
 
     def __init__(self, measure, local_clock, resync_period=5.0,
@@ -80,6 +83,7 @@ class ClockSync:
         self.clock = GlobalClock(local_clock, drift_bound=drift_bound, **fit)
         self.last_error = 'not measured yet'
         self._lock = threading.Lock()
+        self.latest = self._status()
 
     def sync(self):
         """Make one measurement into the model; return the new status."""
@@ -91,7 +95,8 @@ class ClockSync:
             else:
                 self.clock.add(m)
                 self.last_error = ''
-            return self._status()
+            self.latest = self._status()
+            return self.latest
 
     def status(self):
         """The current ClockStatus (no measurement)."""

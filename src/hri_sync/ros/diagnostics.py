@@ -1,0 +1,106 @@
+"""A node's health on /diagnostics, through diagnostic_updater.
+
+The statuses are computed by ``hri_sync.timing.health`` from plain values;
+this module only publishes them.  ``NodeDiagnostics`` owns a
+``diagnostic_updater.Updater`` (hardware id: the client id, or 'server'),
+publishes every ``~diagnostic_period`` s (default 1) from a thread that
+polls with sleeps (timed waits hang under libfaketime), and within 50 ms
+of a change of a round tally it watches (``add_tally``).  Each status is named
+``<node name>: <task>`` by diagnostic_updater, e.g. ``left/cpm: clock``.
+
+``clock_check`` is the status of a ``SyncedClock``; ``round_diagnostics``
+makes a node's ``clock`` and ``rounds`` statuses;
+``NodeDiagnostics.rejections`` adds the counts of rejected input (an
+inbox's per-(topic, reason) ``summary``, a state machine's ``ignored``).
+"""
+import threading
+import time
+
+import diagnostic_updater
+import rospy
+
+from hri_sync.ros.params import param, positive
+from hri_sync.timing.health import ERROR, RejectionWatch, clock_health
+
+POLL = 0.05  # s between two looks at a pending update
+
+
+class NodeDiagnostics:
+    """The /diagnostics statuses of one node: tasks returning a Health."""
+
+    def __init__(self, hardware_id):
+        self.period = param('diagnostic_period', 1.0, float, positive,
+                            '> 0 s')
+        self.updater = diagnostic_updater.Updater()
+        self.updater.setHardwareID(hardware_id)
+        self._tallies = []
+        threading.Thread(target=self._run, daemon=True).start()
+
+    def add(self, name, check):
+        """Publish ``check()`` (a ``health.Health``) as status ``name``."""
+        def run(stat):
+            try:
+                h = check()
+            except Exception as e:  # a bug in a check must not stop the rest
+                stat.summary(ERROR, 'diagnostic check failed: %r' % e)
+                return stat
+            stat.summary(h.level, h.message)
+            for key, value in h.values:
+                stat.add(key, value)
+            return stat
+        self.updater.add(name, run)
+
+    def rejections(self, *sources, name='input', recent=60.0):
+        """Status ``name``: rejected input messages, from ``sources``
+        (callables returning ``{'<topic> <reason>': count}``), WARN while
+        the total grew in the last ``recent`` s."""
+        watch = RejectionWatch(recent)
+
+        def counts():
+            total = {}
+            for source in sources:
+                for key, n in source().items():
+                    total[key] = total.get(key, 0) + n
+            return total
+        self.add(name, lambda: watch.health(counts(), time.monotonic()))
+
+    def add_tally(self, name, tally):
+        """Publish a ``health.RoundTally`` as status ``name``, and every
+        status within 50 ms of each change of it (a round's event), from
+        the publishing thread: the node never waits for a check."""
+        self.add(name, tally.health)
+        self._tallies.append(tally)
+
+    def _run(self):
+        due = time.monotonic() + self.period
+        seen = None
+        while not rospy.is_shutdown():
+            time.sleep(POLL)
+            versions = [t.version for t in self._tallies]
+            if versions != seen or time.monotonic() >= due:
+                seen = versions
+                due = time.monotonic() + self.period
+                self.updater.force_update()
+
+
+def round_diagnostics(hardware_id, tally, synced_clock=None,
+                      max_uncertainty=None):
+    """A node's NodeDiagnostics with its ``clock`` (a SyncedClock's, if
+    given; ``max_uncertainty`` its limit) and its ``rounds`` (``tally``)
+    statuses."""
+    diagnostics = NodeDiagnostics(hardware_id)
+    if synced_clock is not None:
+        diagnostics.add('clock', clock_check(synced_clock, max_uncertainty))
+    diagnostics.add_tally('rounds', tally)
+    return diagnostics
+
+
+def clock_check(synced_clock, max_uncertainty=None):
+    """The status of a ``SyncedClock`` (``health.clock_health``) from its
+    latest measurement, never waiting for one in progress; a good sync is
+    overdue after three resync periods plus one NTP burst."""
+    sync = synced_clock.sync
+    stale_after = (3 * sync.resync_period
+                   + synced_clock.exchanges * synced_clock.timeout)
+    return lambda: clock_health(sync.latest, time.time(), max_uncertainty,
+                                stale_after)

@@ -1,0 +1,175 @@
+#!/usr/bin/python3
+"""Checks /diagnostics during a round (issue 13).
+
+Every node of the round publishes its statuses: the CM (clock, rounds,
+input), each CPM (clock, rounds, input: left and right's, and the robot's
+dj_rob and music); the synced clients' clocks are synced and their rounds show
+the capture scheduled for round 1; the CM shows the round captured with
+~unreachable refused, then decided.  ~unreachable's time server
+(~ntp_server) does not answer: its clock is ERROR naming it, its rounds
+the NACK.  The aggregator (/diagnostics_agg) groups the statuses by
+client.  No time bound is asserted: the checker waits for the round's
+decision, then for the expected statuses, within generous deadlines.
+"""
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+
+from hri_sync.msg import Decision
+
+SYNCED = ('left', 'dj_rob', 'music')
+CPM_NODES = {'left': 'left/cpm', 'right': 'right/cpm', 'dj_rob': 'dj_rob',
+             'music': 'music'}
+
+
+class Seen:
+    """Every status received, by name, as (level, message, values,
+    hardware_id)."""
+
+    def __init__(self, topic):
+        self.lock = threading.Lock()
+        self.by_name = {}
+        rospy.Subscriber(topic, DiagnosticArray, self.on_array,
+                         queue_size=100)
+
+    def on_array(self, msg):
+        with self.lock:
+            for s in msg.status:
+                self.by_name.setdefault(s.name, []).append(
+                    (s.level, s.message, {kv.key: kv.value
+                                          for kv in s.values},
+                     s.hardware_id))
+
+    def history(self, name):
+        with self.lock:
+            return list(self.by_name.get(name, []))
+
+    def names(self):
+        with self.lock:
+            return sorted(self.by_name)
+
+
+def wait(predicate, timeout):
+    deadline = time.monotonic() + timeout
+    while not predicate() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    return predicate()
+
+
+class DiagnosticsCheck(unittest.TestCase):
+    """The statuses of every node during a round with an unsynced client."""
+
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('diagnostics_check')
+        cls.bad = rospy.get_param('~unreachable')
+        cls.server = rospy.get_param('~ntp_server')
+        cls.diag = Seen('/diagnostics')
+        cls.agg = Seen('/diagnostics_agg')
+        cls.decisions = []
+        rospy.Subscriber('/decision', Decision, cls.decisions.append)
+        ok = wait(lambda: any(d.round == 1 for d in cls.decisions), 90.0)
+        assert ok, 'no decision of round 1 within 90 s'
+        # The statuses published on the decision and the next periodic
+        # ones (every 1 s).
+        wait(lambda: any(s[2].get('last_outcome') == 'decided' for s in
+                         cls.diag.history('control_module: rounds')), 10.0)
+        time.sleep(3.0)
+
+    def seen(self, name, predicate, what):
+        history = self.diag.history(name)
+        self.assertTrue(history, 'no status %r on /diagnostics; seen: %s'
+                        % (name, self.diag.names()))
+        self.assertTrue(any(predicate(*s) for s in history),
+                        '%s: no status %s; last: %s' % (name, what,
+                                                        history[-1]))
+
+    def test_every_cpm_publishes_clock_rounds_and_input(self):
+        for client, node in CPM_NODES.items():
+            for task in ('clock', 'rounds', 'input'):
+                name = '%s: %s' % (node, task)
+                self.seen(name, lambda level, msg, v, hw: hw == client,
+                          'with hardware id %s' % client)
+            self.seen(node + ': input',
+                      lambda level, msg, v, hw: 'rejected_total' in v,
+                      'counting rejected input')
+
+    def test_synced_clients_are_synced_and_scheduled(self):
+        for client in SYNCED:
+            node = CPM_NODES[client]
+            self.seen(node + ': clock',
+                      lambda level, msg, v, hw: level != DiagnosticStatus.ERROR
+                      and v['synced'] == 'true'
+                      and float(v['uncertainty_ms'])
+                      <= float(v['max_uncertainty_ms'])
+                      and v['since_last_sync_s'] != 'never'
+                      and v['drift_ppm'] != 'nan',
+                      'synced within its limit')
+            self.seen(node + ': rounds',
+                      lambda level, msg, v, hw: level == DiagnosticStatus.OK
+                      and v['last_round'] == '1'
+                      and v['last_outcome'] == 'scheduled'
+                      and v['late_count'] == '0',
+                      'with round 1 scheduled')
+
+    def test_the_unreachable_client_says_error_and_why(self):
+        node = CPM_NODES[self.bad]
+        history = self.diag.history(node + ': clock')
+        self.assertTrue(history, 'no clock status from %s' % node)
+        level, message, values, _ = history[-1]
+        self.assertEqual(level, DiagnosticStatus.ERROR, message)
+        self.assertEqual(values['synced'], 'false')
+        self.assertIn('not synced', message)
+        self.assertIn('did not answer', message)
+        self.assertIn(self.server, message)
+        self.assertIn(self.server, values['last_error'])
+        self.seen(node + ': rounds',
+                  lambda level, msg, v, hw: level == DiagnosticStatus.WARN
+                  and v['last_round'] == '1'
+                  and v['last_outcome'] == 'nacked'
+                  and self.server in v['last_reason'],
+                  'with the NACK of round 1 and its reason')
+
+    def test_the_cm_shows_the_quorum_round_then_its_decision(self):
+        self.seen('control_module: input',
+                  lambda level, msg, v, hw: 'rejected_total' in v,
+                  'counting rejected input')
+        self.seen('control_module: clock',
+                  lambda level, msg, v, hw: v['synced'] == 'true'
+                  and level != DiagnosticStatus.ERROR and hw == 'server',
+                  'synced')
+        self.seen('control_module: rounds',
+                  lambda level, msg, v, hw: v['last_round'] == '1'
+                  and v['last_outcome'] == 'capturing'
+                  and v['%s refused_count' % self.bad] == '1'
+                  and v['left refused_count'] == '0',
+                  'capturing round 1 without %s' % self.bad)
+        self.seen('control_module: rounds',
+                  lambda level, msg, v, hw: level == DiagnosticStatus.OK
+                  and v['last_round'] == '1'
+                  and v['last_outcome'] == 'decided'
+                  and v['decided_count'] == '1',
+                  'with round 1 decided')
+
+    def test_the_aggregator_groups_the_statuses_by_client(self):
+        names = self.agg.names()
+        for group in ('/Server', '/Clients/left', '/Clients/right',
+                      '/Clients/dj_rob', '/Clients/music'):
+            self.assertIn(group, names)
+        self.assertIn('/Clients/left/left cpm: clock', names)
+        self.assertIn('/Clients/dj_rob/dj_rob: rounds', names)
+        self.assertIn('/Server/control_module: rounds', names)
+        self.assertNotIn('/Other', names)
+        level = self.agg.history('/Clients/%s' % self.bad)[-1][0]
+        self.assertEqual(level, DiagnosticStatus.ERROR)
+        levels = [s[0] for s in self.agg.history('/Clients/left')]
+        self.assertTrue(any(lv < DiagnosticStatus.ERROR for lv in levels),
+                        'left is ERROR in every aggregate: %s' % levels)
+
+
+if __name__ == '__main__':
+    rostest.rosrun('hri_sync', 'diagnostics_round', DiagnosticsCheck)
