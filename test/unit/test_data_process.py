@@ -78,7 +78,9 @@ def test_result_as_soon_as_a_sample_stamped_at_the_end_arrives():
 def test_silent_sensor_completes_the_margin_past_the_end():
     d = dp(margin=0.03)
     start = L0 + OFFSET + 1.0
+    assert d.next_poll() is None
     d.open(1, start, start + 1.0)
+    assert d.next_poll() == pytest.approx(L0 + 2.03)
     assert d.poll(L0 + 2.0 + 0.029) == []
     (r,) = d.poll(L0 + 2.0 + 0.03)
     assert r.status == 'no_data' and r.frames == 0 and r.coverage == 0.0

@@ -140,7 +140,7 @@ def test_deadline_is_the_window_end_plus_the_timeout_in_global_time():
     c = collector(timeout=0.5)
     c.open(4, 1000.0)
     c.add(4, 'left', 'ok', 3.0, 1e-4)
-    assert c.deadline(4) == 1000.5
+    assert c.deadline(4) == 1000.5 and c.next_deadline() == 1000.5
     assert c.due(1000.499) == []
     (closed,) = c.due(1000.5)
     assert closed.why == 'deadline' and closed.verdict.winner == 1

@@ -307,6 +307,14 @@ class DataProcess:
         return [self._close(w) for w in list(self.windows.values())
                 if w.due(now, period, lag)]
 
+    def next_poll(self):
+        """The local time before which no open window can be due (None
+        without open windows): a poll can sleep until then."""
+        if self.clock is None or not self.windows:
+            return None
+        return min(self.clock.to_local(w.end + self.margin)
+                   for w in self.windows.values())
+
     # -- results ----------------------------------------------------------
 
     def _totals(self):

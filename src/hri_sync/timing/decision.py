@@ -146,6 +146,11 @@ class RoundCollector:
             return self._close(round_id, 'all results'), ''
         return None, ''
 
+    def next_deadline(self):
+        """The earliest deadline of the open rounds (None if none)."""
+        return min((self.deadline(r) for r in self.open_rounds),
+                   default=None)
+
     def due(self, now):
         """Close the rounds whose deadline is past at global ``now``."""
         late = [r for r in self.open_rounds if now >= self.deadline(r)]
