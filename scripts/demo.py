@@ -7,9 +7,11 @@ who barely moves (cmu_61_01_salsa at 5 % speed); both clients run with
 wrong, drifting clocks under libfaketime (+1.2 s at +200 ppm, -0.8 s at
 -200 ppm), measure them against the time server and capture the same
 synchronized window; the round monitor prints both scores, the
-decision and the start skew; the round is recorded to a bag, which
-verify_decisions then recomputes. Exits non-zero if the round or the
-verification fails. Options pass on to the launch file as name:=value.
+decision and the start skew; the decision module's line gives the
+decision's latency after the window's end and the round's timing
+uncertainty; the round is recorded to a bag, which verify_decisions then
+recomputes. Exits non-zero if the round or the verification fails.
+Options pass on to the launch file as name:=value.
 """
 import os
 import re
@@ -23,6 +25,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 # indented lines), and any error.
 HEADER = re.compile(r'round \d+$|DJ Rob, round ')
 ERROR = re.compile(r'.*\[(ERROR|FATAL)\]')
+# The decision module's log line of a decision (nodes/decision_module).
+DECISION = re.compile(r'.*round (\d+) decision: .*; on (.+), ([-\d.]+) ms '
+                      r'after the window end; timing uncertainty '
+                      r'([\d.na]+) ms')
 
 
 def free_port():
@@ -53,6 +59,13 @@ def main():
         in_report = False
         for line in launch.stdout:
             log.write(line)
+            decided = DECISION.match(line)
+            if decided:
+                n, why, latency, uncertainty = decided.groups()
+                print('round %s: decision %s ms after the window\'s end '
+                      '(on %s; the server\'s global clock), timing '
+                      'uncertainty %s ms' % (n, latency, why, uncertainty),
+                      flush=True)
             in_report = bool(HEADER.match(line)) or (
                 in_report and line.startswith('  '))
             if in_report or ERROR.match(line):

@@ -1,13 +1,18 @@
-"""hri_sync.timing.capture: the sample buffer, window statistics and the device
-clock mapper."""
+"""hri_sync.timing.capture: the sample buffer, window statistics, the time
+mappings and the capture window."""
 
 import math
 import random
+import statistics
+from types import SimpleNamespace as NS
 
 import pytest
 
-from hri_sync.timing.capture import (DeviceClockMapper, SampleBuffer,
-                                     window_stats)
+from hri_sync.timing.capture import (ArrivalStamps, CaptureWindow,
+                                     DeviceClockMapper, SampleBuffer,
+                                     TimeMapping, window_stats,
+                                     window_status)
+from hri_sync.timing.processors import CountMean, Processor, ProcessResult
 
 # -- SampleBuffer ------------------------------------------------------------
 
@@ -31,34 +36,6 @@ def test_take_is_half_open_and_sorted_by_stamp():
     frames = b.take(1.0, 3.0)
     assert stamps_of(frames) == [1.0, 2.0, 2.5]
     assert [f.msg for f in frames] == ['m1', 'm2', 'm2.5']
-
-
-def test_hold_keeps_samples_from_the_window_start_until_released():
-    b = SampleBuffer(keep=2.0)
-    b.hold(3.0)
-    for k in range(11):
-        b.add(float(k), k)
-    # Without the hold only 8..10 would be left.
-    assert stamps_of(b.take(3.0, 7.0)) == [3.0, 4.0, 5.0, 6.0]
-    assert stamps_of(b.take(0.0, 3.0)) == []     # before the hold: dropped
-    b.release(3.0)
-    b.add(11.0, 11)
-    assert stamps_of(b.take(-math.inf, math.inf)) == [9.0, 10.0, 11.0]
-
-
-def test_two_holds_keep_the_earliest_until_both_released():
-    b = SampleBuffer(keep=1.0)
-    b.hold(2.0)
-    b.hold(5.0)
-    for k in range(10):
-        b.add(float(k), k)
-    assert stamps_of(b.take(0.0, 10.0))[0] == 2.0
-    b.release(2.0)
-    b.add(10.0, 10)
-    assert stamps_of(b.take(0.0, 11.0))[0] == 5.0
-    b.release(5.0)
-    b.add(11.0, 11)
-    assert stamps_of(b.take(0.0, 12.0)) == [10.0, 11.0]
 
 
 # -- window_stats ------------------------------------------------------------
@@ -110,6 +87,29 @@ def test_no_samples():
     st = window_stats([], 10.0, 11.0)
     assert st['coverage'] == 0.0 and st['dropped'] == 0
     assert math.isnan(st['period']) and math.isnan(st['first_frame_offset'])
+
+
+def test_repeated_stamps_are_no_period():
+    # A sensor that sends every frame twice: the zero spacings are not a
+    # period (they raised ZeroDivisionError) and drop nothing.
+    stamps = sorted([FIRST + k * P for k in range(16)] * 2)
+    st = window_stats(stamps, 0.0, 1.0)
+    assert st == {'coverage': 1.0, 'dropped': 0, 'period': P,
+                  'first_frame_offset': FIRST}
+    st = window_stats([0.5, 0.5, 0.5], 0.0, 1.0)
+    assert math.isnan(st['period']) and st['dropped'] == 0
+    assert st['coverage'] == 0.0
+
+
+def test_status_rule():
+    assert window_status(19, 0.95, 0.9) == 'ok'
+    assert window_status(18, 0.9, 0.9) == 'ok'
+    assert window_status(10, 0.5, 0.9) == 'partial'
+    assert window_status(0, 0.0, 0.9) == 'no_data'
+    # Samples in the window, none usable (all malformed): no data, not an
+    # ok result of nothing.
+    assert window_status(0, 1.0, 0.9) == 'no_data'
+    assert window_status(20, 1.0, 0.9, failed=True) == 'error'
 
 
 def test_one_sample_does_not_cover_the_window():
@@ -239,3 +239,254 @@ def test_mapper_starts_over_when_the_device_clock_goes_back():
         assert m.to_global(device) - true == pytest.approx(0.0, abs=0.016)
     assert m.resets == 1
     assert m.to_global(device) - true == pytest.approx(0.0, abs=1e-3)
+
+
+def test_mapper_reset_and_state():
+    m = DeviceClockMapper(settle=2)
+    for k in range(3):
+        m.observe(10.0 + k, 15.0 + k + 0.001 * k)
+    st = m.state()
+    assert st['kind'] == 'device' and st['ready'] and st['samples'] == 3
+    assert st['offset'] == 5.0 and st['resets'] == 0
+    m.reset()
+    assert not m.ready and m.resets == 1 and m.samples == 0
+    with pytest.raises(ValueError, match='no sample observed'):
+        m.to_global(1.0)
+
+
+def test_mapper_refuses_non_finite_input():
+    m = DeviceClockMapper()
+    with pytest.raises(ValueError, match='not finite'):
+        m.observe(math.nan, 1.0)
+    with pytest.raises(ValueError, match='not finite'):
+        m.observe(1.0, math.inf)
+    assert m.samples == 0
+
+
+def test_mapper_residual_is_the_envelope_scatter():
+    # Jitter-free: the envelope is the line; every bin's minimum on it.
+    m = DeviceClockMapper()
+    for k in range(300):
+        m.observe(k * 0.05, 100.0 + k * 0.05 + 0.002)
+    assert m.residual == pytest.approx(0.0, abs=1e-9)
+    # 16 Hz over 16 s: 16 bins of 1 s.  Ten of them (the seconds not a
+    # multiple of 3) came 1 ms late throughout: the median bin stands 1 ms
+    # above the line through the others.
+    m = DeviceClockMapper()
+    for k in range(257):
+        t = k / 16.0
+        m.observe(t, 100.0 + t + 0.002 + (0.001 if int(t) % 3 else 0.0))
+    assert m.drift == 0.0 and m.offset == pytest.approx(100.002)
+    assert m.residual == pytest.approx(0.001)
+    # A sample held 2 s by a stalled reader does not raise it.
+    m.observe(16.0 + 1 / 16, 100.0 + 16.0 + 1 / 16 + 2.0)
+    assert m.residual <= 0.001 + 1e-9
+
+
+def reference_fit(points, min_span):
+    """The mapper's fit as first written in plain Python (30 s Theil-Sen
+    through bin minima): the vectorized fit must give the same numbers."""
+    ref = points[-1][0]
+    span = points[-1][0] - points[0][0]
+    if span < min_span:
+        return min(d for _, d in points), 0.0, ref
+    bins = min(30, max(4, int(span)))
+    mins = {}
+    for t, d in points:
+        k = min(bins - 1, int((t - points[0][0]) / span * bins))
+        if k not in mins or d < mins[k][1]:
+            mins[k] = (t - ref, d)
+    mins = list(mins.values())
+    if len(mins) < 2:
+        return min(d for _, d in points), 0.0, ref
+    slopes = [(b[1] - a[1]) / (b[0] - a[0])
+              for i, a in enumerate(mins) for b in mins[i + 1:]
+              if b[0] != a[0]]
+    drift = statistics.median(slopes) if slopes else 0.0
+    base = statistics.median(d - drift * t for t, d in mins)
+    offset = base + min(d - (base + drift * (t - ref)) for t, d in points)
+    return offset, drift, ref
+
+
+@pytest.mark.parametrize('seed', range(6))
+def test_mapper_fit_is_the_plain_definition(seed):
+    rng = random.Random(seed)
+    window, min_span = rng.choice([(30.0, 5.0), (3.0, 1.0)])
+    m = DeviceClockMapper(window=window, min_span=min_span)
+    points = []
+    rate = rng.choice([7.0, 30.0, 100.0])
+    device, true, ppm = rng.uniform(0, 1e4), T0, rng.uniform(-3e-4, 3e-4)
+    for k in range(int(rate * 40)):
+        true += 1 / rate
+        device += (1 + ppm) / rate
+        if rng.random() < 0.003:            # a restart
+            device = rng.uniform(0, 100)
+        stamp = round(device, 3)            # ties in the bins' minima
+        arrival = true + rng.uniform(3e-4, 0.015) + (
+            0.2 if rng.random() < 0.05 else 0.0)
+        if points and stamp < points[-1][0]:
+            points = []
+        points.append((stamp, arrival - stamp))
+        points = [p for p in points if p[0] >= stamp - window]
+        m.observe(stamp, arrival)
+        assert (m.offset, m.drift, m.ref) == reference_fit(points, min_span)
+
+
+# -- the time mapping contract -----------------------------------------------
+
+@pytest.mark.parametrize('mapping', [ArrivalStamps(), DeviceClockMapper()])
+def test_both_strategies_keep_the_contract(mapping):
+    assert isinstance(mapping, TimeMapping)
+    for k in range(6):
+        mapping.observe(50.0 + k * 0.1, 1000.0 + k * 0.1)
+    assert mapping.ready
+    assert mapping.state()['kind'] == mapping.kind
+    assert mapping.residual >= 0.0
+    mapping.reset()
+    assert mapping.state()['samples'] == 0
+
+
+def test_arrival_stamps_are_the_identity():
+    m = ArrivalStamps()
+    m.observe(1000.25, 1000.25)
+    assert m.ready and m.to_global(1000.25) == 1000.25 and m.residual == 0
+
+
+# -- CaptureWindow -----------------------------------------------------------
+
+def window(start=100.0, end=101.0, processor=None, **kw):
+    return CaptureWindow(7, start, end, processor or CountMean(), **kw)
+
+
+def sample(v):
+    return NS(value=v)
+
+
+def test_window_keeps_exactly_its_stamps_and_completes_on_a_later_one():
+    w = window()
+    kept = [w.offer(t, sample(t), t) for t in (99.95, 100.0, 100.5, 100.95)]
+    assert kept == [False, True, True, True]
+    assert not w.complete
+    assert not w.offer(101.0, sample(101.0), 101.0)     # at the end
+    assert w.complete and w.completed_by == 'sample'
+    status, res, stats, error = w.finish()
+    assert (status, error) == ('ok', '')
+    assert res.frames_used == 3
+    assert res.value == pytest.approx((100.0 + 100.5 + 100.95) / 3)
+
+
+def test_window_is_due_one_period_and_the_margin_past_its_end():
+    w = window(margin=0.03)
+    for k in range(20):
+        w.offer(100.0 + k * 0.05, sample(1.0), 100.0 + k * 0.05)
+    # Newest 100.95: the next sample was due at 101.0, the end.
+    assert not w.due(101.029, 0.05)
+    assert w.due(101.03, 0.05) and w.completed_by == 'timeout'
+    status, res, stats, _ = w.finish()
+    assert status == 'ok' and stats['coverage'] == pytest.approx(1.0)
+
+
+def test_window_waits_for_a_sample_due_after_its_end():
+    w = window(margin=0.03)
+    w.offer(100.98, sample(1.0), 100.98)
+    assert not w.due(101.05, 0.05)              # next due at 101.03
+    assert w.due(101.06, 0.05)
+
+
+def test_silent_sensor_window_is_due_at_its_end_plus_margin():
+    w = window(margin=0.03)
+    assert not w.due(101.0, math.nan)
+    assert w.due(101.03, math.nan)
+    status, res, stats, _ = w.finish()
+    assert status == 'no_data' and res.frames_used == 0
+
+
+def test_late_samples_are_counted_not_added():
+    w = window(reorder=0.2)
+    w.offer(100.1, sample(1.0), 100.1)
+    # Stamped before the start, arriving after the end: late.
+    assert not w.offer(99.9, sample(5.0), 101.2)
+    # Stamped before the start, arriving in time: just not ours.
+    assert not w.offer(99.95, sample(5.0), 100.3)
+    w.offer(100.6, sample(1.0), 100.6)          # releases 100.1
+    assert not w.offer(100.05, sample(9.0), 100.7)   # behind stamp order
+    assert w.late == 2
+    w.offer(101.0, sample(1.0), 101.0)
+    assert not w.offer(100.9, sample(9.0), 101.1)    # after completion
+    assert w.late == 3
+    _, res, _, _ = w.finish()
+    assert res.frames_used == 2 and res.value == 1.0
+
+
+def test_window_reorders_samples_within_the_reorder_span():
+    seen = []
+
+    class Order(Processor):
+        def begin(self, start, end):
+            pass
+
+        def add(self, frame):
+            seen.append(frame.stamp)
+
+        def result(self):
+            return ProcessResult(len(seen), len(seen))
+    w = window(processor=Order(), reorder=0.2)
+    for t in (100.1, 100.3, 100.2, 100.6, 100.55, 100.9):
+        assert w.offer(t, None, t)
+    w.offer(101.0, None, 101.0)
+    w.finish()
+    assert seen == sorted(seen) and len(seen) == 6
+
+
+class Fragile(Processor):
+    """Raises on a negative value, fails its result on demand."""
+
+    def __init__(self, fail_result=False):
+        self.fail_result = fail_result
+
+    def begin(self, start, end):
+        self.n = 0
+
+    def add(self, frame):
+        if frame.msg.value < 0:
+            raise ValueError('negative')
+        self.n += 1
+
+    def result(self):
+        if self.fail_result:
+            raise RuntimeError('result failed')
+        return ProcessResult(float(self.n), self.n)
+
+
+def test_a_sample_the_processor_raises_on_is_rejected_and_the_window_goes_on():
+    w = window(processor=Fragile())
+    for k, v in enumerate([1.0, -1.0, 1.0, -2.0, 1.0]):
+        assert w.offer(100.0 + 0.1 * k, sample(v), 100.0 + 0.1 * k)
+    w.offer(101.0, sample(1.0), 101.0)
+    status, res, _, _ = w.finish()
+    assert res.frames_used == 3 and res.frames_rejected == 2
+    assert res.diagnostics['processor_errors'] == 2
+    assert 'negative' in res.diagnostics['processor_error']
+
+
+def test_a_failing_result_is_an_error_status():
+    w = window(processor=Fragile(fail_result=True))
+    w.offer(100.5, sample(1.0), 100.5)
+    status, res, _, error = w.finish()
+    assert status == 'error' and res is None and 'result failed' in error
+
+
+def test_window_keeps_the_worst_stamp_bound():
+    w = window()
+    w.offer(100.1, sample(1.0), 100.1, bound=2e-4)
+    w.offer(100.2, sample(1.0), 100.2, bound=5e-4)
+    w.offer(100.3, sample(1.0), 100.3, bound=1e-4)
+    w.offer(99.0, sample(1.0), 99.0, bound=9.0)      # not in the window
+    assert w.bound == 5e-4
+
+
+def test_empty_window_is_refused():
+    with pytest.raises(ValueError, match='empty or not finite'):
+        window(100.0, 100.0)
+    with pytest.raises(ValueError, match='empty or not finite'):
+        window(math.nan, 101.0)

@@ -4,8 +4,8 @@ import math
 
 import pytest
 
-from hri_sync.timing.decision import (ABORTED, NO_WINNER, TIE, WINNER, Verdict,
-                                      decide)
+from hri_sync.timing.decision import (ABORTED, NO_WINNER, TIE, WINNER,
+                                      RoundCollector, Verdict, decide)
 
 P = ['left', 'right']
 
@@ -114,3 +114,102 @@ def test_bad_on_missing_raises():
     with pytest.raises(ValueError, match="~on_missing must be 'partial' or "
                        "'abort', got 'skip'"):
         decide(P, {}, on_missing='skip')
+
+
+# -- RoundCollector: the DM's rounds on a fake global clock ------------------
+
+def collector(timeout=2.0, **kw):
+    return RoundCollector(P, timeout, **kw)
+
+
+def test_round_decided_when_every_participant_answered():
+    c = collector()
+    assert c.open(1, 1000.0)
+    assert c.add(1, 'left', 'ok', 2.0, 1e-4) == (None, '')
+    closed, why = c.add(1, 'right', 'ok', 5.5, 3e-4)
+    assert why == '' and closed.why == 'all results'
+    assert (closed.verdict.outcome, closed.verdict.winner) == (WINNER, 2)
+    assert closed.window_end == 1000.0
+    assert closed.timing_uncertainty == 3e-4      # the worst participant
+    assert c.due(5000.0) == []
+
+
+def test_deadline_is_the_window_end_plus_the_timeout_in_global_time():
+    # However late the capture order reached the DM, the deadline stays
+    # the window's end + result_timeout.
+    c = collector(timeout=0.5)
+    c.open(4, 1000.0)
+    c.add(4, 'left', 'ok', 3.0, 1e-4)
+    assert c.deadline(4) == 1000.5 and c.next_deadline() == 1000.5
+    assert c.due(1000.499) == []
+    (closed,) = c.due(1000.5)
+    assert closed.why == 'deadline' and closed.verdict.winner == 1
+    assert 'right has no usable result (missing)' in closed.verdict.reason
+
+
+def test_a_result_after_the_deadline_is_counted_not_merged():
+    c = collector(timeout=0.5)
+    c.open(4, 1000.0)
+    c.add(4, 'left', 'ok', 3.0)
+    c.due(1000.6)
+    assert c.add(4, 'right', 'ok', 9.0) == (None, 'closed_round')
+    assert c.ignored['closed_round'] == 1
+    assert c.due(2000.0) == []
+
+
+def test_unknown_future_duplicate_are_ignored_and_counted():
+    c = collector()
+    c.open(1, 1000.0)
+    assert c.add(2, 'left', 'ok', 1.0) == (None, 'no_open_round')
+    assert c.add(1, 'mallory', 'ok', 1.0) == (None, 'unknown_client')
+    c.add(1, 'left', 'ok', 1.0)
+    assert c.add(1, 'left', 'ok', 99.0) == (None, 'duplicate_result')
+    assert not c.open(1, 1000.0)
+    assert c.ignored == {'no_open_round': 1, 'unknown_client': 1,
+                         'duplicate_result': 1, 'duplicate_round': 1}
+    closed, _ = c.add(1, 'right', 'ok', 0.5)
+    assert closed.verdict.scores == [1.0, 0.5]
+
+
+def test_worst_bound_counts_only_usable_results():
+    c = collector()
+    c.open(1, 1000.0)
+    c.add(1, 'left', 'ok', 2.0, 2e-4)
+    closed, _ = c.add(1, 'right', 'no_data', math.nan, 9e-3)
+    assert closed.timing_uncertainty == 2e-4
+    c.open(2, 1010.0)
+    c.add(2, 'left', 'late', math.nan, math.nan)
+    (closed,) = c.due(1013.0)
+    assert closed.verdict.outcome == ABORTED
+    assert math.isnan(closed.timing_uncertainty)
+
+
+def test_abort_closes_once():
+    c = collector()
+    c.open(3, 1000.0)
+    closed = c.abort(3, 'round 3 aborted: no ACK from right')
+    assert closed.verdict.outcome == ABORTED and closed.why == 'aborted'
+    assert closed.verdict.reason == 'round 3 aborted: no ACK from right'
+    assert c.abort(3, 'again') is None
+    assert c.add(3, 'left', 'ok', 1.0) == (None, 'closed_round')
+    # A round aborted before its capture order (at the ACKs) too.
+    closed = c.abort(4, 'round 4 aborted: no ACK from left')
+    assert closed.verdict.outcome == ABORTED
+    assert math.isnan(closed.window_end)
+
+
+def test_collector_remembers_a_bounded_number_of_rounds():
+    c = collector(remember=3)
+    for n in range(1, 8):
+        c.open(n, 1000.0 + n)
+        c.due(2000.0)
+    assert sorted(c.closed) == [5, 6, 7]
+
+
+def test_collector_refuses_bad_parameters():
+    with pytest.raises(ValueError, match='result_timeout'):
+        RoundCollector(P, 0.0)
+    with pytest.raises(ValueError, match='on_missing'):
+        RoundCollector(P, 1.0, on_missing='skip')
+    with pytest.raises(ValueError, match='no participants'):
+        RoundCollector([], 1.0)

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from hri_sync.dance_off.expressiveness import expressiveness
+from hri_sync.dance_off.expressiveness import (RunningExpressiveness,
+                                               expressiveness)
 
 
 def track(xs, joints=1):
@@ -139,3 +140,27 @@ def test_bad_shapes():
         expressiveness([0.0, 0.1], np.zeros((2, 15, 2)))
     with pytest.raises(ValueError):
         expressiveness([0.0, 0.1], np.zeros((2, 15, 3)), np.ones((2, 14)))
+
+
+def test_running_sum_added_live_equals_the_whole_window():
+    # Frames added one by one as they arrive (in stamp order) give the
+    # whole-window score, with NaN joints, low confidence and a drop.
+    rng = np.random.default_rng(3)
+    t = np.delete(np.arange(0.0, 3.0, 0.05), [7, 30])
+    pos = rng.normal(0.0, 0.05, (len(t), 4, 3))
+    pos[rng.random(pos.shape) < 0.02] = np.nan
+    conf = rng.uniform(0.3, 1.0, (len(t), 4))
+    run = RunningExpressiveness(4, min_confidence=0.5)
+    for k in range(len(t)):
+        run.add(float(t[k]), pos[k], conf[k])
+    whole = expressiveness(t[::-1], pos[::-1], conf[::-1], duration=3.0)
+    assert run.score(3.0) == whole
+
+
+def test_running_sum_rejects_a_frame_out_of_stamp_order():
+    run = RunningExpressiveness(1)
+    assert run.add(0.0, track([0.0])[0], np.ones(1))
+    assert run.add(0.2, track([0.2])[0], np.ones(1))
+    assert not run.add(0.1, track([9.0])[0], np.ones(1))
+    assert (run.out_of_order, run.frames_rejected) == (1, 1)
+    assert run.score(1.0).value == pytest.approx(0.2)

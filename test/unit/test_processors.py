@@ -7,7 +7,7 @@ from types import SimpleNamespace as NS
 import pytest
 
 from hri_sync.timing.processors import (CountMean, Frame, ProcessResult,
-                                        Processor, load_processor)
+                                        Processor, WindowRun, load_processor)
 
 
 def frames(*values):
@@ -113,3 +113,59 @@ def test_device_stamped_count_mean_reads_the_header_stamp():
     msg = NS(value=2.0, header=NS(stamp=NS(to_sec=lambda: 1234.5)))
     assert p.device_stamp(msg) == 1234.5
     assert p.process(frames(1.0, 3.0), 100.0, 101.0).value == 2.0
+
+
+# -- the incremental interface -----------------------------------------------
+
+def test_count_mean_added_one_frame_at_a_time():
+    p = CountMean()
+    p.begin(100.0, 101.0)
+    for f in frames(1.0, math.nan, 4.0):
+        p.add(f)
+    assert p.result() == ProcessResult(value=2.5, frames_used=2,
+                                       frames_rejected=1,
+                                       diagnostics={'count': 2})
+    p.begin(101.0, 102.0)                 # a new window starts from zero
+    p.add(frames(7.0)[0])
+    assert p.result().value == 7.0
+
+
+def test_a_whole_window_processor_runs_through_add_and_result(plugin):
+    # The default add keeps the frames and result hands them to process.
+    p = load_processor(plugin, {'gain': 2.0})
+    run = WindowRun(p, 100.0, 101.0)
+    for f in frames(1.0, 2.0, 3.0):
+        assert run.add(f)
+    assert run.result() == ProcessResult(6.0, 3)
+
+
+def test_process_sorts_the_frames_and_counts_what_add_raised_on():
+    seen = []
+
+    class Strict(Processor):
+        def begin(self, start, end):
+            self.n = 0
+
+        def add(self, frame):
+            if frame.msg.value < 0:
+                raise ValueError('negative sample %g' % frame.msg.value)
+            seen.append(frame.stamp)
+            self.n += 1
+
+        def result(self):
+            return ProcessResult(float(self.n), self.n)
+    fs = frames(1.0, -1.0, 2.0, -3.0)[::-1] + [Frame(math.nan, NS(value=1))]
+    r = Strict().process(fs, 100.0, 101.0)
+    assert seen == [100.0, 100.1] + [seen[-1]] and math.isnan(seen[-1])
+    assert (r.value, r.frames_used, r.frames_rejected) == (3.0, 3, 2)
+    assert r.diagnostics == {'processor_errors': 2,
+                             'processor_error':
+                             "ValueError('negative sample -1')"}
+
+
+def test_a_processor_with_add_but_no_result_is_refused():
+    class Half(Processor):
+        def add(self, frame):
+            pass
+    with pytest.raises(NotImplementedError, match='Half implements neither'):
+        Half().process(frames(1.0), 100.0, 101.0)

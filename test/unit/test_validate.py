@@ -40,11 +40,12 @@ def good(msg_type):
             round=5, client_id='left', status='ok', capture_start=NOW - 61,
             capture_end=NOW - 1, frames=1200, frames_rejected=0,
             frames_dropped=2, coverage=0.99, first_frame_offset=0.01,
-            wake_lateness=0.004, value=3.2,
+            wake_lateness=0.004, value=3.2, timing_uncertainty=0.0002,
             diagnostics=[{'key': 'terms', 'value': '1199'}]),
         'hri_sync/Decision': dict(
             round=5, outcome='winner', winner=2, clients=['left', 'right'],
-            scores=[1.5, 3.2], reason='right wins', stamp=NOW),
+            scores=[1.5, 3.2], reason='right wins', stamp=NOW,
+            window_end=NOW - 1, timing_uncertainty=0.0002),
         'hri_sync/Skeleton': dict(
             header=header, client_id='left', user_id=1,
             device_stamp=12.5,

@@ -16,8 +16,13 @@ Joint samples below ``min_confidence`` or with a NaN/infinite coordinate
 are left out (and counted); that joint's next usable sample is then paired
 with its last usable one. A frame with no usable joint, a non-finite stamp
 or the same stamp as an earlier frame is rejected and counted.
+
+The sum is kept as frames arrive (``RunningExpressiveness``): memory does
+not grow with the window, and the score is ready with the window's last
+frame.
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,6 +46,90 @@ class Expressiveness:
     duration: float              # T, s
 
 
+class RunningExpressiveness:
+    """The expressiveness sum, one frame at a time, frames in stamp order.
+
+    A frame stamped before the previous one cannot be paired in order: it
+    is rejected and counted in ``out_of_order`` (sort the frames first).
+    """
+
+    def __init__(self, joints=NUM_JOINTS,
+                 min_confidence=DEFAULT_MIN_CONFIDENCE):
+        self.min_confidence = float(min_confidence)
+        self._last_pos = np.zeros((joints, 3))
+        self._last_t = np.zeros(joints)
+        self._seen = np.zeros(joints, dtype=bool)
+        self._all_seen = False
+        self._prev = -math.inf      # stamp of the previous frame
+        self.total = 0.0            # sum of distance**2 / dt, m^2/s
+        self.frames_used = 0
+        self.frames_rejected = 0
+        self.nonfinite_joints = 0
+        self.low_confidence_joints = 0
+        self.terms = 0
+        self.out_of_order = 0
+        self.first = self.last = None   # first and last usable stamps
+
+    def add(self, stamp, positions, confidence):
+        """Add one frame: ``positions`` (joints, 3) m, ``confidence``
+        (joints,).  Returns whether it was used."""
+        if not math.isfinite(stamp) or stamp <= self._prev:
+            self.frames_rejected += 1
+            if stamp < self._prev:
+                self.out_of_order += 1
+            return False
+        self._prev = stamp
+        finite = np.isfinite(positions).all(axis=1)
+        valid = finite & (confidence >= self.min_confidence)  # NaN: False
+        if valid.all():                 # the common case, in fewer steps
+            if self._all_seen:
+                d2 = np.sum((positions - self._last_pos) ** 2, axis=1)
+                self.total += float(np.sum(d2 / (stamp - self._last_t)))
+                self.terms += len(valid)
+            else:
+                self._pairs(valid, stamp, positions)
+            self._last_pos[:] = positions
+            self._last_t[:] = stamp
+            self._seen[:] = True
+            self._all_seen = True
+        else:
+            self.nonfinite_joints += int(np.count_nonzero(~finite))
+            self.low_confidence_joints += int(np.count_nonzero(finite
+                                                               & ~valid))
+            if not valid.any():
+                self.frames_rejected += 1
+                return False
+            self._pairs(valid, stamp, positions)
+            self._last_pos[valid] = positions[valid]
+            self._last_t[valid] = stamp
+            self._seen |= valid
+            self._all_seen = bool(self._seen.all())
+        self.frames_used += 1
+        if self.first is None:
+            self.first = stamp
+        self.last = stamp
+        return True
+
+    def _pairs(self, valid, stamp, positions):
+        """Sum the terms of the valid joints seen before."""
+        pair = valid & self._seen
+        if pair.any():
+            d2 = np.sum((positions[pair] - self._last_pos[pair]) ** 2, axis=1)
+            self.total += float(np.sum(d2 / (stamp - self._last_t[pair])))
+            self.terms += int(np.count_nonzero(pair))
+
+    def score(self, duration):
+        """The Expressiveness over T = ``duration`` s."""
+        duration = float(duration)
+        return Expressiveness(
+            value=self.total / duration if duration > 0 else 0.0,
+            frames_used=self.frames_used,
+            frames_rejected=self.frames_rejected,
+            nonfinite_joints=self.nonfinite_joints,
+            low_confidence_joints=self.low_confidence_joints,
+            terms=self.terms, duration=duration)
+
+
 def expressiveness(stamps, positions, confidence=None, duration=None,
                    min_confidence=DEFAULT_MIN_CONFIDENCE):
     """Score frames ``stamps`` (N,) s, ``positions`` (N, J, 3) m.
@@ -62,44 +151,12 @@ def expressiveness(stamps, positions, confidence=None, duration=None,
     if confidence.shape != (count, joints):
         raise ValueError('confidence must be (%d, %d), got %s'
                          % (count, joints, confidence.shape))
-
-    order = np.argsort(stamps, kind='stable')
-    stamps, positions, confidence = \
-        stamps[order], positions[order], confidence[order]
-    good_stamp = np.isfinite(stamps)
-    good_stamp[1:] &= stamps[1:] != stamps[:-1]
-
-    finite = np.all(np.isfinite(positions), axis=2)
-    confident = confidence >= min_confidence        # False for NaN too
-    nonfinite = int(np.sum(~finite & good_stamp[:, None]))
-    low_conf = int(np.sum(finite & ~confident & good_stamp[:, None]))
-    valid = finite & confident & good_stamp[:, None]
-    used = np.any(valid, axis=1)
-
-    # For each (frame, joint): index of that joint's previous valid frame.
-    rows = np.arange(count)[:, None]
-    last = np.maximum.accumulate(np.where(valid, rows, -1), axis=0)
-    prev = np.vstack([np.full((1, joints), -1), last[:-1]]) \
-        if count else last
-    pair = valid & (prev >= 0)
-
-    safe = np.where(valid[..., None], positions, 0.0)
-    prev_idx = np.maximum(prev, 0)
-    prev_pos = np.take_along_axis(safe, prev_idx[..., None], axis=0)
-    dist2 = np.sum((safe - prev_pos) ** 2, axis=2)
-    dt = stamps[:, None] - np.where(pair, stamps[prev_idx], 0.0)
-    total = float(np.sum(np.where(pair, dist2 / np.where(pair, dt, 1.0), 0.0)))
-
+    run = RunningExpressiveness(joints, min_confidence)
+    for k in np.argsort(stamps, kind='stable'):     # NaN stamps last
+        run.add(float(stamps[k]), positions[k], confidence[k])
     if duration is None:
-        duration = float(stamps[used][-1] - stamps[used][0]) \
-            if np.any(used) else 0.0
-    duration = float(duration)
-    value = total / duration if duration > 0 else 0.0
-    return Expressiveness(value=value, frames_used=int(np.sum(used)),
-                          frames_rejected=int(count - np.sum(used)),
-                          nonfinite_joints=nonfinite,
-                          low_confidence_joints=low_conf,
-                          terms=int(np.sum(pair)), duration=duration)
+        duration = run.last - run.first if run.frames_used else 0.0
+    return run.score(duration)
 
 
 def _seconds(stamp):
@@ -113,6 +170,7 @@ class SkeletonExpressiveness(Processor):
     ``~processor_params``: ``min_confidence`` (default 0.5). T is the window
     (end - start), stamps are the frames' global stamps. A message without
     15 positions and 15 confidences is rejected as malformed.
+    Incremental: ``add`` updates the running sum, ``result`` reads it.
     """
 
     msg_type = 'hri_sync/Skeleton'
@@ -120,37 +178,38 @@ class SkeletonExpressiveness(Processor):
     def __init__(self, min_confidence=DEFAULT_MIN_CONFIDENCE):
         super().__init__()
         self.min_confidence = float(min_confidence)
+        self.begin(0.0, 0.0)
 
     def device_stamp(self, msg):
         return _seconds(msg.device_stamp)
 
-    def process(self, frames, start, end):
-        stamps, positions, confidence = [], [], []
-        malformed = 0
-        for frame in frames:
-            try:
-                pos = [(p.x, p.y, p.z) for p in frame.msg.positions]
-                conf = [float(c) for c in frame.msg.confidence]
-            except (AttributeError, TypeError, ValueError):
-                malformed += 1
-                continue
-            if len(pos) != NUM_JOINTS or len(conf) != NUM_JOINTS:
-                malformed += 1
-                continue
-            stamps.append(frame.stamp)
-            positions.append(pos)
-            confidence.append(conf)
-        res = expressiveness(
-            np.asarray(stamps, dtype=float),
-            np.asarray(positions, dtype=float).reshape(-1, NUM_JOINTS, 3),
-            np.asarray(confidence, dtype=float).reshape(-1, NUM_JOINTS),
-            duration=end - start, min_confidence=self.min_confidence)
+    def begin(self, start, end):
+        self._duration = end - start
+        self._run = RunningExpressiveness(NUM_JOINTS, self.min_confidence)
+        self._malformed = 0
+
+    def add(self, frame):
+        try:
+            pos = np.array([(p.x, p.y, p.z) for p in frame.msg.positions],
+                           dtype=float)
+            conf = np.array(frame.msg.confidence, dtype=float)
+        except (AttributeError, TypeError, ValueError):
+            self._malformed += 1
+            return
+        if pos.shape != (NUM_JOINTS, 3) or conf.shape != (NUM_JOINTS,):
+            self._malformed += 1
+            return
+        self._run.add(frame.stamp, pos, conf)
+
+    def result(self):
+        res = self._run.score(self._duration)
         return ProcessResult(
             value=res.value, frames_used=res.frames_used,
-            frames_rejected=res.frames_rejected + malformed,
+            frames_rejected=res.frames_rejected + self._malformed,
             diagnostics={'nonfinite_joints': res.nonfinite_joints,
                          'low_confidence_joints': res.low_confidence_joints,
-                         'malformed_frames': malformed,
+                         'malformed_frames': self._malformed,
+                         'out_of_order_frames': self._run.out_of_order,
                          'terms': res.terms,
                          'min_confidence': self.min_confidence,
                          'T': res.duration})

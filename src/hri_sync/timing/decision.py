@@ -1,8 +1,11 @@
 """The decision module's rule: who was the most expressive?
 
 No ROS.  Participant numbers count from 1 in the order of ``participants``.
+``RoundCollector`` is the DM's state machine: it collects each round's
+results until all are in or the round's deadline on the global clock.
 """
 import math
+from collections import Counter
 from dataclasses import dataclass
 
 WINNER, NO_WINNER, TIE, ABORTED = 'winner', 'no_winner', 'tie', 'aborted'
@@ -65,3 +68,116 @@ def decide(participants, results, min_value=0.0, tie_margin=0.0,
                                                    tie_margin) + suffix)
     return Verdict(WINNER, best_i + 1, scores, '%s scored highest (%.4g)'
                    % (participants[best_i], best) + suffix)
+
+
+@dataclass
+class Closed:
+    """A round the collector closed: its verdict and how it came about."""
+
+    round: int
+    verdict: Verdict
+    window_end: float         # global
+    why: str                  # 'all results', 'deadline' or 'aborted'
+    timing_uncertainty: float  # worst of the usable results', NaN if none
+
+
+class RoundCollector:
+    """The DM's rounds: results per round until every participant answered
+    or the deadline passed, then a decision.
+
+    A round opens on its capture order with its window's end (global);
+    its deadline is that end plus ``result_timeout``, on the global clock,
+    whenever the order arrived.  ``due(now)`` closes the rounds past their
+    deadline.  A result for a closed, unknown or future round, from an
+    unknown client, or a second one from a client, is never merged:
+    ``add`` says why and counts it in ``ignored``.
+    """
+
+    def __init__(self, participants, result_timeout, min_value=0.0,
+                 tie_margin=0.0, on_missing='partial', remember=100):
+        if not participants:
+            raise ValueError('no participants')
+        if not (math.isfinite(result_timeout) and result_timeout > 0):
+            raise ValueError('result_timeout must be > 0 s, got %r'
+                             % (result_timeout,))
+        decide(participants, {}, min_value, tie_margin, on_missing)
+        self.participants = list(participants)
+        self.result_timeout = result_timeout
+        self.rule = (min_value, tie_margin, on_missing)
+        self.open_rounds = {}    # round -> (window end, {client: result})
+        self.closed = {}         # round -> why, the last ``remember``
+        self.remember = remember
+        self.ignored = Counter()
+
+    def open(self, round_id, window_end):
+        """A capture order for ``round_id`` whose window ends at global
+        ``window_end``.  False (and counted) when already known."""
+        if round_id in self.open_rounds or round_id in self.closed:
+            self.ignored['duplicate_round'] += 1
+            return False
+        if not math.isfinite(window_end):
+            self.ignored['bad_window'] += 1
+            return False
+        self.open_rounds[round_id] = (window_end, {})
+        return True
+
+    def deadline(self, round_id):
+        """Global deadline of an open round."""
+        return self.open_rounds[round_id][0] + self.result_timeout
+
+    def add(self, round_id, client_id, status, value,
+            timing_uncertainty=math.nan):
+        """A ClientResult.  Returns (Closed or None, why ignored or '')."""
+        why = ''
+        if round_id in self.closed:
+            why = 'closed_round'
+        elif round_id not in self.open_rounds:
+            why = 'no_open_round'
+        elif client_id not in self.participants:
+            why = 'unknown_client'
+        elif client_id in self.open_rounds[round_id][1]:
+            why = 'duplicate_result'
+        if why:
+            self.ignored[why] += 1
+            return None, why
+        results = self.open_rounds[round_id][1]
+        results[client_id] = (status, value, timing_uncertainty)
+        if all(c in results for c in self.participants):
+            return self._close(round_id, 'all results'), ''
+        return None, ''
+
+    def next_deadline(self):
+        """The earliest deadline of the open rounds (None if none)."""
+        return min((self.deadline(r) for r in self.open_rounds),
+                   default=None)
+
+    def due(self, now):
+        """Close the rounds whose deadline is past at global ``now``."""
+        late = [r for r in self.open_rounds if now >= self.deadline(r)]
+        return [self._close(r, 'deadline') for r in sorted(late)]
+
+    def abort(self, round_id, reason):
+        """The CM aborted ``round_id``: Closed (aborted), or None when it
+        was closed already."""
+        if round_id in self.closed:
+            return None
+        end = self.open_rounds.pop(round_id, (math.nan, {}))[0]
+        self._remember(round_id, 'aborted')
+        return Closed(round_id, Verdict(ABORTED, 0,
+                                        [math.nan] * len(self.participants),
+                                        reason), end, 'aborted', math.nan)
+
+    def _remember(self, round_id, why):
+        self.closed[round_id] = why
+        while len(self.closed) > self.remember:
+            del self.closed[min(self.closed)]
+
+    def _close(self, round_id, why):
+        end, results = self.open_rounds.pop(round_id)
+        self._remember(round_id, why)
+        verdict = decide(self.participants,
+                         {c: r[:2] for c, r in results.items()}, *self.rule)
+        bounds = [r[2] for r in results.values()
+                  if r[0] in USABLE and math.isfinite(r[2])]
+        return Closed(round_id, verdict, end, why,
+                      max(bounds) if bounds else math.nan)

@@ -1,7 +1,11 @@
 """DPM processors: turn the samples of one capture window into a result.
 
 No ROS.  A processor is named by class path in the DPM's ``~processor``
-param; see ``Processor`` for the interface.
+param; see ``Processor`` for the interface.  The DPM feeds a window's
+samples to its processor one at a time, in stamp order, as they arrive
+(``begin``, ``add``, ``result``), so the result is ready as soon as the
+window is complete; ``process`` gives the same result for a whole
+window at once (``verify_decisions`` recomputes recorded rounds with it).
 """
 import importlib
 import math
@@ -27,8 +31,15 @@ class ProcessResult:
 
 
 class Processor:
-    """Base class: override ``msg_type``, ``process`` and maybe
-    ``device_stamp``."""
+    """Base class of DPM processors.
+
+    Override ``msg_type``, maybe ``device_stamp``, and either
+    ``process(frames, start, end)`` (a simple processor: the default
+    ``add`` keeps the window's frames and ``result`` passes them to
+    ``process``) or ``begin``, ``add`` and ``result`` (an incremental one,
+    whose memory does not grow with the window; ``process`` then runs them
+    over the frames).
+    """
 
     msg_type = 'hri_sync/Sample'
 
@@ -42,9 +53,77 @@ class Processor:
         """The sample's own device time in s, or None to stamp at arrival."""
         return None
 
+    def begin(self, start, end):
+        """Start a window [start, end) (global s), forgetting the last."""
+        self._window = (start, end)
+        self._frames = []
+
+    def add(self, frame):
+        """Consume one Frame of the window (frames come in stamp order)."""
+        self._frames.append(frame)
+
+    def result(self):
+        """The ProcessResult of the frames added since ``begin``."""
+        return self.process(self._frames, *self._window)
+
     def process(self, frames, start, end):
         """Return a ProcessResult for ``frames`` in [start, end)."""
-        raise NotImplementedError
+        cls = type(self)
+        if cls.add is Processor.add or cls.result is Processor.result:
+            raise NotImplementedError(
+                '%s implements neither process() nor add() and result()'
+                % cls.__name__)
+        return run_window(self, frames, start, end)
+
+
+class WindowRun:
+    """One window of a processor: frames in one at a time, one result out.
+
+    A frame the processor raises on is rejected and counted (its
+    ``frames_rejected`` and ``diagnostics['processor_errors']``, with the
+    first error in ``diagnostics['processor_error']``); the window goes on.
+    """
+
+    def __init__(self, processor, start, end):
+        self.processor = processor
+        self.errors = 0
+        self.first_error = None
+        processor.begin(start, end)
+
+    def add(self, frame):
+        """Give ``frame`` to the processor; False if it raised."""
+        try:
+            self.processor.add(frame)
+        except Exception as e:  # a processor bug costs one frame, no more
+            self.errors += 1
+            if self.first_error is None:
+                self.first_error = repr(e)
+            return False
+        return True
+
+    def result(self):
+        """The processor's result with the rejected frames counted."""
+        res = self.processor.result()
+        if self.errors:
+            diagnostics = dict(res.diagnostics, processor_errors=self.errors,
+                               processor_error=self.first_error)
+            res = ProcessResult(res.value, res.frames_used,
+                                res.frames_rejected + self.errors,
+                                diagnostics)
+        return res
+
+
+def stamp_order(frame):
+    """Sort key: by stamp, non-finite stamps last."""
+    return (not math.isfinite(frame.stamp), frame.stamp)
+
+
+def run_window(processor, frames, start, end):
+    """Feed ``frames`` (any order) to ``processor`` as one window."""
+    run = WindowRun(processor, start, end)
+    for frame in sorted(frames, key=stamp_order):
+        run.add(frame)
+    return run.result()
 
 
 class CountMean(Processor):
@@ -53,13 +132,22 @@ class CountMean(Processor):
     Non-finite values are rejected and counted.
     """
 
-    def process(self, frames, start, end):
-        values = [f.msg.value for f in frames]
-        good = [v for v in values if math.isfinite(v)]
-        mean = sum(good) / len(good) if good else math.nan
-        return ProcessResult(value=mean, frames_used=len(good),
-                             frames_rejected=len(values) - len(good),
-                             diagnostics={'count': len(good)})
+    def begin(self, start, end):
+        self._sum, self._count, self._rejected = 0.0, 0, 0
+
+    def add(self, frame):
+        value = frame.msg.value
+        if math.isfinite(value):
+            self._sum += value
+            self._count += 1
+        else:
+            self._rejected += 1
+
+    def result(self):
+        mean = self._sum / self._count if self._count else math.nan
+        return ProcessResult(value=mean, frames_used=self._count,
+                             frames_rejected=self._rejected,
+                             diagnostics={'count': self._count})
 
 
 class DeviceStampedCountMean(CountMean):

@@ -400,8 +400,8 @@ def clock_state(*, client_id, ok, reason, local_ref, offset, drift,
 
 def client_result(*, round, client_id, status, capture_start, capture_end,
                   frames, frames_rejected, frames_dropped, coverage,
-                  first_frame_offset, wake_lateness, value, diagnostics,
-                  ctx):
+                  first_frame_offset, wake_lateness, value,
+                  timing_uncertainty, diagnostics, ctx):
     """/client_result: a client's result of one window."""
     lim = ctx.limits
     round_number(round, ctx)
@@ -422,6 +422,8 @@ def client_result(*, round, client_id, status, capture_start, capture_end,
            lim.max_dur, nan=True)
     number(wake_lateness, 'wake_lateness', -lim.max_dur, lim.max_dur,
            nan=True)
+    number(timing_uncertainty, 'timing_uncertainty', 0.0, lim.max_dur,
+           nan=True)
     if usable and frames == 0:
         raise Rejected('inconsistent', 'status %s with no frames' % status,
                        'frames')
@@ -436,7 +438,7 @@ def client_result(*, round, client_id, status, capture_start, capture_end,
 
 
 def decision(*, round, outcome, winner, clients, scores, reason, stamp,
-             ctx):
+             window_end, timing_uncertainty, ctx):
     """/decision: the DM's verdict."""
     round_number(round, ctx)
     choice(outcome, 'outcome', OUTCOMES)
@@ -457,6 +459,9 @@ def decision(*, round, outcome, winner, clients, scores, reason, stamp,
                        % (outcome, winner), 'winner')
     text(reason, 'reason', ctx)
     time_near(stamp, 'stamp', ctx, optional=True)
+    time_value(window_end, 'window_end', optional=True)
+    number(timing_uncertainty, 'timing_uncertainty', 0.0,
+           ctx.limits.max_dur, nan=True)
 
 
 # --- samples ----------------------------------------------------------------

@@ -1,0 +1,361 @@
+"""The data capture/process module (DPM) as a state machine.
+
+No ROS and no clock read: the shell passes each sample's local arrival
+time, and the local time of each poll.  ``DataProcess`` stamps samples in
+global time (a ``TimeMapping`` chosen by ``stamp_source``), runs one
+``CaptureWindow`` per capture command, tells which samples were captured
+(to republish) and returns each window's result as soon as the window is
+complete: a sample stamped at or after its end has arrived, or the
+sensor's observed period plus a margin has passed its end with nothing
+more.  Every window carries an error bound on its stamps.
+"""
+import math
+from collections import Counter, deque
+from dataclasses import dataclass, field
+
+from hri_sync.timing.capture import (ERROR, ArrivalStamps, CaptureWindow,
+                                     DeviceClockMapper, SampleBuffer,
+                                     window_stats)
+from hri_sync.timing.clock import ClockModel
+from hri_sync.timing.processors import Processor
+
+STAMP_SOURCES = ('auto', 'arrival', 'device')
+
+
+@dataclass
+class WindowResult:
+    """A window's outcome, in the fields of hri_sync/ClientResult."""
+
+    round: int
+    status: str
+    start: float
+    end: float
+    frames: int = 0
+    frames_rejected: int = 0
+    frames_dropped: int = 0
+    coverage: float = 0.0
+    first_frame_offset: float = math.nan
+    wake_lateness: float = math.nan
+    value: float = math.nan
+    timing_uncertainty: float = math.nan
+    diagnostics: dict = field(default_factory=dict)
+
+
+@dataclass
+class Step:
+    """What one input made happen: samples captured (to republish, as
+    (global stamp, msg, raw)), windows completed (WindowResults), and
+    rounds whose already-published window a late sample would have
+    belonged to."""
+
+    captured: list = field(default_factory=list)
+    results: list = field(default_factory=list)
+    late: list = field(default_factory=list)
+
+
+class DataProcess:
+    """Stamps samples, runs capture windows and decides when each is done.
+
+    ``make_processor()`` returns a fresh Processor for each window.
+    ``stamp_source``: 'arrival', 'device', or 'auto' (device when the
+    processor reads device stamps).  Device stamps that are zero, not
+    finite, or break with the device clock map (going back, or mapping
+    after their own arrival by more than ``jump`` s) are held: if they and
+    the next samples continue consistently for ``settle`` samples, the
+    device clock was restarted and the map starts over; otherwise they are
+    rejected and counted (``bad_device_stamp``), and the map keeps going.
+    The first samples of a map wait until it holds ``settle`` samples and
+    are then stamped with it (``settling`` counts them).  The map is
+    refitted with every sample up to 1 / ``refit`` Hz, then every
+    ``refit`` s of device time (a fit costs O(samples in its 30 s)).
+
+    The error bound of a sample's stamp is the clock model's uncertainty
+    grown by ``drift_bound`` s/s from the model's last NTP measurement
+    (``ClockModel.uncertainty_at``; the CPM's own convention, conservative
+    in a holdover, whose published uncertainty has grown already); a
+    window's bound is its worst sample's (its end's, without samples) plus
+    the device map's residual.
+
+    A window is due for lack of samples ``margin`` s, plus the recent
+    delivery lag of device-stamped samples, after the next sample was
+    expected past its end.
+    """
+
+    def __init__(self, make_processor, stamp_source='auto', min_coverage=0.9,
+                 history=2.0, margin=0.03, reorder=0.2, drift_bound=15e-6,
+                 jump=0.1, refit=0.05):
+        if stamp_source not in STAMP_SOURCES:
+            raise ValueError('stamp_source must be one of %s, got %r'
+                             % (', '.join(STAMP_SOURCES), stamp_source))
+        probe = make_processor()
+        self.make_processor = make_processor
+        self.read_device_stamp = probe.device_stamp
+        if stamp_source == 'auto':
+            stamp_source = ('arrival' if type(probe).device_stamp
+                            is Processor.device_stamp else 'device')
+        self.stamp_source = stamp_source
+        self.mapping = (DeviceClockMapper() if stamp_source == 'device'
+                        else ArrivalStamps())
+        self.min_coverage = min_coverage
+        self.margin = margin
+        self.reorder = reorder
+        self.drift_bound = drift_bound
+        self.jump = jump
+        self.refit = refit
+        self._fitted = -math.inf    # device stamp of the map's last fit
+        self.clock = None
+        self.history = SampleBuffer(history)
+        self.windows = {}                  # round -> CaptureWindow
+        self.closed = deque(maxlen=16)     # (round, start, end) published
+        self.counts = Counter()
+        self._pending = []      # (device, arrival, local, msg, raw): a jump
+        self._settling = []     # the same, held until the map is ready
+        self._gaps = deque(maxlen=31)
+        self._lags = deque(maxlen=32)
+        self._last_stamp = None
+
+    # -- clock and stamps -------------------------------------------------
+
+    def set_clock(self, model):
+        """Use ClockModel ``model`` (local -> global) from now on."""
+        self.clock = ClockModel(model.local_ref, model.offset, model.drift,
+                                model.uncertainty, self.drift_bound)
+
+    def clock_bound(self, local):
+        """Error bound (s) of the global time of local time ``local``."""
+        return self.clock.uncertainty_at(local)
+
+    @property
+    def period(self):
+        """The sensor's observed period: the median of its recent positive
+        stamp spacings (NaN until there are some)."""
+        if not self._gaps:
+            return math.nan
+        return sorted(self._gaps)[len(self._gaps) // 2]
+
+    @property
+    def lag(self):
+        """How late after their stamps samples arrive: the second largest
+        of the last 32 (0 for arrival stamps; one stall does not count)."""
+        if len(self._lags) < 2:
+            return 0.0
+        return sorted(self._lags)[-2]
+
+    def _reject(self, reason, arrival=None):
+        self.counts[reason] += 1
+        if arrival is not None:
+            for w in self.windows.values():
+                if w.start <= arrival < w.end:
+                    w.rejected[reason] += 1
+
+    def _stamp_device(self, msg, raw, arrival, local):
+        """[(stamp, msg, raw, arrival, local)] of the samples this one
+        stamps: none while it is held, itself, or those held before it
+        too."""
+        try:
+            device = self.read_device_stamp(msg)
+        except (AttributeError, TypeError, ValueError):
+            device = None
+        if device is None or not math.isfinite(device):
+            self._reject('no_device_stamp', arrival)
+            return []
+        if device <= 0:
+            self._reject('bad_device_stamp', arrival)
+            return []
+        sample = (device, arrival, local, msg, raw)
+        m = self.mapping
+        if m.samples and not (device >= m.last_device and
+                              m.to_global(device) <= arrival + self.jump):
+            return self._held(sample)
+        self._drop_pending(arrival)
+        m.add(device, arrival)
+        if not (m.ready and 0 <= device - self._fitted < self.refit):
+            m.refit()
+            self._fitted = device
+        self._settling.append(sample)
+        if not m.ready:
+            # Alone, a sample that arrived late would set the map's offset
+            # that late: held until the fit has ``settle`` samples.
+            self.counts['settling'] += 1
+            return []
+        return self._release(self._settling)
+
+    def _release(self, held):
+        """Stamp ``held`` samples with the map as it is now."""
+        self._settling = []
+        return [(self.mapping.to_global(d), msg, r, a, t)
+                for d, a, t, msg, r in held]
+
+    def _held(self, sample):
+        """A device stamp that breaks with the map: garbage, or the first
+        sample of a restarted device clock (confirmed by ``settle`` that
+        continue it, when the map starts over and stamps them all)."""
+        pending = self._pending
+        device, arrival = sample[:2]
+        if pending:
+            base = min(p[1] - p[0] for p in pending)
+            if device >= pending[-1][0] and \
+                    abs((arrival - device) - base) <= self.jump:
+                pending.append(sample)
+                if len(pending) < self.mapping.settle:
+                    return []
+                for _ in self._settling:   # of a map that never settled
+                    self._reject('bad_device_stamp', arrival)
+                self.mapping.reset()
+                for p in pending:
+                    self.mapping.observe(p[0], p[1])
+                self.counts['settling'] += len(pending) - 1
+                self._pending = []
+                return self._release(pending)
+            self._drop_pending(arrival)
+        self._pending = [sample]
+        return []
+
+    def _drop_pending(self, arrival):
+        for _ in self._pending:
+            self._reject('bad_device_stamp', arrival)
+        self._pending = []
+
+    # -- inputs -----------------------------------------------------------
+
+    def on_sample(self, msg, local, raw=None):
+        """A sample arrived at local time ``local``; ``raw``: anything the
+        shell wants back with it when it is captured (its serialized
+        form).  Returns a Step."""
+        step = Step()
+        if self.clock is None:
+            self._reject('no_clock')
+            return step
+        arrival = self.clock.to_global(local)
+        if self.stamp_source == 'device':
+            stamped = self._stamp_device(msg, raw, arrival, local)
+        else:
+            self.mapping.observe(arrival, arrival)
+            stamped = [(arrival, msg, raw, arrival, local)]
+        for sample in stamped:
+            self._take(step, *sample)
+        return step
+
+    def refuse(self, reason):
+        """Count a sample the shell could not even read (``reason``)."""
+        self.counts[reason] += 1
+
+    def _take(self, step, stamp, msg, raw, arrival, local):
+        """One stamped sample: to the history and the open windows."""
+        bound = self.clock_bound(local)
+        self._lags.append(max(0.0, arrival - stamp))
+        if self._last_stamp is not None and stamp > self._last_stamp:
+            self._gaps.append(stamp - self._last_stamp)
+        self._last_stamp = stamp
+        self.history.add(stamp, (msg, raw, arrival, bound))
+        captured = False
+        for w in list(self.windows.values()):
+            captured |= w.offer(stamp, msg, arrival, bound)
+            if w.complete:
+                step.results.append(self._close(w))
+        if captured:
+            step.captured.append((stamp, msg, raw))
+        for round_id, start, end in self.closed:
+            if start <= stamp < end:
+                self.counts['late_after_result'] += 1
+                step.late.append(round_id)
+
+    def open(self, round_id, start, end):
+        """A capture command for [start, end) (global).  Returns a Step:
+        the samples of the history already in the window, and an error
+        result when the window cannot be captured."""
+        step = Step()
+        if round_id in self.windows or any(
+                r == round_id for r, _, _ in self.closed):
+            self.counts['duplicate_command'] += 1
+            return step
+        why = None
+        if self.clock is None:
+            why = 'no clock_state from the CPM'
+        elif not (math.isfinite(start) and math.isfinite(end)
+                  and end > start):
+            why = 'capture window [%r, %r) is empty or not finite' % (
+                start, end)
+        if why:
+            step.results.append(self._error(round_id, start, end, why))
+            return step
+        w = CaptureWindow(round_id, start, end, self.make_processor(),
+                          self.reorder, self.margin)
+        self.windows[round_id] = w
+        for f in self.history.take(start, math.inf):
+            msg, raw, arrival, bound = f.msg
+            if w.offer(f.stamp, msg, arrival, bound):
+                step.captured.append((f.stamp, msg, raw))
+            if w.complete:
+                step.results.append(self._close(w))
+                break
+        return step
+
+    def started(self, round_id, local):
+        """The shell's wake-up at the window start came at ``local``."""
+        w = self.windows.get(round_id)
+        if w is not None and self.clock is not None:
+            w.wake_lateness = self.clock.to_global(local) - w.start
+
+    def poll(self, local):
+        """Results of windows complete at local time ``local`` for lack of
+        samples."""
+        if self.clock is None:
+            return []
+        now = self.clock.to_global(local)
+        period, lag = self.period, self.lag
+        return [self._close(w) for w in list(self.windows.values())
+                if w.due(now, period, lag)]
+
+    def next_poll(self):
+        """The local time before which no open window can be due (None
+        without open windows): a poll can sleep until then."""
+        if self.clock is None or not self.windows:
+            return None
+        return min(self.clock.to_local(w.end + self.margin)
+                   for w in self.windows.values())
+
+    # -- results ----------------------------------------------------------
+
+    def _totals(self):
+        c = self.counts
+        return {'unstamped_total': c['no_clock'] + c['no_device_stamp']
+                + c['bad_device_stamp'],
+                'bad_device_stamps_total': c['bad_device_stamp'],
+                'device_clock_resets': getattr(self.mapping, 'resets', 0),
+                'device_clock_settling_total': c['settling'],
+                'late_after_result_total': c['late_after_result'],
+                'unreadable_total': c['unreadable'],
+                'stamp_source': self.stamp_source}
+
+    def _error(self, round_id, start, end, why):
+        stats = window_stats([], start, end)
+        return WindowResult(round_id, ERROR, start, end,
+                            coverage=stats['coverage'],
+                            diagnostics=dict(self._totals(), error=why))
+
+    def _close(self, w):
+        del self.windows[w.round]
+        self.closed.append((w.round, w.start, w.end))
+        status, res, stats, error = w.finish(self.min_coverage)
+        residual = self.mapping.residual
+        bound = residual + (w.bound if len(w.stamps) else self.clock_bound(
+            self.clock.to_local(w.end)))
+        diagnostics = dict(res.diagnostics) if res else {'error': error}
+        diagnostics.update(self._totals())
+        diagnostics.update({
+            'completed_by': w.completed_by, 'late_samples': w.late,
+            'period': stats['period'],
+            'device_map_residual': residual,
+            'unstamped': sum(w.rejected[k] for k in (
+                'no_device_stamp', 'bad_device_stamp')),
+            'bad_device_stamps': w.rejected['bad_device_stamp']})
+        return WindowResult(
+            w.round, status, w.start, w.end,
+            frames=res.frames_used if res else 0,
+            frames_rejected=res.frames_rejected if res else 0,
+            frames_dropped=stats['dropped'], coverage=stats['coverage'],
+            first_frame_offset=stats['first_frame_offset'],
+            wake_lateness=w.wake_lateness,
+            value=res.value if res else math.nan,
+            timing_uncertainty=bound, diagnostics=diagnostics)
