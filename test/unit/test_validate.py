@@ -115,7 +115,10 @@ def test_every_hri_sync_message_a_node_subscribes_has_a_validator():
     subscribed = set()
     for folder in (nodes, ros):
         for name in os.listdir(folder):
-            with open(os.path.join(folder, name)) as f:
+            path = os.path.join(folder, name)
+            if not os.path.isfile(path):
+                continue
+            with open(path) as f:
                 subscribed |= set(re.findall(
                     r'Subscriber\([^,]+,\s*([A-Z]\w+)', f.read()))
     known = {t.split('/')[1] for t in v.VALIDATORS}
