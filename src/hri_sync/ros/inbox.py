@@ -39,6 +39,8 @@ DEFAULT_ROLES = {
     # (turtlebot_gesture as dj_rob, music_player as music).
     'cpm': ['/{client}/cpm', '/{client}'],
     'dpm': ['/{client}/dpm'],
+    # A client's ClientResult: its DPM's, or its CPM's for a late window.
+    'result': ['/{client}/dpm', '/{client}/cpm', '/{client}'],
     'sensor': ['/{client}/sensor', '/{client}/tracker'],
     'base': ['/kobuki_sim', '/mobile_base', '/mobile_base_nodelet_manager'],
     'robot': ['/dj_rob'],
