@@ -3,7 +3,8 @@
 
 Every node of the round publishes its statuses: the CM (clock, rounds,
 input), each CPM (clock, rounds, input: left and right's, and the robot's
-dj_rob and music); the synced clients' clocks are synced and their rounds show
+dj_rob and music), whose input counts a forged sync_time its inbox
+rejected; the synced clients' clocks are synced and their rounds show
 the capture scheduled for round 1; the CM shows the round captured with
 ~unreachable refused, then decided.  ~unreachable's time server
 (~ntp_server) does not answer: its clock is ERROR naming it, its rounds
@@ -19,7 +20,7 @@ import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
-from hri_sync.msg import Decision
+from hri_sync.msg import Decision, SyncTime
 
 SYNCED = ('left', 'dj_rob', 'music')
 CPM_NODES = {'left': 'left/cpm', 'right': 'right/cpm', 'dj_rob': 'dj_rob',
@@ -78,6 +79,13 @@ class DiagnosticsCheck(unittest.TestCase):
         # ones (every 1 s).
         wait(lambda: any(s[2].get('last_outcome') == 'decided' for s in
                          cls.diag.history('control_module: rounds')), 10.0)
+        # A forged sync_time (not from the CM): every CPM's inbox rejects
+        # it and counts it on /diagnostics.
+        forger = rospy.Publisher('/sync_time', SyncTime, queue_size=10)
+        wait(lambda: forger.get_num_connections() >= len(CPM_NODES), 10.0)
+        for _ in range(3):
+            forger.publish(SyncTime(round=7, stamp=rospy.Time(1)))
+            time.sleep(0.2)
         time.sleep(3.0)
 
     def seen(self, name, predicate, what):
@@ -95,8 +103,11 @@ class DiagnosticsCheck(unittest.TestCase):
                 self.seen(name, lambda level, msg, v, hw: hw == client,
                           'with hardware id %s' % client)
             self.seen(node + ': input',
-                      lambda level, msg, v, hw: 'rejected_total' in v,
-                      'counting rejected input')
+                      lambda level, msg, v, hw: level == DiagnosticStatus.WARN
+                      and int(v.get('/sync_time wrong_sender', 0)) >= 1
+                      and int(v['rejected_total']) >= 1
+                      and int(v.get('/sync_time accepted', 0)) >= 1,
+                      'counting the forged sync_time')
 
     def test_synced_clients_are_synced_and_scheduled(self):
         for client in SYNCED:
