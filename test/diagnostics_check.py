@@ -3,13 +3,17 @@
 
 Every node of the round publishes its statuses: the CM (clock, rounds,
 input), each CPM (clock, rounds, input: left and right's, and the robot's
-dj_rob and music); the synced clients' clocks are synced and their rounds show
-the capture scheduled for round 1; the CM shows the round captured with
-~unreachable refused, then decided.  ~unreachable's time server
-(~ntp_server) does not answer: its clock is ERROR naming it, its rounds
-the NACK.  The aggregator (/diagnostics_agg) groups the statuses by
-client.  No time bound is asserted: the checker waits for the round's
-decision, then for the expected statuses, within generous deadlines.
+dj_rob and music), whose input counts a forged sync_time its inbox
+rejected, each DPM (clock, sensor, results, input) and the DM (clock,
+decisions, input).  The synced clients' clocks are synced and their
+rounds show the capture scheduled for round 1; left's DPM its sensor's
+rate and its result; the CM shows the round captured with ~unreachable
+refused, then decided; the DM the decision with ~unreachable's result
+missing.  ~unreachable's time server (~ntp_server) does not answer: its
+CPM's and DPM's clocks are ERROR naming it, its rounds the NACK.  The
+aggregator (/diagnostics_agg) groups the statuses by client.  No time
+bound is asserted: the checker waits for the round's decision, then for
+the expected statuses, within generous deadlines.
 """
 import threading
 import time
@@ -19,7 +23,7 @@ import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
-from hri_sync.msg import Decision
+from hri_sync.msg import Decision, SyncTime
 
 SYNCED = ('left', 'dj_rob', 'music')
 CPM_NODES = {'left': 'left/cpm', 'right': 'right/cpm', 'dj_rob': 'dj_rob',
@@ -78,6 +82,13 @@ class DiagnosticsCheck(unittest.TestCase):
         # ones (every 1 s).
         wait(lambda: any(s[2].get('last_outcome') == 'decided' for s in
                          cls.diag.history('control_module: rounds')), 10.0)
+        # A forged sync_time (not from the CM): every CPM's inbox rejects
+        # it and counts it on /diagnostics.
+        forger = rospy.Publisher('/sync_time', SyncTime, queue_size=10)
+        wait(lambda: forger.get_num_connections() >= len(CPM_NODES), 10.0)
+        for _ in range(3):
+            forger.publish(SyncTime(round=7, stamp=rospy.Time(1)))
+            time.sleep(0.2)
         time.sleep(3.0)
 
     def seen(self, name, predicate, what):
@@ -95,8 +106,11 @@ class DiagnosticsCheck(unittest.TestCase):
                 self.seen(name, lambda level, msg, v, hw: hw == client,
                           'with hardware id %s' % client)
             self.seen(node + ': input',
-                      lambda level, msg, v, hw: 'rejected_total' in v,
-                      'counting rejected input')
+                      lambda level, msg, v, hw: level == DiagnosticStatus.WARN
+                      and int(v.get('/sync_time wrong_sender', 0)) >= 1
+                      and int(v['rejected_total']) >= 1
+                      and int(v.get('/sync_time accepted', 0)) >= 1,
+                      'counting the forged sync_time')
 
     def test_synced_clients_are_synced_and_scheduled(self):
         for client in SYNCED:
@@ -155,12 +169,58 @@ class DiagnosticsCheck(unittest.TestCase):
                   and v['decided_count'] == '1',
                   'with round 1 decided')
 
+    def test_the_dpms_show_clock_sensor_and_results(self):
+        self.seen('left/dpm: clock',
+                  lambda level, msg, v, hw: v['synced'] == 'true'
+                  and level != DiagnosticStatus.ERROR and hw == 'left',
+                  'synced')
+        self.seen('left/dpm: sensor',
+                  lambda level, msg, v, hw: level == DiagnosticStatus.OK
+                  and float(v['rate_hz']) > 0
+                  and v['topic'] == '/reference/samples',
+                  'receiving its sensor')
+        self.seen('left/dpm: results',
+                  lambda level, msg, v, hw: v['last_round'] == '1'
+                  and v['last_outcome'] in ('ok', 'partial')
+                  and int(v['ok_count']) + int(v['partial_count']) == 1,
+                  'with the result of round 1')
+        self.seen('left/dpm: input',
+                  lambda level, msg, v, hw: 'rejected_total' in v,
+                  'counting refused samples')
+        node = CPM_NODES[self.bad].replace('cpm', 'dpm')
+        history = self.diag.history(node + ': clock')
+        self.assertTrue(history, 'no clock status from %s' % node)
+        level, message, values, _ = history[-1]
+        self.assertEqual(level, DiagnosticStatus.ERROR, message)
+        self.assertIn('not synced', message)
+        self.assertIn(self.server, message)
+        self.assertEqual(values['synced'], 'false')
+
+    def test_the_dm_shows_the_decision_and_the_missing_result(self):
+        self.seen('decision_module: clock',
+                  lambda level, msg, v, hw: v['synced'] == 'true'
+                  and level != DiagnosticStatus.ERROR and hw == 'server',
+                  'synced')
+        self.seen('decision_module: decisions',
+                  lambda level, msg, v, hw: v['last_round'] == '1'
+                  and v['last_outcome'] in ('winner', 'no_winner', 'tie')
+                  and v['%s missing_count' % self.bad] == '1'
+                  and v['left missing_count'] == '0'
+                  and int(v['left ok_count'])
+                  + int(v['left partial_count']) == 1,
+                  'with round 1 decided without %s' % self.bad)
+        self.seen('decision_module: input',
+                  lambda level, msg, v, hw: 'rejected_total' in v,
+                  'counting results not taken')
+
     def test_the_aggregator_groups_the_statuses_by_client(self):
         names = self.agg.names()
         for group in ('/Server', '/Clients/left', '/Clients/right',
                       '/Clients/dj_rob', '/Clients/music'):
             self.assertIn(group, names)
         self.assertIn('/Clients/left/left cpm: clock', names)
+        self.assertIn('/Clients/left/left dpm: sensor', names)
+        self.assertIn('/Server/decision_module: decisions', names)
         self.assertIn('/Clients/dj_rob/dj_rob: rounds', names)
         self.assertIn('/Server/control_module: rounds', names)
         self.assertNotIn('/Other', names)

@@ -8,8 +8,10 @@ polls with sleeps (timed waits hang under libfaketime), and within 50 ms
 of a change of a round tally it watches (``add_tally``).  Each status is named
 ``<node name>: <task>`` by diagnostic_updater, e.g. ``left/cpm: clock``.
 
-``clock_check`` is the status of a ``SyncedClock``; ``round_diagnostics``
-makes a node's ``clock`` and ``rounds`` statuses;
+``clock_check`` is the status of a ``SyncedClock``, ``ClockStateWatch``
+that of a clock read from a ClockState topic; ``round_diagnostics`` makes
+a node's ``clock`` and ``rounds`` statuses, ``ProcessDiagnostics`` the
+DPM's and ``DecisionDiagnostics`` the DM's;
 ``NodeDiagnostics.rejections`` adds the counts of rejected input (an
 inbox's per-(topic, reason) ``summary``, a state machine's ``ignored``).
 """
@@ -19,10 +21,15 @@ import time
 import diagnostic_updater
 import rospy
 
+from hri_sync.ros.clock_state import model_from_msg
 from hri_sync.ros.params import param, positive
-from hri_sync.timing.health import ERROR, RejectionWatch, clock_health
+from hri_sync.timing.health import (ERROR, DecisionTally, RateMeter,
+                                    RejectionWatch, clock_health,
+                                    clock_state_health, result_tally)
 
 POLL = 0.05  # s between two looks at a pending update
+STALE_STATE = 20.0  # s: a ClockState older than this is overdue (a CPM
+#                     republishes it after every sync, 5 s apart by default)
 
 
 class NodeDiagnostics:
@@ -104,3 +111,84 @@ def clock_check(synced_clock, max_uncertainty=None):
                    + synced_clock.exchanges * synced_clock.timeout)
     return lambda: clock_health(sync.latest, time.time(), max_uncertainty,
                                 stale_after)
+
+
+class ClockStateWatch:
+    """The health of a clock a node reads from a ClockState topic
+    (``health.clock_state_health``): feed it every message."""
+
+    def __init__(self, source, stale_after=STALE_STATE):
+        self.source = source
+        self.stale_after = stale_after
+        self._last = None   # (model or None, reason, samples, received)
+
+    def on_state(self, msg):
+        """A ClockState arrived (also one with ok false, or invalid)."""
+        try:
+            model, reason = model_from_msg(msg), msg.reason
+        except ValueError as e:
+            model, reason = None, str(e)
+        self._last = (model, reason, msg.samples, time.monotonic())
+
+    def health(self):
+        """The status now."""
+        last = self._last
+        if last is None:
+            return clock_state_health(self.source, None, '', 0, time.time(),
+                                      None)
+        model, reason, samples, received = last
+        return clock_state_health(self.source, model, reason, samples,
+                                  time.time(), time.monotonic() - received,
+                                  self.stale_after)
+
+
+class ProcessDiagnostics:
+    """A DPM's statuses: ``clock`` (its CPM's ClockState: call
+    ``clock.on_state``), ``sensor`` (the rate samples arrive at on
+    ``input_topic``: call ``on_sample``), ``results`` (its ClientResults
+    by status: ``results.record``) and ``input`` (``counts()``, the
+    DataProcess's {reason: n}: samples refused, and capture commands
+    ignored; samples held while a device clock map settles are not
+    refused), with the other ``sources`` of rejections (an inbox's
+    ``summary``)."""
+
+    def __init__(self, client_id, clock_topic, input_topic, command_topic,
+                 counts, *sources):
+        self.clock = ClockStateWatch(clock_topic)
+        self.sensor = RateMeter(input_topic)
+        self.results = result_tally()
+        diagnostics = NodeDiagnostics(client_id)
+        diagnostics.add('clock', self.clock.health)
+        diagnostics.add('sensor', lambda: self.sensor.health(
+            time.monotonic()))
+        diagnostics.add_tally('results', self.results)
+        diagnostics.rejections(lambda: {
+            '%s %s' % (command_topic if why == 'duplicate_command'
+                       else input_topic, why): n
+            for why, n in counts().items() if why != 'settling'}, *sources)
+
+    def on_sample(self):
+        """A sample arrived."""
+        self.sensor.observe(time.monotonic())
+
+
+class DecisionDiagnostics:
+    """The DM's statuses: ``clock`` (the server's ClockState: call
+    ``clock.on_state``), ``decisions`` (``tally``, a
+    ``health.DecisionTally``) and ``input`` (``counts()``, the
+    RoundCollector's {reason: n}: capture orders and results not
+    taken), with the other ``sources`` of rejections (an inbox's
+    ``summary``)."""
+
+    CAPTURE_REASONS = ('duplicate_round', 'bad_window')
+
+    def __init__(self, participants, clock_topic, counts, *sources):
+        self.clock = ClockStateWatch(clock_topic)
+        self.tally = DecisionTally(participants)
+        diagnostics = NodeDiagnostics('server')
+        diagnostics.add('clock', self.clock.health)
+        diagnostics.add_tally('decisions', self.tally)
+        diagnostics.rejections(lambda: {
+            '%s %s' % ('/capture_data' if why in self.CAPTURE_REASONS
+                       else '/client_result', why): n
+            for why, n in counts().items()}, *sources)

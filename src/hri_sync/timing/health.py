@@ -319,7 +319,8 @@ class DecisionTally(RoundTally):
 
     def on_result(self, round_id, client_id, status):
         """A result the DM took into round ``round_id``."""
-        self._reported.setdefault(round_id, set()).add(client_id)
+        with self._lock:
+            self._reported.setdefault(round_id, set()).add(client_id)
         self.count(status if status in RESULT_STATUSES else 'error',
                    [client_id])
 
@@ -327,7 +328,8 @@ class DecisionTally(RoundTally):
         """The decision of ``round_id``; the participants without a
         result are counted missing unless ``count_missing`` is false (the
         CM aborted the round before its capture: nobody was asked)."""
-        reported = self._reported.pop(round_id, set())
+        with self._lock:
+            reported = self._reported.pop(round_id, set())
         if count_missing:
             self.count('missing', [c for c in self.clients
                                    if c not in reported])
