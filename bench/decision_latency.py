@@ -190,19 +190,19 @@ def diagnostic(result, key, default):
 
 def to_true(clock, global_time):
     """Global -> the server's local clock, which is the true clock."""
-    from hri_sync.timing.clock import ClockModel
-    return ClockModel(clock.local_ref, clock.offset, clock.drift,
-                      clock.uncertainty).to_local(global_time)
+    from hri_sync.ros.clock_state import model_from_msg
+    return model_from_msg(clock).to_local(global_time)
 
 
 def analyse(args, listener, clients, frames):
+    from hri_sync.timing.protocol import Capture
     from hri_sync.timing.skew import percentiles
     decision_lat, result_lat, bounds, decision_bounds = [], [], [], []
     rounds, lost_total, problems = [], 0, []
     for n in sorted(listener.captures):
         cap = listener.captures[n]
-        start = cap.cr_t.to_sec() + cap.str_aft
-        end = start + cap.dur
+        window = Capture.from_msg(cap)
+        start, end = window.start, window.end
         end_true = to_true(listener.clock, end)
         row = {'round': n, 'clients': {}}
         if n in listener.decisions:

@@ -31,6 +31,7 @@ import rostest
 
 from hri_sync.ros.params import csv_list
 from hri_sync.ros.round_log import RoundLog
+from hri_sync.timing.protocol import Capture
 from hri_sync.timing.skew import client_timing, start_skew
 
 
@@ -71,7 +72,7 @@ class SyncCheck(unittest.TestCase):
             self.assertIsNotNone(r['capture'], 'round %d: no capture' % n)
             self.assertEqual(sorted(r['capture'].clients), sorted(clients))
             self.assertTrue(math.isfinite(r['capture'].str_aft))
-            start = r['capture'].cr_t.to_sec() + r['capture'].str_aft
+            start = Capture.from_msg(r['capture']).start
             timings, kept, bound = [], {}, {}
             for c in clients:
                 ack = r['acks'].get(c)
