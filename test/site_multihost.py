@@ -20,10 +20,9 @@ DJ Rob's dance start reported and its winner gesture (dj_rob_monitor's
 "gesture done" line, heading within 10 deg of participant 1); the
 server's preflight verdict is reported, not judged (it depends on the
 load). It also checks that a site file without master:= stops, naming
-the arg. Needs
-root (ip netns). Every namespace and process it made is removed on exit;
-namespaces of a killed earlier run are removed at start. Exit 0 on pass;
-the logs are kept (and named) on a failure.
+the arg. Needs root (ip netns). Every namespace and process it made is
+removed on exit; namespaces of a killed earlier run are removed at start.
+Exit 0 on pass; the logs are kept (and named) on a failure.
 """
 import ctypes
 import json
