@@ -156,6 +156,14 @@ def _keyed(target, key, rec, what, rnd):
     target[key] = rec
 
 
+def _first(rnd, attr, rec, what):
+    """Keep ``rec`` as the round's ``attr`` unless one came before."""
+    if getattr(rnd, attr) is None:
+        setattr(rnd, attr, rec)
+    else:
+        rnd.duplicates.append('second %s (kept the first)' % what)
+
+
 def build_session(contents):
     """Sort ``contents`` (a BagContents) into a Session."""
     s = Session(contents.path, dict(contents.topics),
@@ -166,20 +174,12 @@ def build_session(contents):
         return contents.of_type('hri_sync/' + kind, suffix)
 
     for r in each('SyncTime'):
-        rnd = s.round(r.msg.round)
-        if rnd.sync is None:
-            rnd.sync = r
-        else:
-            rnd.duplicates.append('second SyncTime (kept the first)')
+        _first(s.round(r.msg.round), 'sync', r, 'SyncTime')
     for r in each('SyncAck'):
         rnd = s.round(r.msg.round)
         _keyed(rnd.acks, r.msg.client_id, r, 'SyncAck', rnd)
     for r in each('CaptureData'):
-        rnd = s.round(r.msg.round)
-        if rnd.capture is None:
-            rnd.capture = r
-        else:
-            rnd.duplicates.append('second CaptureData (kept the first)')
+        _first(s.round(r.msg.round), 'capture', r, 'CaptureData')
     for r in each('RoundStatus'):
         s.round(r.msg.round).statuses.append(r)
     for r in each('CaptureCommand'):
@@ -190,11 +190,7 @@ def build_session(contents):
         rnd = s.round(r.msg.round)
         _keyed(rnd.results, r.msg.client_id, r, 'ClientResult', rnd)
     for r in each('Decision'):
-        rnd = s.round(r.msg.round)
-        if rnd.decision is None:
-            rnd.decision = r
-        else:
-            rnd.duplicates.append('second Decision (kept the first)')
+        _first(s.round(r.msg.round), 'decision', r, 'Decision')
     for r in each('ActionStart'):
         if r.msg.round:
             s.round(r.msg.round).starts.setdefault(
