@@ -16,6 +16,7 @@
 #include "hri_sync/body.h"
 #include "hri_sync/clock_map.h"
 #include "hri_sync/depth_tracker.h"
+#include "hri_sync/master_watch.h"
 #include "hri_sync/pose_fit.h"
 #include "hri_sync/render.h"
 
@@ -358,6 +359,38 @@ TEST(ClockModel, ClockStateIsCheckedBeforeUse) {
     EXPECT_FALSE(s.ready) << b.what;
     EXPECT_EQ(s.reason.rfind("clock_state of a: " + b.what, 0), 0u) << s.reason;
   }
+}
+
+// The master watch: waits until it has seen the node registered, waits out an
+// unreachable master, and calls a master that answers without the node restarted.
+TEST(MasterWatch, RestartOnlyAfterSeenAndWhenTheMasterAnswers) {
+  std::vector<MasterWatch::Answer> answers = {
+      {true, ""}, {true, "http://h:1/"}, {false, ""}, {true, "http://h:1/"}, {true, ""}};
+  size_t next = 0;
+  MasterWatch w("/a/tracker", "http://h:1/", [&](const std::string& name) {
+    EXPECT_EQ(name, "/a/tracker");
+    return answers.at(next++);
+  });
+  EXPECT_EQ(w.check(), MasterWatch::State::Waiting);
+  EXPECT_EQ(w.check(), MasterWatch::State::Ok);
+  EXPECT_EQ(w.check(), MasterWatch::State::Unreachable);
+  EXPECT_EQ(w.check(), MasterWatch::State::Ok);
+  EXPECT_EQ(w.check(), MasterWatch::State::Restarted);
+  EXPECT_NE(w.reason().find("no longer knows /a/tracker"), std::string::npos);
+  EXPECT_EQ(w.check(), MasterWatch::State::Restarted);  // final: not asked again
+  EXPECT_EQ(next, answers.size());
+}
+
+TEST(MasterWatch, AnotherNodeUnderTheNameIsARestart) {
+  bool first = true;
+  MasterWatch w("/a/tracker", "http://h:1/", [&](const std::string&) {
+    MasterWatch::Answer a{true, first ? "http://h:1/" : "http://h:2/"};
+    first = false;
+    return a;
+  });
+  EXPECT_EQ(w.check(), MasterWatch::State::Ok);
+  EXPECT_EQ(w.check(), MasterWatch::State::Restarted);
+  EXPECT_NE(w.reason().find("http://h:2/"), std::string::npos);
 }
 
 int main(int argc, char** argv) {

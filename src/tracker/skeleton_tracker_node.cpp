@@ -8,11 +8,15 @@
 // ~loop        replay an .oni recording when it ends (default false)
 // ~frame_timeout  s without frames before the sensor is reported lost (1.0)
 // ~reopen_period  s between attempts to reopen a lost or unopenable device (3.0)
+// After a ROS master restart it ends with status 75 (include/hri_sync/master_watch.h)
+// so that roslaunch's respawn registers it with the new master.
 #include <OpenNI.h>
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <hri_sync/ClockState.h>
 #include <hri_sync/Skeleton.h>
+#include <ros/master.h>
 #include <ros/ros.h>
+#include <ros/xmlrpc_manager.h>
 
 #include <atomic>
 #include <cmath>
@@ -22,9 +26,11 @@
 #include <mutex>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include "hri_sync/clock_map.h"
 #include "hri_sync/depth_tracker.h"
+#include "hri_sync/master_watch.h"
 #include "hri_sync/nite_backend.h"
 
 namespace hri_sync {
@@ -65,13 +71,21 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
     clock_sub_ = nh_.subscribe("/" + client_id_ + "/clock_state", 1, &TrackerNode::onClock, this);
     diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0), &TrackerNode::publishDiagnostics, this);
+    watcher_ = std::thread(&TrackerNode::watchMaster, this);
     if (backend_name_ != "depth" && backend_name_ != "nite") {
       setError("unknown ~backend '" + backend_name_ + "' (use depth or nite)");
       fatal_ = true;
     }
   }
 
-  ~TrackerNode() override { closeDevice(); }
+  ~TrackerNode() override {
+    stop_watch_ = true;
+    if (watcher_.joinable()) watcher_.join();
+    closeDevice();
+  }
+
+  /// Whether the node ended because the master restarted (exit kRestartExit).
+  bool masterRestarted() const { return master_restarted_; }
 
   void onDeviceDisconnected(const openni::DeviceInfo* info) override {
     if (device_ && device_->isValid() && info && device_->getDeviceInfo().getUri() == std::string(info->getUri())) {
@@ -117,6 +131,41 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
   }
 
  private:
+  /// What the master has for node ``name``: whether it answered, and its URI.
+  static MasterWatch::Answer lookupNode(const std::string& name) {
+    XmlRpc::XmlRpcValue args, response, payload;
+    args[0] = ros::this_node::getName();
+    args[1] = name;
+    MasterWatch::Answer a;
+    bool known = ros::master::execute("lookupNode", args, response, payload, false);
+    // false: no answer (response empty) or an error code (the node is unknown)
+    a.answered = response.valid() && response.getType() == XmlRpc::XmlRpcValue::TypeArray && response.size() == 3;
+    if (known && payload.getType() == XmlRpc::XmlRpcValue::TypeString) a.uri = static_cast<std::string>(payload);
+    return a;
+  }
+
+  /// Asks the master every second whether it still knows this node; after a
+  /// restart, writes the private params back for the respawned node and ends.
+  void watchMaster() {
+    MasterWatch watch(ros::this_node::getName(), ros::XMLRPCManager::instance()->getServerURI(), lookupNode);
+    while (!stop_watch_ && ros::ok()) {
+      for (int i = 0; i < 10 && !stop_watch_; ++i) ros::WallDuration(0.1).sleep();
+      if (stop_watch_ || watch.check() != MasterWatch::State::Restarted) continue;
+      ROS_ERROR_STREAM("skeleton_tracker: " << watch.reason() << "; ending with status " << kRestartExit
+                                            << " for roslaunch to respawn it (without respawn, restart the launch)");
+      pnh_.setParam("device", device_uri_);
+      pnh_.setParam("backend", backend_name_);
+      pnh_.setParam("client_id", client_id_);
+      pnh_.setParam("frame_id", frame_id_);
+      pnh_.setParam("loop", loop_);
+      pnh_.setParam("frame_timeout", frame_timeout_);
+      pnh_.setParam("reopen_period", reopen_period_);
+      master_restarted_ = true;
+      ros::shutdown();
+      return;
+    }
+  }
+
   std::string uriLabel() const { return device_uri_.empty() ? "the first connected sensor" : "'" + device_uri_ + "'"; }
 
   bool ended() const {
@@ -371,6 +420,8 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
   double frame_timeout_ = 1.0, reopen_period_ = 3.0;
   std::atomic<bool> lost_{false};
   std::atomic<bool> fatal_{false};
+  std::atomic<bool> stop_watch_{false}, master_restarted_{false};
+  std::thread watcher_;
 
   std::mutex mu_;  // guards everything below
   std::unique_ptr<openni::Device> device_;
@@ -396,6 +447,7 @@ int main(int argc, char** argv) {
     ROS_FATAL_STREAM("skeleton_tracker: OpenNI2 failed to initialise: " << openni::OpenNI::getExtendedError());
     return 1;
   }
+  int status = 0;
   {
     hri_sync::TrackerNode node;
     openni::OpenNI::addDeviceDisconnectedListener(&node);
@@ -404,7 +456,8 @@ int main(int argc, char** argv) {
     node.run();
     spinner.stop();
     openni::OpenNI::removeDeviceDisconnectedListener(&node);
+    if (node.masterRestarted()) status = hri_sync::kRestartExit;
   }
   openni::OpenNI::shutdown();
-  return 0;
+  return status;
 }

@@ -2,7 +2,7 @@
 
 Script-driven (rostest owns its master and cannot restart it): starts a
 master on a free port, roslaunches test/master_restart.launch against it
-(a CM serving ~start_round, the DM, one client), runs a round, kills the
+(a CM serving ~start_round, the DM, one client with a C++ tracker), runs a round, kills the
 master and starts a new one on the same port, then waits for every node
 to be registered with the new master, the CM's ~start_round to be back
 and to go on from the next round number.  Deadlines are generous: they
@@ -20,7 +20,7 @@ import pytest
 import rosgraph
 
 NODES = ['/control_module', '/decision_module', '/a/cpm', '/a/dpm',
-         '/reference']
+         '/reference', '/a/tracker']
 SERVICE = '/control_module/start_round'
 DEADLINE = 120.0   # s for nodes to (re)register; a hang, not a speed
 LAUNCH = os.path.join(os.path.dirname(os.path.dirname(
@@ -156,6 +156,9 @@ def test_nodes_come_back_registered_after_a_master_restart(session):
     after = wait('every node registered with the new master',
                  lambda: registered(s, before))
     assert set(after) == set(NODES)
+    # The respawned tracker (C++) found its private params on the new master.
+    assert 'virtual://' in rosgraph.Master('/test', s.uri).getParam(
+        '/a/tracker/device')
 
     log = s.log()
     for node in NODES:
