@@ -2,7 +2,8 @@
 
 Script-driven (rostest owns its master and cannot restart it): starts a
 master on a free port, roslaunches test/master_restart.launch against it
-(a CM serving ~start_round, the DM, one client with a C++ tracker), runs a round, kills the
+(a CM serving ~start_round, the DM, one client with a C++ tracker, a
+recorder), runs a round, kills the
 master and starts a new one on the same port, then waits for every node
 to be registered with the new master, the CM's ~start_round to be back
 and to go on from the next round number.  Deadlines are generous: they
@@ -15,12 +16,14 @@ import socket
 import subprocess
 import tempfile
 import time
+import xmlrpc.client
 
 import pytest
+import rosbag
 import rosgraph
 
 NODES = ['/control_module', '/decision_module', '/a/cpm', '/a/dpm',
-         '/reference', '/a/tracker']
+         '/reference', '/a/tracker', '/recorder']
 SERVICE = '/control_module/start_round'
 DEADLINE = 120.0   # s for nodes to (re)register; a hang, not a speed
 LAUNCH = os.path.join(os.path.dirname(os.path.dirname(
@@ -69,6 +72,7 @@ class Session:
         self.master = None
         self.masters = 0
         self.launch_log = os.path.join(tmp, 'roslaunch.log')
+        self.bag = os.path.join(tmp, 'session.bag')
         self.launch = None
 
     def start_master(self):
@@ -94,10 +98,20 @@ class Session:
         except (OSError, rosgraph.MasterException):
             return None
 
+    def connected(self, node, topic):
+        """Whether ``node`` has a live connection on ``topic``."""
+        uri = self.lookup('Node', node)
+        try:
+            _code, _msg, links = xmlrpc.client.ServerProxy(uri).getBusInfo(
+                '/test')
+        except (OSError, TypeError, xmlrpc.client.Error):
+            return False
+        return any(link[4] == topic and link[5] for link in links)
+
     def start_launch(self):
         out = open(self.launch_log, 'w')
         self.launch = subprocess.Popen(
-            ['roslaunch', LAUNCH],
+            ['roslaunch', LAUNCH, 'bag:=' + self.bag],
             env=self.env, stdout=out, stderr=subprocess.STDOUT,
             start_new_session=True)
 
@@ -172,3 +186,15 @@ def test_nodes_come_back_registered_after_a_master_restart(session):
     assert 'round 2 aborted: the server cannot reach its time server' \
         in reply, reply
     assert s.launch.poll() is None, 'roslaunch ended:\n' + log[-3000:]
+
+    # The recorder closed its first bag at the restart and records on into
+    # a second one: round 1 is in the first, round 2 (latched) in the second.
+    wait('the new recorder connected to /round_status',
+         lambda: s.connected('/recorder', '/round_status'))
+    stop(s.launch)
+    rounds = {}
+    for path in (s.bag, s.bag[:-4] + '.restart1.bag'):
+        with rosbag.Bag(path) as bag:
+            rounds[path] = {m.round for _t, m, _s in
+                            bag.read_messages(topics=['/round_status'])}
+    assert list(rounds.values()) == [{1}, {2}], rounds

@@ -78,3 +78,23 @@ def test_a_parent_already_gone_signals_at_once():
          'die_with_parent(parent=1)\n'
          'time.sleep(10)\n'], env=ENV, timeout=30).returncode
     assert code == -signal.SIGTERM
+
+
+def test_node_name_is_resolved_in_roslaunch_namespace():
+    from hri_sync.ros.lifeline import node_name
+    args = ['rosbag', 'record', '-O', 'x.bag', '__name:=recorder',
+            '__log:=/tmp/r.log']
+    assert node_name(args, None) == '/recorder'
+    assert node_name(args, '/lab1/') == '/lab1/recorder'
+    assert node_name(['rosbag', 'record'], '/lab1') is None
+
+
+def test_next_output_never_overwrites_the_closed_bag():
+    from hri_sync.ros.lifeline import next_output
+    assert next_output(['rosbag', 'record', '-O', '/d/s.bag', '/a'], 2) == \
+        ['rosbag', 'record', '-O', '/d/s.restart2.bag', '/a']
+    assert next_output(['record', '--output-name=/d/s', '/a'], 1) == \
+        ['record', '--output-name=/d/s.restart1.bag', '/a']
+    # -o PREFIX: rosbag already stamps each new bag with its start time
+    assert next_output(['record', '-o', '/d/s', '/a'], 1) == \
+        ['record', '-o', '/d/s', '/a']

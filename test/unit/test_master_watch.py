@@ -93,3 +93,13 @@ def test_an_unknown_node_before_its_registration_is_not_a_restart():
     w = watch(m)
     m.restart()
     assert w.check() == 'waiting' and not w.restarted
+
+
+def test_a_node_watched_from_outside_adopts_its_first_uri():
+    m = FakeMaster()
+    w = MasterWatch('/recorder', None, 'http://host:11311/', m.lookup, m.pid)
+    assert w.check() == 'waiting'
+    m.nodes['/recorder'] = URI
+    assert w.check() == 'ok' and w.uri == URI
+    m.restart()
+    assert w.check() == 'restarted'

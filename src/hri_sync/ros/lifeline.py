@@ -42,3 +42,34 @@ def tie_to(parent, signum=signal.SIGTERM):
     """A Popen ``preexec_fn``: the child gets ``signum`` when ``parent``
     (the pid calling Popen) dies."""
     return lambda: die_with_parent(signum, parent)
+
+
+def node_name(args, namespace):
+    """The resolved node name roslaunch gave a command (``__name:=``
+    among ``args``, in ``namespace``, roslaunch's ROS_NAMESPACE); None
+    without one."""
+    names = [a.split(':=', 1)[1] for a in args if a.startswith('__name:=')]
+    if not names:
+        return None
+    ns = '/' + (namespace or '').strip('/')
+    return (ns.rstrip('/') + '/' + names[-1].lstrip('/'))
+
+
+def next_output(args, restart):
+    """``rosbag record`` args writing to a new bag after the ``restart``th
+    master restart: ``-O PATH.bag`` (or ``--output-name``) becomes
+    ``PATH.restartN.bag``, so the bag closed before is kept; ``-o``
+    prefixes already get a new time-stamped name."""
+    out = list(args)
+    for i, a in enumerate(out):
+        if a in ('-O', '--output-name') and i + 1 < len(out):
+            out[i + 1] = _restart_path(out[i + 1], restart)
+        elif a.startswith('--output-name='):
+            out[i] = '--output-name=' + _restart_path(a.split('=', 1)[1],
+                                                      restart)
+    return out
+
+
+def _restart_path(path, restart):
+    stem = path[:-4] if path.endswith('.bag') else path
+    return '%s.restart%d.bag' % (stem, restart)

@@ -37,6 +37,8 @@ _current = None     # the watch of this process, for keep_param
 class MasterWatch:
     """Whether the master still knows node ``name`` at ``uri``.
 
+    ``uri`` None: the first URI the master has for the node (a node
+    watched from another process, scripts/lifeline --master-watch).
     ``lookup(name)`` returns the URI the master has for the node, or None
     if it does not know it, and raises OSError when the master does not
     answer; ``pid()`` the master's process id (for the log).  ``check``
@@ -70,7 +72,9 @@ class MasterWatch:
             return 'unreachable' if first else 'still_unreachable'
         was_unreachable = self.unreachable is not None
         self.unreachable = None
-        if known == self.uri:
+        if self.uri is None and known:
+            self.uri = known     # a node watched from outside: its URI
+        if known and known == self.uri:
             self.seen = True
             self.master_pid = pid if self.master_pid is None \
                 else self.master_pid
