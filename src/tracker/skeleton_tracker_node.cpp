@@ -1,9 +1,10 @@
 // skeleton_tracker: OpenNI2 depth sensor or .oni recording in, global-time
-// 15-joint hri_sync/Skeleton out on /<client_id>/skeleton, status on /diagnostics.
+// 15-joint hri_sync/Skeleton out on skeleton (relative: the node runs in its
+// client's namespace NS/<client_id>/; remap it), status on /diagnostics.
 //
 // ~device      "" (first connected sensor), a URI (virtual://FILE.track?...), or FILE.oni
 // ~backend     depth (default, the open tracker) or nite (libNiTE2.so at run time)
-// ~client_id   the client whose clock (/<client_id>/clock_state) stamps the skeletons
+// ~client_id   the client whose clock (clock_state, relative) stamps the skeletons
 // ~frame_id    header.frame_id (the sensor frame, OpenNI axes)
 // ~loop        replay an .oni recording when it ends (default false)
 // ~frame_timeout  s without frames before the sensor is reported lost (1.0)
@@ -67,9 +68,9 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     pnh_.param("frame_timeout", frame_timeout_, 1.0);
     pnh_.param("reopen_period", reopen_period_, 3.0);
     is_file_ = device_uri_.size() > 4 && device_uri_.compare(device_uri_.size() - 4, 4, ".oni") == 0;
-    skeleton_pub_ = nh_.advertise<hri_sync::Skeleton>("/" + client_id_ + "/skeleton", 30);
+    skeleton_pub_ = nh_.advertise<hri_sync::Skeleton>("skeleton", 30);
     diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
-    clock_sub_ = nh_.subscribe("/" + client_id_ + "/clock_state", 1, &TrackerNode::onClock, this);
+    clock_sub_ = nh_.subscribe("clock_state", 1, &TrackerNode::onClock, this);
     diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0), &TrackerNode::publishDiagnostics, this);
     watcher_ = std::thread(&TrackerNode::watchMaster, this);
     if (backend_name_ != "depth" && backend_name_ != "nite") {
@@ -374,7 +375,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
         s.message = error_;
       } else if (!clock_.ready) {
         s.level = diagnostic_msgs::DiagnosticStatus::WARN;
-        s.message = "not publishing: no valid global clock (" + clock_.reason + ") on /" + client_id_ + "/clock_state";
+        s.message = "not publishing: no valid global clock (" + clock_.reason + ") on " + clock_sub_.getTopic();
       } else if (!depth_) {
         s.level = diagnostic_msgs::DiagnosticStatus::WARN;
         s.message = "opening " + uriLabel();

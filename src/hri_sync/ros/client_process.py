@@ -8,6 +8,7 @@ import rospy
 from hri_sync.msg import CaptureData, SyncAck, SyncTime
 from hri_sync.ros.diagnostics import round_diagnostics
 from hri_sync.ros.inbox import Inbox
+from hri_sync.ros.names import protocol_topic
 from hri_sync.ros.outbox import Publisher
 from hri_sync.ros.params import param, positive, stamp
 from hri_sync.ros.synced_clock import SyncedClock
@@ -19,8 +20,8 @@ from hri_sync.timing.validate import Context
 class ClientProcess:
     """The ROS shell of ``hri_sync.timing.protocol.ClientSchedule``.
 
-    Keeps a ``SyncedClock``; on ``/sync_time`` measures and publishes the
-    schedule's ACK or NACK (``~max_uncertainty``); turns ``/capture_data``
+    Keeps a ``SyncedClock``; on ``sync_time`` measures and publishes the
+    schedule's ACK or NACK (``~max_uncertainty``); turns ``capture_data``
     into ``on_capture(Scheduled)`` or ``on_late(Late)``.  Both topics
     are taken only from the CM and validated (``inbox``; a node may
     subscribe its own topics through it too).  Its health is on
@@ -38,12 +39,15 @@ class ClientProcess:
                              '> 0 s'))
         self.synced_clock = SyncedClock(client_id)
         self.clock = self.synced_clock.clock
-        self._ack_pub = Publisher('/sync_ack', SyncAck, queue_size=10)
+        self._ack_pub = Publisher(protocol_topic('sync_ack'), SyncAck,
+                                  queue_size=10)
         self.inbox = inbox if inbox is not None else Inbox()
-        self.inbox.subscribe('/sync_time', SyncTime, self._on_sync_time,
-                             'cm', context=lambda: self.context(None),
+        self.inbox.subscribe(protocol_topic('sync_time'), SyncTime,
+                             self._on_sync_time, 'cm',
+                             context=lambda: self.context(None),
                              queue_size=10)
-        self.inbox.subscribe('/capture_data', CaptureData,
+        capture_topic = protocol_topic('capture_data')
+        self.inbox.subscribe(capture_topic, CaptureData,
                              self._on_capture_data, 'cm',
                              context=lambda: self.context(
                                  self.schedule.acked_round),
@@ -53,7 +57,7 @@ class ClientProcess:
             client_id, self.tally, self.synced_clock,
             self.schedule.max_uncertainty)
         self.diagnostics.rejections(self.inbox.summary, lambda: {
-            '/capture_data ' + why: n
+            capture_topic + ' ' + why: n
             for why, n in dict(self.schedule.ignored).items()
             if why != 'not_a_participant'})
 

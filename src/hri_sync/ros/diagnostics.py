@@ -22,6 +22,7 @@ import diagnostic_updater
 import rospy
 
 from hri_sync.ros.clock_state import model_from_msg
+from hri_sync.ros.names import protocol_topic
 from hri_sync.ros.params import param, positive
 from hri_sync.timing.health import (ERROR, DecisionTally, RateMeter,
                                     RejectionWatch, clock_health,
@@ -188,7 +189,9 @@ class DecisionDiagnostics:
         diagnostics = NodeDiagnostics('server')
         diagnostics.add('clock', self.clock.health)
         diagnostics.add_tally('decisions', self.tally)
+        capture, result = (protocol_topic(t) for t in
+                           ('capture_data', 'client_result'))
         diagnostics.rejections(lambda: {
-            '%s %s' % ('/capture_data' if why in self.CAPTURE_REASONS
-                       else '/client_result', why): n
+            '%s %s' % (capture if why in self.CAPTURE_REASONS
+                       else result, why): n
             for why, n in counts().items()}, *sources)

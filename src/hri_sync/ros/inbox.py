@@ -28,22 +28,24 @@ from collections import Counter
 import genpy
 import rospy
 
+from hri_sync.ros.names import system_namespace
 from hri_sync.timing import validate
 from hri_sync.timing.validate import Context, Rejected
 
-# Who may publish what: a role's node names; '{client}' is the client id.
+# Who may publish what: a role's node names, relative to the system
+# namespace (hri_sync.ros.names); '{client}' is the client id.
 DEFAULT_ROLES = {
-    'cm': ['/control_module'],
-    'dm': ['/decision_module'],
+    'cm': ['control_module'],
+    'dm': ['decision_module'],
     # A client's CPM: client.launch's, or a node that is the whole client
     # (turtlebot_gesture as dj_rob, music_player as music).
-    'cpm': ['/{client}/cpm', '/{client}'],
-    'dpm': ['/{client}/dpm'],
+    'cpm': ['{client}/cpm', '{client}'],
+    'dpm': ['{client}/dpm'],
     # A client's ClientResult: its DPM's, or its CPM's for a late window.
-    'result': ['/{client}/dpm', '/{client}/cpm', '/{client}'],
-    'sensor': ['/{client}/sensor', '/{client}/tracker'],
-    'base': ['/kobuki_sim', '/mobile_base', '/mobile_base_nodelet_manager'],
-    'robot': ['/dj_rob'],
+    'result': ['{client}/dpm', '{client}/cpm', '{client}'],
+    'sensor': ['{client}/sensor', '{client}/tracker'],
+    'base': ['kobuki_sim', 'mobile_base', 'mobile_base_nodelet_manager'],
+    'robot': ['dj_rob'],
 }
 
 
@@ -54,10 +56,17 @@ class Senders:
     role maps to a name or a list of names, ``'{client}'`` standing for
     the client id; ``clients`` maps a client id to its own overrides:
 
-        {cm: /control_module, clients: {dj_rob: {cpm: /dj_rob}}}
+        {cm: control_module, clients: {dj_rob: {cpm: /lab1/dj_rob}}}
+
+    A relative name is in the system namespace ``ns`` (a CM in /lab2/
+    is not /lab1/'s CM); a global one is taken as it is.
     """
 
-    def __init__(self, config=None):
+    def __init__(self, config=None, ns='/'):
+        if not (isinstance(ns, str) and ns.startswith('/')):
+            raise ValueError('senders: the system namespace must be global,'
+                             ' got %r' % (ns,))
+        self.ns = ns if ns.endswith('/') else ns + '/'
         config = dict(config or {})
         self.clients = {c: self._roles(r)
                         for c, r in dict(config.pop('clients', {})).items()}
@@ -69,10 +78,12 @@ class Senders:
         out = {}
         for role, names in dict(config).items():
             names = [names] if isinstance(names, str) else list(names)
-            if not names or not all(isinstance(n, str) and n.startswith('/')
-                                    for n in names):
-                raise ValueError('senders: role %r needs resolved node names'
-                                 ' (starting with /), got %r' % (role, names))
+            if not names or not all(
+                    isinstance(n, str) and n and n.strip('/') and
+                    not n.startswith('~') for n in names):
+                raise ValueError('senders: role %r needs node names (global'
+                                 ', or relative to the system namespace),'
+                                 ' got %r' % (role, names))
             out[role] = names
         return out
 
@@ -87,15 +98,20 @@ class Senders:
         else:
             raise ValueError('senders: unknown role %r (known: %s)'
                              % (role, ', '.join(sorted(self.roles))))
-        return frozenset(p.replace('{client}', client or '')
+        return frozenset(self._resolve(p.replace('{client}', client or ''))
                          for p in patterns)
+
+    def _resolve(self, name):
+        return name if name.startswith('/') else self.ns + name
 
     @classmethod
     def from_params(cls):
-        """From ``~senders``, else a ``senders`` param up the namespace."""
+        """From ``~senders``, else a ``senders`` param up the namespace;
+        relative names in this node's system namespace."""
         key = '~senders' if rospy.has_param('~senders') else \
             rospy.search_param('senders')
-        return cls(rospy.get_param(key) if key else None)
+        return cls(rospy.get_param(key) if key else None,
+                   system_namespace())
 
 
 def plain(value):

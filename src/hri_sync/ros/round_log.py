@@ -5,6 +5,7 @@ import roslib.message
 import rospy
 
 from hri_sync.msg import CaptureData, ClientResult, Decision, SyncAck
+from hri_sync.ros.names import client_topic, protocol_topic
 from hri_sync.timing.protocol import Capture
 
 
@@ -32,11 +33,12 @@ class RoundLog:
     def __init__(self, clients, captured_type=None, inbox=None):
         self.rounds = {}
         self.lock = threading.Lock()
-        topics = (('/sync_ack', SyncAck, 'acks', 'cpm'),
-                  ('/capture_data', CaptureData, 'capture', 'cm'),
-                  ('/client_result', ClientResult, 'results', None),
-                  ('/decision', Decision, 'decision', 'dm'))
-        for topic, cls, key, role in topics:
+        topics = (('sync_ack', SyncAck, 'acks', 'cpm'),
+                  ('capture_data', CaptureData, 'capture', 'cm'),
+                  ('client_result', ClientResult, 'results', None),
+                  ('decision', Decision, 'decision', 'dm'))
+        for name, cls, key, role in topics:
+            topic = protocol_topic(name)
             if inbox is None:
                 rospy.Subscriber(topic, cls, self._put, (key,))
             else:
@@ -47,8 +49,8 @@ class RoundLog:
         if captured_type:
             cls = roslib.message.get_message_class(captured_type)
             for c in clients:
-                rospy.Subscriber('/%s/captured' % c, cls, self._captured,
-                                 c, queue_size=100000)
+                rospy.Subscriber(client_topic(c, 'captured'), cls,
+                                 self._captured, c, queue_size=100000)
         self._pending = {}
 
     def round(self, n):

@@ -7,6 +7,7 @@ import rospy
 
 from hri_sync.msg import ClockState
 from hri_sync.ros.clock_state import msg_from_model
+from hri_sync.ros.names import client_topic
 from hri_sync.ros.params import param, positive, wait_for
 from hri_sync.timing import ntp
 from hri_sync.timing.clock import DRIFT_BOUND
@@ -19,7 +20,7 @@ class SyncedClock:
     Reads ``~ntp_server``, ``~ntp_port``, ``~ntp_exchanges``,
     ``~ntp_timeout``, ``~resync_period``, ``~drift_bound`` and
     ``~sync_method``; runs the resync loop in a thread and publishes the
-    model latched on ``/<name>/clock_state`` (hri_sync/ClockState) after
+    model latched on ``NS/<name>/clock_state`` (hri_sync/ClockState) after
     every measurement.  The local clock is ``time.time``.
     """
 
@@ -42,7 +43,7 @@ class SyncedClock:
                               lambda x: 0 <= x < 1, '>= 0 s/s'))
         self.clock = self.sync.clock
         self._publish_lock = threading.Lock()
-        self._state_pub = rospy.Publisher('/%s/clock_state' % name,
+        self._state_pub = rospy.Publisher(client_topic(name, 'clock_state'),
                                           ClockState, queue_size=1,
                                           latch=True)
         threading.Thread(target=self.sync.run, daemon=True,

@@ -1,0 +1,156 @@
+#!/usr/bin/python3
+"""Checks two dance-off systems on one master (test/two_systems.test).
+
+Each system (a namespace: ~expect maps it to the participant that must
+win) runs while the other does.  Checks:
+- every node but this one and /rosout is in one of the systems'
+  namespaces, and every topic too, except the global /diagnostics,
+  /rosout, /rosout_agg, /tf and /tf_static;
+- each system decides its round 1 for its own winner, over its own
+  clients (left, right), with a finite score for each;
+- every message of a system's protocol topics (sync_time, sync_ack,
+  capture_data, client_result, decision) was published by that
+  system's own node (the connection header's caller id): no crossed
+  rounds;
+- a system's recorder (lab1 records) subscribes only to its own topics.
+"""
+import math
+import threading
+import time
+import unittest
+
+import rosgraph
+import rospy
+import rostest
+
+from hri_sync.msg import (CaptureData, ClientResult, Decision, SyncAck,
+                          SyncTime)
+
+GLOBAL = {'/diagnostics', '/rosout', '/rosout_agg', '/tf', '/tf_static'}
+CLIENTS = ('left', 'right')
+# The node that may publish each protocol topic, relative to the system.
+OWNERS = {
+    'sync_time': lambda m: {'control_module'},
+    'capture_data': lambda m: {'control_module'},
+    'sync_ack': lambda m: {m.client_id + '/cpm'},
+    'client_result': lambda m: {m.client_id + '/dpm', m.client_id + '/cpm'},
+    'decision': lambda m: {'decision_module'},
+}
+TYPES = {'sync_time': SyncTime, 'capture_data': CaptureData,
+         'sync_ack': SyncAck, 'client_result': ClientResult,
+         'decision': Decision}
+
+
+class TwoSystems(unittest.TestCase):
+    """Two systems, each deciding on its own."""
+
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('two_systems_check')
+        cls.expect = rospy.get_param('~expect')
+        timeout = rospy.get_param('~timeout', 150.0)
+        cls.lock = threading.Lock()
+        cls.seen = {s: {t: [] for t in TYPES} for s in cls.expect}
+        for system in cls.expect:
+            for topic, cls_ in TYPES.items():
+                rospy.Subscriber('/%s/%s' % (system, topic), cls_,
+                                 cls.on_message, (system, topic),
+                                 queue_size=100)
+        cls.master = rosgraph.Master(rospy.get_name())
+        cls.state = None
+        deadline = time.time() + timeout
+        while not rospy.is_shutdown() and time.time() < deadline:
+            with cls.lock:
+                if all(cls.seen[s]['decision'] for s in cls.expect):
+                    break
+            if cls.state is None and cls.all_up():
+                cls.state = cls.master.getSystemState()
+            time.sleep(0.2)
+        time.sleep(1.0)     # results come on connections of their own
+
+    @classmethod
+    def all_up(cls):
+        """True once every system's CM, DM, clients and recorder are
+        registered (the graph to check)."""
+        pubs, subs, _ = cls.master.getSystemState()
+        names = {n for _, ns in pubs + subs for n in ns}
+        need = {'/%s/%s' % (s, n) for s in cls.expect
+                for n in ('control_module', 'decision_module', 'left/cpm',
+                          'left/dpm', 'right/cpm', 'right/dpm',
+                          'left/sensor', 'right/sensor')}
+        need.add('/lab1/recorder')
+        return need <= names
+
+    @classmethod
+    def on_message(cls, msg, args):
+        system, topic = args
+        caller = msg._connection_header.get('callerid', '')
+        with cls.lock:
+            cls.seen[system][topic].append((caller, msg))
+
+    def test_graph_is_namespaced(self):
+        self.assertIsNotNone(self.state, 'the systems never came up')
+        pubs, subs, _ = self.state
+        prefixes = tuple('/%s/' % s for s in self.expect)
+        for topic, nodes in pubs + subs:
+            if topic not in GLOBAL:
+                self.assertTrue(topic.startswith(prefixes),
+                                'a topic outside the systems: %s (%s)'
+                                % (topic, ', '.join(nodes)))
+            for node in nodes:
+                if node not in (rospy.get_name(), '/rosout'):
+                    self.assertTrue(node.startswith(prefixes),
+                                    'a node outside the systems: %s (on %s)'
+                                    % (node, topic))
+
+    def test_recorder_records_its_own_system(self):
+        self.assertIsNotNone(self.state, 'the systems never came up')
+        _, subs, _ = self.state
+        recorded = sorted(t for t, nodes in subs
+                          if '/lab1/recorder' in nodes)
+        for topic in ('sync_time', 'sync_ack', 'capture_data',
+                      'round_status', 'client_result', 'decision',
+                      'server/clock_state', 'left/captured',
+                      'right/clock_state', 'right/capture_command'):
+            self.assertIn('/lab1/' + topic, recorded)
+        for topic in recorded:
+            self.assertTrue(topic.startswith('/lab1/'),
+                            'lab1 records %s' % topic)
+
+    def test_each_system_decides_for_its_own_dancer(self):
+        for system, winner in self.expect.items():
+            with self.lock:
+                decisions = [m for _, m in self.seen[system]['decision']
+                             if m.round == 1]
+            self.assertTrue(decisions, '%s: no decision' % system)
+            d = decisions[0]
+            self.assertEqual(d.outcome, Decision.WINNER,
+                             '%s: %s (%s)' % (system, d.outcome, d.reason))
+            self.assertEqual(d.winner, winner, '%s: %s' % (system, d))
+            self.assertEqual(tuple(d.clients), CLIENTS)
+            self.assertTrue(all(math.isfinite(s) for s in d.scores),
+                            '%s: %s' % (system, d.scores))
+
+    def test_messages_come_from_their_own_system(self):
+        for system in self.expect:
+            with self.lock:
+                seen = {t: list(m) for t, m in self.seen[system].items()}
+            for topic in ('sync_time', 'sync_ack', 'capture_data',
+                          'client_result', 'decision'):
+                self.assertTrue(seen[topic], '%s/%s: nothing' % (system,
+                                                                 topic))
+                for caller, msg in seen[topic]:
+                    allowed = {'/%s/%s' % (system, n)
+                               for n in OWNERS[topic](msg)}
+                    self.assertIn(caller, allowed, '%s/%s from %s' % (
+                        system, topic, caller))
+            results = {m.client_id for _, m in seen['client_result']
+                       if m.round == 1}
+            self.assertEqual(results, set(CLIENTS), system)
+            acks = {m.client_id for _, m in seen['sync_ack']
+                    if m.round == 1}
+            self.assertEqual(acks, set(CLIENTS), system)
+
+
+if __name__ == '__main__':
+    rostest.rosrun('hri_sync', 'two_systems', TwoSystems)
