@@ -31,12 +31,33 @@ def test_senders_overridden_per_role_and_per_client():
     assert s.names('cpm', 'left') == {'/left/cpm', '/left'}
 
 
+def test_senders_are_relative_to_the_system_namespace():
+    s = Senders(ns='/lab1/')
+    assert s.names('cm') == {'/lab1/control_module'}
+    assert s.names('cpm', 'left') == {'/lab1/left/cpm', '/lab1/left'}
+    assert s.names('sensor', 'right') == {'/lab1/right/sensor',
+                                          '/lab1/right/tracker'}
+    assert s.names('robot') == {'/lab1/dj_rob'}
+    # lab2's CM is not lab1's
+    assert '/lab2/control_module' not in s.names('cm')
+    s = Senders({'cm': 'control_module', 'dm': '/elsewhere/dm',
+                 'clients': {'x': {'cpm': 'x_cpm'}}}, ns='/lab2')
+    assert s.names('cm') == {'/lab2/control_module'}
+    assert s.names('dm') == {'/elsewhere/dm'}
+    assert s.names('cpm', 'x') == {'/lab2/x_cpm'}
+
+
 @pytest.mark.parametrize('config', [
-    {'cm': 'control_module'}, {'cm': []}, {'cm': [3]},
-    {'clients': {'a': {'dm': 'x'}}}])
-def test_senders_need_resolved_names(config):
-    with pytest.raises(ValueError, match='resolved node names'):
+    {'cm': ''}, {'cm': []}, {'cm': [3]}, {'cm': '~cm'}, {'cm': '/'},
+    {'clients': {'a': {'dm': ['x', '']}}}])
+def test_senders_need_node_names(config):
+    with pytest.raises(ValueError, match='needs node names'):
         Senders(config)
+
+
+def test_senders_need_a_global_system_namespace():
+    with pytest.raises(ValueError, match='must be global'):
+        Senders(ns='lab1')
 
 
 def test_unknown_role():

@@ -1,12 +1,13 @@
 """Node plumbing: ~params, polled waits and rospy.Time conversion."""
 import math
 import signal
+import sys
 import threading
 import time
 
 import rospy
 
-from hri_sync.ros import master_watch
+from hri_sync.ros import master_watch, unique
 from hri_sync.ros.lifeline import die_with_parent
 from hri_sync.timing.validate import Rejected, time_value
 
@@ -65,11 +66,20 @@ def run_node(name, main, master_restart='exit'):
     status ``master_watch.RESTART_EXIT`` (75) for roslaunch to respawn it;
     with 'warn' the node keeps running unregistered.  The node shuts down
     (SIGTERM) when its parent, e.g. roslaunch, dies: no orphan nodes.
+    A live node of the same resolved name (a second system launched into
+    this one's namespace) ends the node before ``init_node`` with a
+    message saying so (exit status ``unique.DUPLICATE_EXIT``), instead of
+    ROS taking the name from the running node.
     """
     if master_restart not in ('exit', 'warn'):
         raise ValueError("master_restart must be 'exit' or 'warn', got %r"
                          % (master_restart,))
     die_with_parent(signal.SIGTERM)
+    try:
+        unique.check(unique.resolved_node_name(name, sys.argv))
+    except unique.Duplicate as e:
+        print('%s: %s' % (name, e), file=sys.stderr, flush=True)
+        raise SystemExit(unique.DUPLICATE_EXIT)
     rospy.init_node(name)
     watch = master_watch.start(exit_on_restart=master_restart == 'exit')
     try:
