@@ -12,7 +12,9 @@ win) runs while the other does.  Checks:
   capture_data, client_result, decision) was published by that
   system's own node (the connection header's caller id): no crossed
   rounds;
-- a system's recorder (lab1 records) subscribes only to its own topics.
+- a system's recorder (lab1 records) subscribes only to its own topics;
+- each system's tf frames carry its own prefix (``<system>/``): its
+  skeletons' frame ids and its static transforms world -> sensor.
 """
 import math
 import threading
@@ -22,9 +24,10 @@ import unittest
 import rosgraph
 import rospy
 import rostest
+from tf2_msgs.msg import TFMessage
 
-from hri_sync.msg import (CaptureData, ClientResult, Decision, SyncAck,
-                          SyncTime)
+from hri_sync.msg import (CaptureData, ClientResult, Decision, Skeleton,
+                          SyncAck, SyncTime)
 
 GLOBAL = {'/diagnostics', '/rosout', '/rosout_agg', '/tf', '/tf_static'}
 CLIENTS = ('left', 'right')
@@ -56,6 +59,14 @@ class TwoSystems(unittest.TestCase):
                 rospy.Subscriber('/%s/%s' % (system, topic), cls_,
                                  cls.on_message, (system, topic),
                                  queue_size=100)
+        cls.frames = {}     # (system, client) -> skeleton frame ids
+        cls.static = set()  # (parent, child) on /tf_static
+        for system in cls.expect:
+            for c in CLIENTS:
+                rospy.Subscriber('/%s/%s/skeleton' % (system, c), Skeleton,
+                                 cls.on_skeleton, (system, c))
+        rospy.Subscriber('/tf_static', TFMessage, cls.on_tf_static,
+                         queue_size=100)
         cls.master = rosgraph.Master(rospy.get_name())
         cls.state = None
         deadline = time.time() + timeout
@@ -87,6 +98,27 @@ class TwoSystems(unittest.TestCase):
         caller = msg._connection_header.get('callerid', '')
         with cls.lock:
             cls.seen[system][topic].append((caller, msg))
+
+    @classmethod
+    def on_skeleton(cls, msg, key):
+        with cls.lock:
+            cls.frames.setdefault(key, set()).add(msg.header.frame_id)
+
+    @classmethod
+    def on_tf_static(cls, msg):
+        with cls.lock:
+            cls.static.update((t.header.frame_id, t.child_frame_id)
+                              for t in msg.transforms)
+
+    def test_frames_are_prefixed(self):
+        with self.lock:
+            frames, static = dict(self.frames), set(self.static)
+        for system in self.expect:
+            for c in CLIENTS:
+                self.assertEqual(frames.get((system, c)),
+                                 {'%s/%s_sensor' % (system, c)})
+                self.assertIn(('%s/world' % system,
+                               '%s/%s_sensor' % (system, c)), static)
 
     def test_graph_is_namespaced(self):
         self.assertIsNotNone(self.state, 'the systems never came up')
