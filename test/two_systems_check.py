@@ -6,13 +6,18 @@ win) runs while the other does.  Checks:
 - every node but this one and /rosout is in one of the systems'
   namespaces, and every topic too, except the global /diagnostics,
   /rosout, /rosout_agg, /tf and /tf_static;
-- each system decides its round 1 for its own winner, over its own
-  clients (left, right), with a finite score for each;
+- each system decides each of its ~rounds for its own winner, over its
+  own clients (left, right), with a finite score for each; its clients
+  (and, in ~robot_systems, DJ Rob and the music) ACK its last round and
+  its two sensor clients report results for it;
 - every message of a system's protocol topics (sync_time, sync_ack,
   capture_data, client_result, decision) was published by that
   system's own node (the connection header's caller id): no crossed
-  rounds;
+  rounds (the last round's messages are surely seen: the checker
+  listens by then);
 - a system's recorder (lab1 records) subscribes only to its own topics;
+- in ~robot_systems, DJ Rob's dance start comes from the system's own
+  dj_rob and its odometry from its own kobuki_sim;
 - each system's tf frames carry its own prefix (``<system>/``): its
   skeletons' frame ids and its static transforms world -> sensor.
 """
@@ -26,8 +31,10 @@ import rospy
 import rostest
 from tf2_msgs.msg import TFMessage
 
-from hri_sync.msg import (CaptureData, ClientResult, Decision, Skeleton,
-                          SyncAck, SyncTime)
+from nav_msgs.msg import Odometry
+
+from hri_sync.msg import (ActionStart, CaptureData, ClientResult, Decision,
+                          Skeleton, SyncAck, SyncTime)
 
 GLOBAL = {'/diagnostics', '/rosout', '/rosout_agg', '/tf', '/tf_static'}
 CLIENTS = ('left', 'right')
@@ -35,13 +42,16 @@ CLIENTS = ('left', 'right')
 OWNERS = {
     'sync_time': lambda m: {'control_module'},
     'capture_data': lambda m: {'control_module'},
-    'sync_ack': lambda m: {m.client_id + '/cpm'},
+    # a client's CPM, or a node that is the whole client (dj_rob, music)
+    'sync_ack': lambda m: {m.client_id + '/cpm', m.client_id},
     'client_result': lambda m: {m.client_id + '/dpm', m.client_id + '/cpm'},
     'decision': lambda m: {'decision_module'},
 }
 TYPES = {'sync_time': SyncTime, 'capture_data': CaptureData,
          'sync_ack': SyncAck, 'client_result': ClientResult,
-         'decision': Decision}
+         'decision': Decision, 'dj_rob/action_start': ActionStart,
+         'odom': Odometry}
+ROBOT_OWNERS = {'dj_rob/action_start': 'dj_rob', 'odom': 'kobuki_sim'}
 
 
 class TwoSystems(unittest.TestCase):
@@ -51,6 +61,8 @@ class TwoSystems(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('two_systems_check')
         cls.expect = rospy.get_param('~expect')
+        cls.robots = rospy.get_param('~robot_systems', [])
+        cls.rounds = rospy.get_param('~rounds', 2)
         timeout = rospy.get_param('~timeout', 150.0)
         cls.lock = threading.Lock()
         cls.seen = {s: {t: [] for t in TYPES} for s in cls.expect}
@@ -72,7 +84,9 @@ class TwoSystems(unittest.TestCase):
         deadline = time.time() + timeout
         while not rospy.is_shutdown() and time.time() < deadline:
             with cls.lock:
-                if all(cls.seen[s]['decision'] for s in cls.expect):
+                if all(any(m.round >= cls.rounds
+                           for _, m in cls.seen[s]['decision'])
+                       for s in cls.expect):
                     break
             if cls.state is None and cls.all_up():
                 cls.state = cls.master.getSystemState()
@@ -97,7 +111,8 @@ class TwoSystems(unittest.TestCase):
         system, topic = args
         caller = msg._connection_header.get('callerid', '')
         with cls.lock:
-            cls.seen[system][topic].append((caller, msg))
+            if len(cls.seen[system][topic]) < 1000:
+                cls.seen[system][topic].append((caller, msg))
 
     @classmethod
     def on_skeleton(cls, msg, key):
@@ -152,16 +167,17 @@ class TwoSystems(unittest.TestCase):
     def test_each_system_decides_for_its_own_dancer(self):
         for system, winner in self.expect.items():
             with self.lock:
-                decisions = [m for _, m in self.seen[system]['decision']
-                             if m.round == 1]
-            self.assertTrue(decisions, '%s: no decision' % system)
-            d = decisions[0]
-            self.assertEqual(d.outcome, Decision.WINNER,
-                             '%s: %s (%s)' % (system, d.outcome, d.reason))
-            self.assertEqual(d.winner, winner, '%s: %s' % (system, d))
-            self.assertEqual(tuple(d.clients), CLIENTS)
-            self.assertTrue(all(math.isfinite(s) for s in d.scores),
-                            '%s: %s' % (system, d.scores))
+                decisions = [m for _, m in self.seen[system]['decision']]
+            self.assertIn(self.rounds, [d.round for d in decisions],
+                          '%s: no decision of round %d' % (system,
+                                                           self.rounds))
+            for d in decisions:
+                self.assertEqual(d.outcome, Decision.WINNER, '%s: %s (%s)'
+                                 % (system, d.outcome, d.reason))
+                self.assertEqual(d.winner, winner, '%s: %s' % (system, d))
+                self.assertEqual(tuple(d.clients), CLIENTS)
+                self.assertTrue(all(math.isfinite(s) for s in d.scores),
+                                '%s: %s' % (system, d.scores))
 
     def test_messages_come_from_their_own_system(self):
         for system in self.expect:
@@ -177,11 +193,21 @@ class TwoSystems(unittest.TestCase):
                     self.assertIn(caller, allowed, '%s/%s from %s' % (
                         system, topic, caller))
             results = {m.client_id for _, m in seen['client_result']
-                       if m.round == 1}
+                       if m.round == self.rounds}
             self.assertEqual(results, set(CLIENTS), system)
             acks = {m.client_id for _, m in seen['sync_ack']
-                    if m.round == 1}
-            self.assertEqual(acks, set(CLIENTS), system)
+                    if m.round == self.rounds}
+            robot = system in self.robots
+            self.assertEqual(acks, set(CLIENTS) | (
+                {'dj_rob', 'music'} if robot else set()), system)
+            for topic, owner in ROBOT_OWNERS.items():
+                if not robot:
+                    self.assertFalse(seen[topic], '%s/%s' % (system, topic))
+                    continue
+                self.assertTrue(seen[topic], '%s/%s: nothing' % (system,
+                                                                 topic))
+                for caller, _ in seen[topic]:
+                    self.assertEqual(caller, '/%s/%s' % (system, owner))
 
 
 if __name__ == '__main__':
