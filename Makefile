@@ -10,7 +10,7 @@ PIP_PACKAGES := rosbags
 SOURCE := source $(WS)/devel/setup.bash
 
 .PHONY: setup apt venv build test unit check test-install test-site rostest \
-	demo bench \
+	test-load demo bench \
 	bench-dj-rob clean
 
 setup: apt venv build
@@ -70,6 +70,12 @@ test: setup
 	$(MAKE) --no-print-directory test-site || status=1; \
 	$(MAKE) --no-print-directory rostest || status=1; \
 	exit $$status
+
+# `make test` RUNS times in a row beside one busy loop per core, JSON
+# summary last (scripts/test_under_load.py; e.g. make test-load RUNS=1).
+RUNS ?= 3
+test-load:
+	@$(ROS_PY) $(ROOT)/scripts/test_under_load.py --runs $(RUNS)
 
 demo: setup
 	@$(SOURCE) && $(ROS_PY) $(ROOT)/scripts/demo.py
