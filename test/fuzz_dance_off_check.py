@@ -116,6 +116,7 @@ class FuzzDanceOff(unittest.TestCase):
                 launch, 'rounds:=0',
                 'dur:=%s' % rospy.get_param('~dur', 5.0),
                 'ntp_port:=%d' % rospy.get_param('~ntp_port'),
+                'left_seed:=4', 'right_seed:=21',
                 'monitor_required:=false'],
             stdout=self.out, stderr=subprocess.STDOUT,
             start_new_session=True,

@@ -52,6 +52,7 @@ class Orphans(unittest.TestCase):
             ['roslaunch', 'hri_sync', 'dance_off.launch', 'rounds:=0',
              'ntp_port:=%d' % rospy.get_param('~ntp_port'),
              'left_clock:=+1.5s x1.0001', 'bag:=' + bag,
+             'left_seed:=4', 'right_seed:=21',
              'monitor_required:=false'],
             stdout=open(os.path.join(folder, 'launch.log'), 'w'),
             stderr=subprocess.STDOUT, start_new_session=True)
