@@ -7,8 +7,9 @@ import pytest
 
 from hri_sync.timing.control import (ABORTED, CAPTURING, DECIDED, IDLE,
                                      NO_DECISION, SHUTDOWN, SYNCING,
-                                     ControlSession, Log, Refused, RoundEnd,
-                                     StatusUpdate, SyncOrder)
+                                     ClientsWait, ControlSession, Log,
+                                     Refused, RoundEnd, StatusUpdate,
+                                     SyncOrder)
 from hri_sync.timing.protocol import Capture, ProtocolError, StrAftPolicy
 
 CLIENTS = ['alice', 'bob', 'carol']
@@ -353,3 +354,43 @@ def test_idle_poll_does_nothing():
 def test_bad_params_raise_protocol_error(kw, message):
     with pytest.raises(ProtocolError, match=message):
         session(**kw)
+
+
+# --- ClientsWait: who the CM waits for before round 1 ------------------
+
+def test_clients_wait_waits_for_silent_clients():
+    w = ClientsWait(['a', 'b', 'c'])
+    assert not w.settled and w.waiting() == ['a', 'b', 'c']
+    w.on_state('a', True)
+    w.on_state('b', True)
+    assert w.waiting() == ['c']          # c never reported: a slow start
+    assert w.describe(w.waiting()) == 'c (no clock_state yet)'
+    w.on_state('c', True)
+    assert w.settled and w.unsynced() == []
+
+
+def test_clients_wait_settles_on_repeated_failures_only():
+    w = ClientsWait(['a', 'c'], failures=2)
+    w.on_state('a', True)
+    w.on_state('c', False, 'time server unreachable')
+    assert w.waiting() == ['c']          # one failure may be transient
+    w.on_state('c', False, 'time server unreachable')
+    assert w.settled
+    assert w.unsynced() == ['c']
+    assert w.describe(w.unsynced()) == 'c (time server unreachable)'
+
+
+def test_clients_wait_a_success_resets_the_failures():
+    w = ClientsWait(['c'], failures=2)
+    w.on_state('c', False, 'timeout')
+    w.on_state('c', True)
+    w.on_state('c', False, '')
+    assert w.waiting() == ['c']
+    assert w.describe(['c']) == 'c (no reason given)'
+    w.on_state('x', True)                # not one of ours: ignored
+    assert w.waiting() == ['c']
+
+
+def test_clients_wait_refuses_zero_failures():
+    with pytest.raises(ValueError):
+        ClientsWait(['a'], failures=0)

@@ -286,3 +286,56 @@ class ControlSession:
         for old in [r for r in self.ended if r <= round_id - 20]:
             del self.ended[old]
         return end
+
+
+class ClientsWait:
+    """What the CM waits for before round 1: every client settled.
+
+    A client is settled once its clock_state is usable, or once it
+    reported ``failures`` failed clock syncs in a row (its time server is
+    unreachable: waiting longer would not help, and the round lets it
+    NACK with its reason).  A client that has reported nothing yet (a
+    node still starting on a loaded machine) is waited for.  Feed
+    ``on_state`` each clock_state: ``usable`` and the reason when not.
+    """
+
+    def __init__(self, clients, failures=2):
+        if failures < 1:
+            raise ValueError('failures must be >= 1')
+        self.clients = list(clients)
+        self.failures = failures
+        self.usable = set()
+        self.failed = Counter()     # failed reports in a row
+        self.reason = {}            # client -> its last reason
+
+    def on_state(self, client, usable, reason=''):
+        """A clock_state of ``client`` (unknown clients are ignored)."""
+        if client not in self.clients:
+            return
+        if usable:
+            self.usable.add(client)
+            self.failed[client] = 0
+            self.reason[client] = ''
+        else:
+            self.usable.discard(client)
+            self.failed[client] += 1
+            self.reason[client] = reason or 'no reason given'
+
+    @property
+    def settled(self):
+        """True once every client is usable or failed ``failures`` times."""
+        return not self.waiting()
+
+    def waiting(self):
+        """The clients not settled yet, in order."""
+        return [c for c in self.clients if c not in self.usable
+                and self.failed[c] < self.failures]
+
+    def unsynced(self):
+        """The clients without a usable clock, in order."""
+        return [c for c in self.clients if c not in self.usable]
+
+    def describe(self, clients):
+        """'c (its last reason or: no clock_state yet)' for ``clients``."""
+        return ', '.join('%s (%s)' % (c, self.reason.get(c) or
+                                      'no clock_state yet') for c in clients)
