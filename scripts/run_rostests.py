@@ -12,6 +12,7 @@ status is non-zero when any test failed or none ran.
 """
 import glob
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -33,7 +34,19 @@ def junit_counts(path):
     return tests, bad
 
 
+def restore_signals():
+    """SIGINT and SIGQUIT back to their defaults when this script was
+    started with them ignored (in the background by a non-interactive
+    shell): the tests' processes inherit them, and roslaunch and the
+    checkers stop nodes with SIGINT."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    if signal.getsignal(signal.SIGQUIT) == signal.SIG_IGN:
+        signal.signal(signal.SIGQUIT, signal.SIG_DFL)
+
+
 def main():
+    restore_signals()
     test_dir = os.path.abspath(sys.argv[1])
     wanted = sys.argv[2:]
     root = os.path.dirname(test_dir)

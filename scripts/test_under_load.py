@@ -8,9 +8,10 @@ Starts ``--loops`` busy loops (default: one per core, at normal priority:
 plain ``while True: pass`` processes), runs ``make TARGET`` (default
 ``test``) ``--runs`` times (default 3) one after another in this checkout
 (or ``--checkout DIR``, or with ``--fresh`` in a fresh ``git clone`` of its
-HEAD in a temporary folder, removed afterwards), and stops the loops whatever happens (a failed run, Ctrl-C,
-SIGTERM).  Each run's output goes to .ws/test_load/run-<k>.log (of the
-checkout run in; of this one with --fresh); the failed
+HEAD in a temporary folder, removed afterwards), and stops the loops
+whatever happens (a failed run, Ctrl-C, SIGTERM).  Each run's output goes
+to .ws/test_load/run-<k>.log (of the checkout run in; of this one with
+--fresh); the failed
 tests are read from it (pytest's ``FAILED``, run_rostests.py's ``FAIL``
 lines and make's ``*** [...: target] Error`` lines).  The last line printed
 is a JSON summary: per run, pass/fail, duration and failed tests.  The exit
@@ -126,6 +127,11 @@ def main():
     if args.runs < 1 or args.loops < 0:
         parser.error('--runs must be >= 1 and --loops >= 0')
     signal.signal(signal.SIGTERM, interrupt)
+    # Started in the background by a non-interactive shell, this process
+    # has SIGINT ignored, and so would every test's process: restore it.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    if signal.getsignal(signal.SIGQUIT) == signal.SIG_IGN:
+        signal.signal(signal.SIGQUIT, signal.SIG_DFL)
     tmp = tempfile.mkdtemp(prefix='hri_sync_load_') if args.fresh else None
     summary = {'target': args.target, 'loops': args.loops, 'runs': []}
     try:

@@ -39,6 +39,15 @@ def alive(pid):
     return stat[stat.rfind(')') + 2] not in 'ZX'
 
 
+def cmdline(pid):
+    """The arguments of ``pid`` ([] if it is gone)."""
+    try:
+        with open('/proc/%d/cmdline' % pid) as f:
+            return f.read().split('\0')[:-1]
+    except OSError:
+        return []
+
+
 def orphan_after_sigkill(how, deadline=20.0):
     """Kill the parent with SIGKILL; True if its child outlived it by
     ``deadline`` s (for the kernel, far above the microseconds it takes)."""
@@ -46,7 +55,13 @@ def orphan_after_sigkill(how, deadline=20.0):
         [sys.executable, '-c', PARENT, how, LIFELINE], env=ENV,
         stdout=subprocess.PIPE, text=True)
     child = int(parent.stdout.readline())
-    time.sleep(0.5)                 # the lifeline script has exec'ed sleep
+    # The lifeline script sets the lifeline, then execs sleep: wait for
+    # the exec (a fixed pause loses the race on a loaded machine).
+    start = time.monotonic()
+    while cmdline(child) != ['sleep', '60'] and \
+            time.monotonic() - start < deadline:
+        time.sleep(0.02)
+    assert cmdline(child) == ['sleep', '60']
     assert alive(child)
     parent.kill()
     parent.wait()
