@@ -147,6 +147,29 @@ def test_wake_lateness_is_measured_against_the_window_start():
     assert r.wake_lateness == pytest.approx(0.0025)
 
 
+def test_a_late_or_missing_wake_up_changes_no_window():
+    """The shell's timer at the window start (params.after) has no bound
+    on its delay: the window is its timestamps, the wake-up a figure."""
+    def run(wake):
+        d = dp()
+        start = L0 + OFFSET + 0.5
+        d.open(1, start, start + 1.0)
+        steps = feed(d, ticks(20))               # up to L0 + 0.95
+        if wake is not None:
+            d.started(1, wake)
+        steps += feed(d, ticks(30, L0 + 20 * P))
+        (r,) = results(steps) + d.poll(L0 + 5.0)
+        return r, captured(steps)
+    on_time, kept = run(L0 + 0.5)
+    for wake in (L0 + 0.9, L0 + 1.6, None):     # late, after the end, never
+        r, late_kept = run(wake)
+        assert late_kept == kept
+        assert (r.frames, r.coverage, r.value, r.status) == (
+            on_time.frames, on_time.coverage, on_time.value, on_time.status)
+    assert run(L0 + 0.9)[0].wake_lateness == pytest.approx(0.4)
+    assert math.isnan(run(None)[0].wake_lateness)
+
+
 def test_a_processor_that_raises_on_a_sample_costs_that_sample_only():
     class Picky(CountMean):
         def add(self, frame):

@@ -114,7 +114,12 @@ def wait_for(predicate, timeout, poll=0.005):
 
 def after(delay, callback, *args):
     """Call ``callback(*args)`` in a thread after ``delay`` s (a
-    sleep-based threading.Timer, which would hang under libfaketime)."""
+    sleep-based threading.Timer, which would hang under libfaketime).
+
+    Nothing bounds how late the call comes: on a loaded machine, ms to
+    (in principle) any delay.  Use it only for what may come late: never
+    to define a capture window (windows are their timestamps; the DPM's
+    wake-up at a window start only records ``wake_lateness``)."""
     def run():
         if delay > 0:
             time.sleep(delay)
