@@ -53,7 +53,7 @@ from hri_sync.timing.truth import realtime
 
 LIMITS = Limits()            # the Kobuki's, as dj_rob.launch sets them
 START_SANITY = 0.25          # s, see the docstring
-ACCEL_LIMITED_SHARE = 0.05   # of the base's commands, see the docstring
+ACCEL_LIMITED_SHARE = 0.10   # of the base's commands, see the docstring
 CMD_TIMEOUT = 0.6            # s, kobuki_sim's ~cmd_timeout
 HEADING_TOLERANCE = 10.0     # deg
 

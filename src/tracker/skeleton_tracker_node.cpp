@@ -7,6 +7,8 @@
 // ~client_id   the client whose clock (clock_state, relative) stamps the skeletons
 // ~frame_id    header.frame_id (the sensor frame, OpenNI axes)
 // ~loop        replay an .oni recording when it ends (default false)
+//              (a recording starts playing once the global clock is ready:
+//              before, its frames could only be withheld)
 // ~frame_timeout  s without frames before the sensor is reported lost (1.0)
 // ~reopen_period  s between attempts to reopen a lost or unopenable device (3.0)
 // After a ROS master restart it ends with status 75 (include/hri_sync/master_watch.h)
@@ -100,6 +102,10 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
       if (fatal_) { ros::WallDuration(0.2).sleep(); continue; }
       if (!depth_) {
         if (localNow() - last_attempt < reopen_period_) { ros::WallDuration(0.05).sleep(); continue; }
+        if (is_file_ && !clockReady()) {  // a recording plays once: not into withheld frames
+          ros::WallDuration(0.05).sleep();
+          continue;
+        }
         last_attempt = localNow();
         openDevice();
         continue;
@@ -168,6 +174,11 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
   }
 
   std::string uriLabel() const { return device_uri_.empty() ? "the first connected sensor" : "'" + device_uri_ + "'"; }
+
+  bool clockReady() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return clock_.ready;
+  }
 
   bool ended() const {
     return is_file_ && !loop_ && total_frames_ > 0 && last_index_ >= total_frames_;
