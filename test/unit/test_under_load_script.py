@@ -29,10 +29,14 @@ def run(tmp_path, *args):
 
 
 def gone(pid):
+    """True unless ``pid`` is a live busy loop (the pid may be reused)."""
     try:
         with open('/proc/%d/stat' % pid) as f:
-            return f.read().split(') ')[1][0] == 'Z'
-    except FileNotFoundError:
+            if f.read().split(') ')[1][0] == 'Z':
+                return True
+        with open('/proc/%d/cmdline' % pid) as f:
+            return 'while True' not in f.read()
+    except (FileNotFoundError, ProcessLookupError):
         return True
 
 
