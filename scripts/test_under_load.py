@@ -88,9 +88,13 @@ def run_make(checkout, target, log):
     duration s, failed tests).  Lines are echoed as they come."""
     t0 = time.monotonic()
     lines = []
+    # A top-level make (also under `make test-load`): its own failure line
+    # is not a failed test, its sub-makes' are.
+    env = {k: v for k, v in os.environ.items()
+           if k not in ('MAKELEVEL', 'MAKEFLAGS', 'MFLAGS')}
     with open(log, 'w') as out:
         proc = subprocess.Popen(
-            ['make', '--no-print-directory', target], cwd=checkout,
+            ['make', '--no-print-directory', target], cwd=checkout, env=env,
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
             errors='replace', start_new_session=True)
         try:
