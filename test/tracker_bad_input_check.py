@@ -31,7 +31,15 @@ class TrackerBadInputTest(unittest.TestCase):
         rospy.Subscriber('/%s/skeleton' % client, Skeleton,
                          lambda m: skeletons.append(
                              (time.time(), m.header.stamp.to_sec())))
-        time.sleep(3.0)
+        # Until the tracker says it has no clock (a loaded machine may
+        # start it late), and for 3 s at least.
+        start = time.time()
+        deadline = start + 30.0
+        while time.time() < deadline and not rospy.is_shutdown() and not (
+                time.time() - start >= 3.0 and any(
+                    'no valid global clock' in s.message
+                    for _, s in list(diags))):
+            time.sleep(0.1)
         self.assertEqual(skeletons, [], 'skeletons published without a clock')
         self.assertTrue(any(s.level == DiagnosticStatus.WARN
                             and 'no valid global clock' in s.message

@@ -33,7 +33,12 @@ class TrackerDanceOffTest(unittest.TestCase):
         while (not cls.decisions and time.time() < deadline
                and not rospy.is_shutdown()):
             time.sleep(0.2)
-        time.sleep(0.5)
+        # The results came before the decision, but on connections of
+        # their own: a loaded checker may read them after it.
+        deadline = time.time() + 10.0
+        while (not {'left', 'right'} <= set(cls.results)
+               and time.time() < deadline and not rospy.is_shutdown()):
+            time.sleep(0.1)
 
     def test_winner(self):
         self.assertTrue(self.decisions, 'no /decision')
