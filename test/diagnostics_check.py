@@ -89,7 +89,13 @@ class DiagnosticsCheck(unittest.TestCase):
         for _ in range(3):
             forger.publish(SyncTime(round=7, stamp=rospy.Time(1)))
             time.sleep(0.2)
-        time.sleep(3.0)
+        # Every CPM's next periodic input status (1 s; later on a loaded
+        # machine) counts it: wait for them, then one more period.
+        wait(lambda: all(any(int(v.get('/sync_time wrong_sender', 0)) >= 1
+                             for _, _, v, _ in cls.diag.history(
+                                 node + ': input'))
+                         for node in CPM_NODES.values()), 20.0)
+        time.sleep(1.5)
 
     def seen(self, name, predicate, what):
         history = self.diag.history(name)
