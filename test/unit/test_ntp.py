@@ -277,7 +277,7 @@ def test_measure_after_a_first_failure_still_measures(fake_server):
         now = time.time()
         return server_reply(now, now)(request)
     srv = fake_server(reply)
-    m = ntp.measure('127.0.0.1', srv.port, exchanges=3, timeout=0.2, pause=0)
+    m = ntp.measure('127.0.0.1', srv.port, exchanges=3, timeout=1.0, pause=0)
     assert m.exchanges == 2
     assert len(srv.requests) == 3
 
@@ -309,7 +309,8 @@ def test_against_a_real_chronyd(tmp_path):
                 error = e
                 time.sleep(0.2)
         assert answered, 'chronyd never answered: %s' % error
-        m = ntp.measure('127.0.0.1', port, exchanges=4, timeout=0.3)
+        # A generous timeout: a loaded machine may delay chronyd's answer.
+        m = ntp.measure('127.0.0.1', port, exchanges=4, timeout=2.0)
         # chronyd reads the same system clock: the offset is 0 within
         # half the round trip (and chronyd's timestamping, < 1 ms).
         assert m.delay >= 0
