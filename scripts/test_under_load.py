@@ -119,8 +119,9 @@ def interrupt(_signum, _frame):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--runs', type=int, default=3)
-    parser.add_argument('--loops', type=int, default=os.cpu_count() or 1,
-                        help='busy loops (default: one per core)')
+    parser.add_argument('--loops', type=int,
+                        default=len(os.sched_getaffinity(0)),
+                        help='busy loops (default: one per usable core)')
     parser.add_argument('--target', default='test', help='make target')
     where = parser.add_mutually_exclusive_group()
     where.add_argument('--fresh', action='store_true',
