@@ -45,10 +45,14 @@ fi
 printf '#!/bin/sh\necho "fake python3 ran: $*" >&2\nexit 97\n' > "$TMP/badbin/python3"
 chmod +x "$TMP/badbin/python3"
 PORT=$(free_port)
+CLEAN_ENV=(env -i HOME="$TMP" PATH="$TMP/badbin:/usr/local/bin:/usr/bin:/bin"
+  ROS_MASTER_URI="http://localhost:$PORT" ROS_HOME="$TMP/ros"
+  ROS_LOG_DIR="$TMP/ros/log")
 run() {   # run CMD in a clean environment with only the install space
-  env -i HOME="$TMP" PATH="$TMP/badbin:/usr/local/bin:/usr/bin:/bin" \
-    ROS_MASTER_URI="http://localhost:$PORT" ROS_HOME="$TMP/ros" \
-    ROS_LOG_DIR="$TMP/ros/log" bash -c "source '$WS/install/setup.bash' && $1"
+  "${CLEAN_ENV[@]}" bash -c "source '$WS/install/setup.bash' && $1"
+}
+spawn() {   # as run, in the background: `spawn "exec CMD" &`, $! is CMD's pid
+  exec "${CLEAN_ENV[@]}" bash -c "source '$WS/install/setup.bash' && $1"
 }
 
 share=$(run 'rospack find hri_sync')
@@ -65,15 +69,15 @@ for f in "$WS"/install/lib/hri_sync/*; do
 done
 say "shebangs checked"
 
-run "exec roscore -p $PORT" > "$TMP/roscore.log" 2>&1 &
+spawn "exec roscore -p $PORT" > "$TMP/roscore.log" 2>&1 &
 MASTER_PID=$!
 run 'until rostopic list >/dev/null 2>&1; do sleep 0.2; done'
 
 say "dance_off.launch: left under faketime, right on a virtual Kinect, preflight, rviz markers"
 bag=$TMP/round.bag
-run "exec roslaunch --wait hri_sync rviz.launch rviz:=false" > "$TMP/rviz.log" 2>&1 &
+spawn "exec roslaunch --wait hri_sync rviz.launch rviz:=false" > "$TMP/rviz.log" 2>&1 &
 RVIZ_PID=$!
-run "exec rostopic echo -n 1 /skeleton_markers" > "$TMP/markers.log" 2>&1 &
+spawn "exec rostopic echo -n 1 /skeleton_markers" > "$TMP/markers.log" 2>&1 &
 ECHO_PID=$!
 if ! run "roslaunch --wait hri_sync dance_off.launch dur:=3 rounds:=1 \
       left_clock:='+1.2s x1.0002' right_sensor:=tracker right_motion:=cmu_61_01_salsa \
@@ -119,6 +123,12 @@ uri="virtual://$share/data/motion/cmu_60_01_salsa.track?res=320x240"
 run "rosrun hri_sync record_oni '$uri' $TMP/x.oni 1 && rosrun hri_sync oni_info $TMP/x.oni \
      && rosrun hri_sync tracker_eval --track $share/data/motion/cmu_60_01_salsa.track --seconds 1" \
   > "$TMP/tools.log" 2>&1 || { tail -20 "$TMP/tools.log"; fail "C++ tools"; }
+
+# Nothing this test started outlives it (roscore, roslaunch and its nodes).
+kill "$MASTER_PID" 2>/dev/null && wait "$MASTER_PID" 2>/dev/null
+for _ in $(seq 50); do pgrep -f "$TMP/" >/dev/null || break; sleep 0.2; done
+left=$(pgrep -fa "$TMP/")
+[ -z "$left" ] || { fail "processes left running: $left"; pkill -f "$TMP/"; }
 
 [ $status = 0 ] && say "all passed"
 exit $status
