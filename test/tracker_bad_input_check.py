@@ -27,7 +27,7 @@ class TrackerBadInputTest(unittest.TestCase):
         rospy.Subscriber('/diagnostics', DiagnosticArray,
                          lambda m: diags.extend(
                              (time.time(), s) for s in m.status
-                             if s.name.endswith(client)))
+                             if s.name.startswith(client + '/')))
         rospy.Subscriber('/%s/skeleton' % client, Skeleton,
                          lambda m: skeletons.append(
                              (time.time(), m.header.stamp.to_sec())))

@@ -28,7 +28,7 @@ class TrackerMissingDeviceTest(unittest.TestCase):
         rospy.Subscriber('/diagnostics', DiagnosticArray,
                          lambda m: statuses.extend(
                              s for s in m.status
-                             if s.name == 'skeleton_tracker: ' + client))
+                             if s.name == client + '/tracker: sensor'))
         rospy.Subscriber('/%s/skeleton' % client, Skeleton,
                          lambda m: skeletons.append(m))
         deadline = time.time() + rospy.get_param('~duration')

@@ -375,7 +375,9 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     diagnostic_msgs::DiagnosticArray arr;
     arr.header.stamp = ros::Time::now();
     diagnostic_msgs::DiagnosticStatus s;
-    s.name = "skeleton_tracker: " + client_id_;
+    // "<node name>: sensor" as diagnostic_updater names the Python nodes'
+    // statuses (e.g. "lab1/left/tracker: sensor"): unique per system.
+    s.name = ros::this_node::getName().substr(1) + ": sensor";
     s.hardware_id = device_uri_.empty() ? "openni:any" : device_uri_;
     {
       std::lock_guard<std::mutex> lock(mu_);
