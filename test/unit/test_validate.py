@@ -42,10 +42,11 @@ def good(msg_type):
             offset=2.0, drift=1e-4, uncertainty=0.0005, samples=4,
             round_trip=0.0004),
         'hri_sync/ClientResult': dict(
-            header=hdr(NOW - 0.5), round=5, client_id='left', status='ok', capture_start=NOW - 61,
-            capture_end=NOW - 1, frames=1200, frames_rejected=0,
-            frames_dropped=2, coverage=0.99, first_frame_offset=0.01,
-            wake_lateness=0.004, value=3.2, timing_uncertainty=0.0002,
+            header=hdr(NOW - 0.5), round=5, client_id='left', status='ok',
+            capture_start=NOW - 61, capture_end=NOW - 1, frames=1200,
+            frames_rejected=0, frames_dropped=2, coverage=0.99,
+            first_frame_offset=0.01, wake_lateness=0.004, value=3.2,
+            timing_uncertainty=0.0002,
             diagnostics=[{'key': 'terms', 'value': '1199'}]),
         'hri_sync/Decision': dict(
             header=hdr(NOW), round=5, outcome='winner', winner=2,

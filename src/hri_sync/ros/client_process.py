@@ -75,7 +75,8 @@ class ClientProcess:
         no_model = math.isnan(r.stamp)
         self._ack_pub.publish(SyncAck(
             # The core's NaN times: no clock model yet, so no time.
-            header=header(None if no_model else r.stamp), round=r.round, client_id=r.client_id, ok=r.ok, reason=r.reason,
+            header=header(None if no_model else r.stamp), round=r.round,
+            client_id=r.client_id, ok=r.ok, reason=r.reason,
             offset=r.offset, uncertainty=r.uncertainty, drift=r.drift,
             sync_received=stamp(None if no_model else r.sync_received)))
         self.tally.record(r.round, 'acked' if r.ok else 'nacked', r.reason)
