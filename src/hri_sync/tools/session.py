@@ -27,7 +27,8 @@ def secs(t):
 
 # Where a recording made before std_msgs/Header (bag.PRE_HEADER) has
 # the global stamp: SyncTime, SyncAck, RoundStatus, Decision and Beat in
-# ``stamp``, CaptureData in ``cr_t`` (CR_T), ActionStart in ``actual``.
+# ``stamp``, CaptureData in ``cr_t`` (CR_T), ActionStart in ``actual``;
+# CaptureCommand and ClientResult had none.
 PRE_HEADER_STAMPS = ('stamp', 'cr_t', 'actual')
 
 
