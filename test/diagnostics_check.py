@@ -22,6 +22,7 @@ import unittest
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from std_msgs.msg import Header
 
 from hri_sync.msg import Decision, SyncTime
 
@@ -87,7 +88,8 @@ class DiagnosticsCheck(unittest.TestCase):
         forger = rospy.Publisher('/sync_time', SyncTime, queue_size=10)
         wait(lambda: forger.get_num_connections() >= len(CPM_NODES), 10.0)
         for _ in range(3):
-            forger.publish(SyncTime(round=7, stamp=rospy.Time(1)))
+            forger.publish(SyncTime(header=Header(stamp=rospy.Time(1)),
+                                    round=7))
             time.sleep(0.2)
         # Every CPM's next periodic input status (1 s; later on a loaded
         # machine) counts it: wait for them, then one more period.

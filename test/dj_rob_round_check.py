@@ -37,8 +37,10 @@ import threading
 import time
 import unittest
 
+import message_filters
 import rospy
 import rostest
+import rostopic
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
@@ -99,6 +101,12 @@ class DjRobRound(unittest.TestCase):
             ('sounds', lambda m: m.value))
         cls.beats, cls.sim_leds = [], []
         sub('/music/beat', Beat, cls.rec, ('beats', lambda m: m))
+        # The ROS tools that need a header.stamp: rostopic delay's
+        # measure and a message_filters cache, on the beats.
+        cls.beat_delay = rostopic.ROSTopicDelay(1000)
+        sub('/music/beat', Beat, cls.beat_delay.callback_delay)
+        cls.beat_cache = message_filters.Cache(
+            message_filters.Subscriber('/music/beat', Beat), 1000)
         sub('/kobuki_sim/led1', Led, cls.rec, ('sim_leds', lambda m: m.value))
         sub('/capture_data', CaptureData, cls.on_capture)
         sub('/decision', Decision, cls.on_decision)
@@ -245,6 +253,10 @@ class DjRobRound(unittest.TestCase):
                                 'round %d %s' % (n, action))
                 self.assertLess(abs(m.offset), START_SANITY,
                                 'round %d %s' % (n, action))
+                self.assertAlmostEqual(
+                    m.header.stamp.to_sec() - m.scheduled.to_sec(),
+                    m.offset, places=6, msg='round %d %s: header.stamp is '
+                    'the actual start' % (n, action))
 
     def test_2b_beats(self):
         for n, c in sorted(self.captures.items()):
@@ -255,12 +267,35 @@ class DjRobRound(unittest.TestCase):
                              list(range(int(round(c.dur / 0.5)))),
                              'round %d: one beat each 0.5 s of the window' % n)
             for t, b in beats:
-                self.assertAlmostEqual(b.stamp.to_sec(),
+                self.assertAlmostEqual(b.header.stamp.to_sec(),
                                        start + 0.5 * b.index, places=6)
                 self.assertEqual(b.bar_beat, b.index % 4)
                 self.assertEqual(b.bpm, 120.0)
-                self.assertLess(abs(t - b.stamp.to_sec()), START_SANITY,
+                self.assertLess(abs(t - b.header.stamp.to_sec()),
+                                START_SANITY,
                                 'beat %d published late' % b.index)
+
+    def test_2c_header_tools(self):
+        """rostopic delay and message_filters work on the beats: they
+        read header.stamp (global; global = this host's clock here)."""
+        beats = sum(int(round(c.dur / 0.5)) for c in self.captures.values())
+        delay = self.beat_delay.get_delay()
+        self.assertIsNotNone(delay, 'rostopic delay measured nothing')
+        mean, lo, hi, _, n = delay
+        # Its window counts the first message, which only starts it.
+        self.assertEqual(n, beats)
+        self.assertTrue(all(map(math.isfinite, (mean, lo, hi))), delay)
+        rospy.loginfo('rostopic delay of /music/beat: mean %.2f ms, '
+                      'min %.2f, max %.2f over %d beats', mean * 1e3,
+                      lo * 1e3, hi * 1e3, n)
+        for r, c in sorted(self.captures.items()):
+            start = Capture.from_msg(c).start
+            window = self.beat_cache.getInterval(
+                rospy.Time.from_sec(start - 0.25),
+                rospy.Time.from_sec(start + c.dur))
+            self.assertEqual([(b.round, b.index) for b in window],
+                             [(r, i) for i in range(int(round(c.dur / 0.5)))],
+                             'message_filters.Cache by header.stamp')
 
     def test_3_outcome_motion(self):
         _, end = self.window()

@@ -6,7 +6,8 @@
 Finds the topics the running nodes subscribe to (the master's system
 state, less ~exclude and this node's own), and publishes ~count messages
 of each topic's type, round-robin, at ~rate messages per second in all.
-Every field is random, by its type and name: NaN, infinities, huge and
+Every field is random, nested messages' too (a std_msgs/Header's seq,
+stamp and frame_id), by its type and name: NaN, infinities, huge and
 negative numbers; times at 0, near and beyond the last ROS time, with
 nanoseconds past 1e9, far in the past and future, or near now; rounds
 0, past, current (from /round_status), future and 2**32 - 1; empty, very

@@ -4,6 +4,7 @@ rostest; with ~bad_every N, every Nth message has round 0 (invalid)."""
 import time
 
 import rospy
+from std_msgs.msg import Header
 
 from hri_sync.msg import SyncTime
 
@@ -18,8 +19,9 @@ def main():
     while not rospy.is_shutdown():
         n += 1
         bad = bad_every and n % bad_every == 0
-        pub.publish(SyncTime(round=0 if bad else round_id,
-                             stamp=rospy.Time.from_sec(time.time())))
+        pub.publish(SyncTime(
+            header=Header(stamp=rospy.Time.from_sec(time.time())),
+            round=0 if bad else round_id))
         rate.sleep()
 
 

@@ -1,5 +1,6 @@
 """Test helpers: copy a bag with edits, write the layout of a killed
 recorder (rosbags; no ROS)."""
+import dataclasses
 import struct
 
 from rosbags.rosbag1 import Reader, Writer
@@ -80,3 +81,49 @@ def write_unclosed(src, dst, until_ns):
             f.write(struct.pack('<I', len(raw)) + bytes(raw))
         # The record being written when the recorder died, cut short.
         f.write(struct.pack('<I', 4096)[:3])
+
+
+def to_header_shape(src, dst, msg_dir):
+    """Copy ``src``, recorded with the definitions before std_msgs/Header
+    (hri_sync.tools.bag.PRE_HEADER), to ``dst`` with those of
+    ``msg_dir``: each such message's stamp field moves into header.stamp
+    (frame_id empty, seq 0; a zero stamp where it had none: CaptureCommand,
+    ClientResult), every other field is kept.  Returns the number of
+    messages converted."""
+    from hri_sync.tools.bag import PRE_HEADER
+    from hri_sync.tools.session import PRE_HEADER_STAMPS
+    old = get_typestore(Stores.ROS1_NOETIC)
+    new = get_typestore(Stores.ROS1_NOETIC)
+    for kind in PRE_HEADER:
+        name = kind.split('/')[1]
+        with open('%s/%s.msg' % (msg_dir, name)) as f:
+            new.register(get_types_from_msg(f.read(), 'hri_sync/msg/' + name))
+    converted = 0
+    with Reader(src) as reader, Writer(dst) as writer:
+        conns = {}
+        for c in reader.connections:
+            if c.msgtype not in old.types:
+                old.register(get_types_from_msg(c.msgdef.data, c.msgtype))
+            kind = c.msgtype.replace('/msg/', '/')
+            msgdef, md5 = c.msgdef.data, c.digest
+            if PRE_HEADER.get(kind) == c.digest:
+                msgdef, md5 = new.generate_msgdef(c.msgtype, ros_version=1)
+            conns[c.id] = writer.add_connection(
+                c.topic, c.msgtype, msgdef=msgdef, md5sum=md5,
+                callerid=c.ext.callerid, latching=c.ext.latching)
+        for c, t, raw in reader.messages():
+            if PRE_HEADER.get(c.msgtype.replace('/msg/', '/')) == c.digest:
+                msg = old.deserialize_ros1(raw, c.msgtype)
+                fields = {f.name: getattr(msg, f.name)
+                          for f in dataclasses.fields(msg)}
+                name = next((n for n in PRE_HEADER_STAMPS if n in fields),
+                            None)
+                stamp = fields.pop(name) if name else \
+                    new.types['builtin_interfaces/msg/Time'](0, 0)
+                fields['header'] = new.types['std_msgs/msg/Header'](
+                    seq=0, stamp=stamp, frame_id='')
+                raw = new.serialize_ros1(new.types[c.msgtype](**fields),
+                                         c.msgtype)
+                converted += 1
+            writer.write(conns[c.id], t, raw)
+    return converted

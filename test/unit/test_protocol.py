@@ -391,9 +391,15 @@ class FakeTime:
         return self.secs
 
 
+class FakeHeader:
+    def __init__(self, stamp):
+        self.stamp, self.frame_id = stamp, ''
+
+
 class FakeCaptureData:
     def __init__(self, cr_t):
-        self.round, self.cr_t, self.str_aft, self.dur = 4, cr_t, 0.5, 2.0
+        self.header = FakeHeader(cr_t)
+        self.round, self.str_aft, self.dur = 4, 0.5, 2.0
         self.clients = ('alice', 'bob')
 
 

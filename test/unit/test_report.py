@@ -23,7 +23,8 @@ NACK_REASON = 'time server 127.0.0.1:11123 did not answer within 0.50 s'
 
 @pytest.fixture
 def round_msgs():
-    capture = NS(clients=['alice', 'bob'], cr_t=time_of(1000.0),
+    capture = NS(clients=['alice', 'bob'],
+                 header=NS(stamp=time_of(1000.0)),
                  str_aft=0.5, dur=2.0)
     acks = {'alice': NS(ok=True, offset=1.700123, uncertainty=0.00025,
                         reason=''),

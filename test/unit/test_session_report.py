@@ -4,7 +4,8 @@ test/bags/session_robot.bag (2 rounds, winner 1) and session_still.bag
 (1 round, no_winner, raw sensor streams) are whole dance-off sessions
 with DJ Rob and the music (scripts/make_session_bags.py); variants are
 made from them here (edited scores, a robot turned wrong, topics left
-out).
+out).  session_robot.bag was recorded before the timestamped messages got
+a std_msgs/Header, session_still.bag after: the tools read both.
 """
 import base64
 import csv

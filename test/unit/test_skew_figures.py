@@ -17,6 +17,11 @@ def stamp(t):
     return NS(to_sec=lambda: t)
 
 
+def header(t):
+    """A std_msgs/Header stand-in stamped ``t``."""
+    return NS(stamp=stamp(t), frame_id='')
+
+
 def exact_state(clock, error=0.0):
     """A ClockState whose model maps ``clock``'s local time to the true
     time plus ``error``."""
@@ -29,13 +34,13 @@ def round_record(model_errors, delays, frames=200, status='ok',
     """A recorder and a RoundLog record of round 1: each client's clock
     model off by ``model_errors[c]``, its samples (100 Hz from START)
     stamped ``delays[c](k)`` after their true time plus that error."""
-    rec = NS(sync={1: (START - 0.4, NS(stamp=stamp(START - 0.35)))},
+    rec = NS(sync={1: (START - 0.4, NS(header=header(START - 0.35)))},
              ack_arrival={1: {'c1': START - 0.3, 'c2': START - 0.28}},
              status={1: []},
              clock_states={c: [(START - 1.0,
                                 exact_state(CLOCKS[c], model_errors[c]))]
                            for c in CLOCKS})
-    acks = {c: NS(ok=True, reason='', stamp=stamp(START - 0.3),
+    acks = {c: NS(ok=True, reason='', header=header(START - 0.3),
                   offset=CLOCKS[c].offset_at(START - 0.3) + ack_error)
             for c in CLOCKS}
     captured = {c: [(START + k * 0.01 + model_errors[c] + delays[c](k),
@@ -43,8 +48,8 @@ def round_record(model_errors, delays, frames=200, status='ok',
                 for c in CLOCKS}
     results = {c: NS(status=status, frames=frames, coverage=1.0,
                      diagnostics=[], wake_lateness=0.001) for c in CLOCKS}
-    capture = NS(round=1, cr_t=stamp(START - 0.25), str_aft=0.25, dur=2.0,
-                 clients=sorted(CLOCKS))
+    capture = NS(round=1, header=header(START - 0.25), str_aft=0.25,
+                 dur=2.0, clients=sorted(CLOCKS))
     log_round = {'acks': acks, 'capture': capture, 'results': results,
                  'captured': captured, 'decision': NS(outcome='winner',
                                                       reason='')}
@@ -94,7 +99,7 @@ def test_bad_results_and_a_nack_are_failures():
     delays = {c: (lambda k: 0.0005) for c in CLOCKS}
     rec, lr = round_record({'c1': 0.0, 'c2': 0.0}, delays, frames=150,
                            status='partial')
-    lr['acks']['c2'] = NS(ok=False, reason='uncertain', stamp=stamp(0.0),
+    lr['acks']['c2'] = NS(ok=False, reason='uncertain', header=header(0.0),
                           offset=math.nan)
     del lr['results']['c1']
     failures = []

@@ -4,7 +4,7 @@ import math
 import pytest
 import rospy
 
-from hri_sync.ros.params import StampError, stamp
+from hri_sync.ros.params import StampError, header, stamp
 
 
 def test_valid_time():
@@ -27,3 +27,13 @@ def test_refuses_what_rospy_cannot_send(t, reason):
     with pytest.raises(StampError) as e:
         stamp(t)
     assert e.value.reason == reason
+
+
+def test_header_stamp_goes_through_stamp():
+    h = header(1_700_000_000.5, 'left_sensor')
+    assert (h.stamp.secs, h.stamp.nsecs, h.frame_id) == \
+        (1_700_000_000, 500_000_000, 'left_sensor')
+    assert header(None).stamp == rospy.Time() and header(None).frame_id == ''
+    with pytest.raises(StampError) as e:
+        header(math.nan)
+    assert e.value.reason == 'time_not_finite'

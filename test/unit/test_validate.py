@@ -15,37 +15,44 @@ CTX = Context(now=NOW, local_now=NOW - 2.0, round=5)
 MSG_DIR = os.path.join(os.path.dirname(__file__), '..', '..', 'msg')
 
 
+def hdr(t, frame_id=''):
+    """A std_msgs/Header as the inbox gives it (plain values)."""
+    return {'seq': 7, 'stamp': t, 'frame_id': frame_id}
+
+
 def good(msg_type):
     """Fields of an acceptable message of ``msg_type`` against CTX."""
     joints = v.NUM_JOINTS
-    header = {'seq': 1, 'stamp': NOW - 0.01, 'frame_id': 'sensor'}
+    header = hdr(NOW - 0.01, 'sensor')
     return {
-        'hri_sync/SyncTime': dict(round=5, stamp=NOW - 0.001),
+        'hri_sync/SyncTime': dict(header=hdr(NOW - 0.001), round=5),
         'hri_sync/SyncAck': dict(
-            round=5, client_id='left', ok=True, reason='', offset=1.7,
-            uncertainty=0.0004, drift=2e-4, sync_received=NOW - 0.002,
-            stamp=NOW - 0.001),
-        'hri_sync/CaptureData': dict(round=5, cr_t=NOW, str_aft=0.3,
+            header=hdr(NOW - 0.001), round=5, client_id='left', ok=True,
+            reason='', offset=1.7, uncertainty=0.0004, drift=2e-4,
+            sync_received=NOW - 0.002),
+        'hri_sync/CaptureData': dict(header=hdr(NOW), round=5, str_aft=0.3,
                                      dur=60.0, clients=['left', 'right']),
-        'hri_sync/CaptureCommand': dict(round=5, start=NOW + 0.3,
-                                        end=NOW + 60.3),
+        'hri_sync/CaptureCommand': dict(header=hdr(NOW - 0.01), round=5,
+                                        start=NOW + 0.3, end=NOW + 60.3),
         'hri_sync/RoundStatus': dict(
-            round=5, state='capturing', reason='', acked=['left'],
-            refused=[], missing=['right'], stamp=NOW),
+            header=hdr(NOW), round=5, state='capturing', reason='',
+            acked=['left'], refused=[], missing=['right']),
         'hri_sync/ClockState': dict(
             client_id='left', ok=True, reason='', local_ref=NOW - 3.0,
             offset=2.0, drift=1e-4, uncertainty=0.0005, samples=4,
             round_trip=0.0004),
         'hri_sync/ClientResult': dict(
-            round=5, client_id='left', status='ok', capture_start=NOW - 61,
-            capture_end=NOW - 1, frames=1200, frames_rejected=0,
-            frames_dropped=2, coverage=0.99, first_frame_offset=0.01,
-            wake_lateness=0.004, value=3.2, timing_uncertainty=0.0002,
+            header=hdr(NOW - 0.5), round=5, client_id='left', status='ok',
+            capture_start=NOW - 61, capture_end=NOW - 1, frames=1200,
+            frames_rejected=0, frames_dropped=2, coverage=0.99,
+            first_frame_offset=0.01, wake_lateness=0.004, value=3.2,
+            timing_uncertainty=0.0002,
             diagnostics=[{'key': 'terms', 'value': '1199'}]),
         'hri_sync/Decision': dict(
-            round=5, outcome='winner', winner=2, clients=['left', 'right'],
-            scores=[1.5, 3.2], reason='right wins', stamp=NOW,
-            window_end=NOW - 1, timing_uncertainty=0.0002),
+            header=hdr(NOW), round=5, outcome='winner', winner=2,
+            clients=['left', 'right'], scores=[1.5, 3.2],
+            reason='right wins', window_end=NOW - 1,
+            timing_uncertainty=0.0002),
         'hri_sync/Skeleton': dict(
             header=header, client_id='left', user_id=1,
             device_stamp=12.5,
@@ -54,11 +61,11 @@ def good(msg_type):
             confidence=[1.0] * joints),
         'hri_sync/Sample': dict(header=header, index=3, value=0.5),
         'hri_sync/ActionStart': dict(
-            round=5, client_id='dj_rob', action='dance',
-            scheduled=NOW - 1.0, actual=NOW - 0.99, offset=0.01,
+            header=hdr(NOW - 0.99), round=5, client_id='dj_rob',
+            action='dance', scheduled=NOW - 1.0, offset=0.01,
             true_time=NOW - 0.99),
-        'hri_sync/Beat': dict(round=5, index=4, bar_beat=0, bpm=120.0,
-                              stamp=NOW),
+        'hri_sync/Beat': dict(header=hdr(NOW), round=5, index=4,
+                              bar_beat=0, bpm=120.0),
         'hri_sync/Led': dict(value=1),
         'hri_sync/Sound': dict(value=6),
         'geometry_msgs/Twist': dict(linear=(0.2, 0.0, 0.0),
@@ -141,10 +148,30 @@ def test_bad_times(t, reason):
 
 def test_zero_time_only_where_the_contract_allows_it():
     assert v.time_value(0.0, 'stamp', optional=True) == 0.0
-    v.check('hri_sync/Decision', dict(good('hri_sync/Decision'), stamp=0.0),
-            CTX)
-    assert rejected('hri_sync/SyncTime', stamp=0.0).reason == \
-        'time_not_positive'
+    for kind in ('Decision', 'RoundStatus', 'ClientResult'):
+        v.check('hri_sync/' + kind, dict(good('hri_sync/' + kind),
+                                         header=hdr(0.0)), CTX)
+    for kind in ('SyncTime', 'SyncAck', 'CaptureData', 'CaptureCommand',
+                 'ActionStart', 'Beat'):
+        e = rejected('hri_sync/' + kind, header=hdr(0.0))
+        assert (e.reason, e.field) == ('time_not_positive', 'header.stamp')
+
+
+@pytest.mark.parametrize('msg_type', [
+    'hri_sync/' + k for k in ('SyncTime', 'SyncAck', 'CaptureData',
+                              'CaptureCommand', 'RoundStatus',
+                              'ClientResult', 'Decision', 'ActionStart',
+                              'Beat')])
+def test_header_of_every_timestamped_message_is_checked(msg_type):
+    for t, reason in ((NOW + 1e5, 'time_in_future'),
+                      (NOW - 1e5, 'time_too_old'),
+                      (math.nan, 'time_not_finite'),
+                      (2.0 ** 33, 'time_unrepresentable')):
+        e = rejected(msg_type, header=hdr(t))
+        assert (e.reason, e.field) == (reason, 'header.stamp'), t
+    assert rejected(msg_type, header={'seq': 1}).reason == 'malformed'
+    assert rejected(msg_type, header=hdr(NOW, 'f' * 5000)).reason == \
+        'text_too_long'
 
 
 def test_time_window_around_the_receivers_now():
@@ -162,11 +189,11 @@ def test_time_window_around_the_receivers_now():
 
 
 def test_capture_data_near_the_end_of_ros_time_is_refused():
-    # The issue's case: cr_t=4294967290 cut both DPMs off for good.
-    assert rejected('hri_sync/CaptureData', cr_t=4294967290.0,
+    # The issue's case: CR_T=4294967290 cut both DPMs off for good.
+    assert rejected('hri_sync/CaptureData', header=hdr(4294967290.0),
                     ctx=Context()).reason == 'time_unrepresentable'
     assert rejected('hri_sync/CaptureData',
-                    cr_t=4294967290.0).reason == 'time_in_future'
+                    header=hdr(4294967290.0)).reason == 'time_in_future'
 
 
 @pytest.mark.parametrize('change,reason', [
@@ -201,7 +228,7 @@ def test_round_window_is_configurable():
     (dict(drift=0.5), 'out_of_range'),
     (dict(sync_received=NOW + 1e6), 'time_in_future'),
     (dict(sync_received=NOW), 'out_of_order'),
-    (dict(stamp=0.0), 'time_not_positive'),
+    (dict(header=hdr(0.0)), 'time_not_positive'),
     (dict(client_id=''), 'name_empty'),
     (dict(reason='x' * 5000), 'text_too_long')])
 def test_sync_ack_rejections(change, reason):
@@ -214,7 +241,7 @@ def test_nack_without_a_clock_passes():
     v.check('hri_sync/SyncAck', dict(
         good('hri_sync/SyncAck'), ok=False, reason='time server silent',
         offset=math.nan, uncertainty=math.nan, sync_received=0.0,
-        stamp=0.0), CTX)
+        header=hdr(0.0)), CTX)
 
 
 def test_sync_ack_latency_against_the_sync_time_stamp():
@@ -229,7 +256,7 @@ def test_sync_ack_latency_from_the_context():
     # An ACK claiming it received sync_time 1e6 s ahead would inflate
     # STR_AFT auto; the CM's context carries the sync_time stamp.
     fields = dict(good('hri_sync/SyncAck'), sync_received=NOW + 1e6,
-                  stamp=NOW + 1e6 + 0.001)
+                  header=hdr(NOW + 1e6 + 0.001))
     ctx = dataclasses.replace(CTX, sync_sent=NOW - 0.003,
                               limits=Limits(future=2e6))
     with pytest.raises(Rejected) as e:
@@ -320,7 +347,7 @@ def test_unusable_results_may_have_no_value():
     (dict(outcome='tie'), 'inconsistent'),
     (dict(scores=[1.0]), 'wrong_length'),
     (dict(scores=[1.0, math.inf]), 'not_finite'),
-    (dict(stamp=math.nan), 'time_not_finite')])
+    (dict(header=hdr(math.nan)), 'time_not_finite')])
 def test_decision_rejections(change, reason):
     assert rejected('hri_sync/Decision', **change).reason == reason
 

@@ -10,7 +10,7 @@ from hri_sync.ros.diagnostics import round_diagnostics
 from hri_sync.ros.inbox import Inbox
 from hri_sync.ros.names import protocol_topic
 from hri_sync.ros.outbox import Publisher
-from hri_sync.ros.params import param, positive, stamp
+from hri_sync.ros.params import header, param, positive, stamp
 from hri_sync.ros.synced_clock import SyncedClock
 from hri_sync.timing.health import client_tally
 from hri_sync.timing.protocol import Capture, ClientSchedule, Late
@@ -74,11 +74,11 @@ class ClientProcess:
         r = self.schedule.on_sync(msg.round, received, time.time(), status)
         no_model = math.isnan(r.stamp)
         self._ack_pub.publish(SyncAck(
-            round=r.round, client_id=r.client_id, ok=r.ok, reason=r.reason,
-            offset=r.offset, uncertainty=r.uncertainty, drift=r.drift,
             # The core's NaN times: no clock model yet, so no time.
-            sync_received=stamp(None if no_model else r.sync_received),
-            stamp=stamp(None if no_model else r.stamp)))
+            header=header(None if no_model else r.stamp), round=r.round,
+            client_id=r.client_id, ok=r.ok, reason=r.reason,
+            offset=r.offset, uncertainty=r.uncertainty, drift=r.drift,
+            sync_received=stamp(None if no_model else r.sync_received)))
         self.tally.record(r.round, 'acked' if r.ok else 'nacked', r.reason)
         if not r.ok:
             rospy.logerr('%s: NACK round %d: %s', self.client_id, msg.round,

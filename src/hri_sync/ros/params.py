@@ -6,6 +6,7 @@ import threading
 import time
 
 import rospy
+from std_msgs.msg import Header
 
 from hri_sync.ros import master_watch, unique
 from hri_sync.ros.lifeline import die_with_parent
@@ -153,6 +154,12 @@ def stamp(t):
     except Rejected as e:
         raise StampError(e.reason, str(e))
     return rospy.Time.from_sec(t)
+
+
+def header(t, frame_id=''):
+    """A std_msgs/Header whose stamp is ``stamp(t)`` (validated; None: a
+    zero time); rospy fills in its seq."""
+    return Header(stamp=stamp(t), frame_id=frame_id)
 
 
 def secs(t):

@@ -39,9 +39,10 @@ class Capture:
 
     @classmethod
     def from_msg(cls, msg):
-        """From a hri_sync/CaptureData, or anything with its fields (``cr_t``
-        a ROS time or float seconds).  Values are not checked here."""
-        cr_t = msg.cr_t
+        """From a hri_sync/CaptureData, or anything with its fields (CR_T
+        is ``header.stamp``, a ROS time or float seconds).  Values are not
+        checked here."""
+        cr_t = msg.header.stamp
         cr_t = cr_t.to_sec() if hasattr(cr_t, 'to_sec') else float(cr_t)
         return cls(msg.round, cr_t, msg.str_aft, msg.dur, list(msg.clients))
 

@@ -292,17 +292,30 @@ def header_stamp(header, what='header'):
     return getattr(header, 'stamp', None)
 
 
+def header_time(header, ctx, optional=False, ahead=0.0, behind=0.0):
+    """The global ``header.stamp`` of a protocol message, checked by
+    ``time_near`` (0 allowed with ``optional``), and its frame_id a
+    bounded text; returns the stamp."""
+    t = header_stamp(header)
+    time_near(t, 'header.stamp', ctx, ahead=ahead, behind=behind,
+              optional=optional)
+    frame = (header.get('frame_id', '') if isinstance(header, dict)
+             else getattr(header, 'frame_id', ''))
+    text(frame, 'header.frame_id', ctx)
+    return t
+
+
 # --- messages of the timing model -----------------------------------------
 
-def sync_time(*, round, stamp, ctx):
-    """/sync_time: the CM opens a round."""
+def sync_time(*, header, round, ctx):
+    """/sync_time: the CM opens a round (header.stamp: when sent)."""
+    header_time(header, ctx)
     round_number(round, ctx)
-    time_near(stamp, 'stamp', ctx)
 
 
-def sync_ack(*, round, client_id, ok, reason, offset, uncertainty, drift,
-             sync_received, stamp, ctx, sent=None):
-    """/sync_ack: a client's ACK or NACK.
+def sync_ack(*, header, round, client_id, ok, reason, offset, uncertainty,
+             drift, sync_received, ctx, sent=None):
+    """/sync_ack: a client's ACK or NACK (header.stamp: when sent).
 
     ``sent`` (else ``ctx.sync_sent``): the stamp of the round's SyncTime,
     when known: then the dispatch latency (``sync_received - sent``) must
@@ -316,17 +329,17 @@ def sync_ack(*, round, client_id, ok, reason, offset, uncertainty, drift,
     text(reason, 'reason', ctx)
     if not ok:
         # A NACK may lack a clock: its numbers are not used.
-        time_near(stamp, 'stamp', ctx, optional=True)
+        header_time(header, ctx, optional=True)
         time_near(sync_received, 'sync_received', ctx, optional=True)
         return
     number(offset, 'offset', -lim.max_offset, lim.max_offset)
     number(uncertainty, 'uncertainty', 0.0, lim.max_uncertainty)
     number(drift, 'drift', -lim.max_drift, lim.max_drift)
-    time_near(stamp, 'stamp', ctx)
+    sent_ack = header_time(header, ctx)
     time_near(sync_received, 'sync_received', ctx)
-    if sync_received > stamp:
+    if sync_received > sent_ack:
         raise Rejected('out_of_order', 'sync_received %.6f is after the '
-                       'ACK was sent (%.6f)' % (sync_received, stamp),
+                       'ACK was sent (%.6f)' % (sync_received, sent_ack),
                        'sync_received')
     if sent is not None:
         latency = sync_received - sent
@@ -337,35 +350,39 @@ def sync_ack(*, round, client_id, ok, reason, offset, uncertainty, drift,
                               lim.max_latency), 'sync_received')
 
 
-def capture_data(*, round, cr_t, str_aft, dur, clients, ctx):
-    """/capture_data: the CM's order for one window."""
+def capture_data(*, header, round, str_aft, dur, clients, ctx):
+    """/capture_data: the CM's order for one window (header.stamp: CR_T,
+    when sent)."""
     lim = ctx.limits
+    cr_t = header_time(header, ctx)
     round_number(round, ctx)
-    time_near(cr_t, 'cr_t', ctx)
     number(str_aft, 'str_aft', lim.min_str_aft, lim.max_str_aft)
     duration(dur, 'dur', ctx)
-    time_value(cr_t + str_aft + dur, 'cr_t + str_aft + dur')
+    time_value(cr_t + str_aft + dur, 'header.stamp + str_aft + dur')
     names(clients, 'clients', ctx, empty=False)
 
 
-def capture_command(*, round, start, end, ctx):
-    """/<id>/capture_command: the CPM's order to its DPM."""
+def capture_command(*, header, round, start, end, ctx):
+    """/<id>/capture_command: the CPM's order to its DPM (header.stamp:
+    when ordered)."""
+    header_time(header, ctx)
     round_number(round, ctx)
     time_near(start, 'start', ctx, ahead=ctx.limits.max_str_aft)
     time_value(end, 'end')
     duration(end - start, 'end - start', ctx)
 
 
-def round_status(*, round, state, reason, acked, refused, missing, stamp,
+def round_status(*, header, round, state, reason, acked, refused, missing,
                  ctx):
-    """/round_status: the CM's state of a round."""
+    """/round_status: the CM's state of a round (header.stamp: the
+    change's global time, 0 when the server's clock is not synced)."""
+    header_time(header, ctx, optional=True)
     round_number(round, ctx)
     choice(state, 'state', ROUND_STATES)
     text(reason, 'reason', ctx)
     for what, items in (('acked', acked), ('refused', refused),
                         ('missing', missing)):
         names(items, what, ctx)
-    time_near(stamp, 'stamp', ctx)
 
 
 def clock_state(*, client_id, ok, reason, local_ref, offset, drift,
@@ -398,12 +415,14 @@ def clock_state(*, client_id, ok, reason, local_ref, offset, drift,
                    'global now by this model')
 
 
-def client_result(*, round, client_id, status, capture_start, capture_end,
-                  frames, frames_rejected, frames_dropped, coverage,
-                  first_frame_offset, wake_lateness, value,
+def client_result(*, header, round, client_id, status, capture_start,
+                  capture_end, frames, frames_rejected, frames_dropped,
+                  coverage, first_frame_offset, wake_lateness, value,
                   timing_uncertainty, diagnostics, ctx):
-    """/client_result: a client's result of one window."""
+    """/client_result: a client's result of one window (header.stamp:
+    when it was made, 0 when the client had no clock model)."""
     lim = ctx.limits
+    header_time(header, ctx, optional=True)
     round_number(round, ctx)
     client_name(client_id, 'client_id', ctx)
     choice(status, 'status', RESULT_STATUSES)
@@ -437,9 +456,11 @@ def client_result(*, round, client_id, status, capture_start, capture_end,
             text(part, 'diagnostics', ctx)
 
 
-def decision(*, round, outcome, winner, clients, scores, reason, stamp,
+def decision(*, header, round, outcome, winner, clients, scores, reason,
              window_end, timing_uncertainty, ctx):
-    """/decision: the DM's verdict."""
+    """/decision: the DM's verdict (header.stamp: when decided, 0 when
+    the server's clock is not synced)."""
+    header_time(header, ctx, optional=True)
     round_number(round, ctx)
     choice(outcome, 'outcome', OUTCOMES)
     names(clients, 'clients', ctx)
@@ -458,7 +479,6 @@ def decision(*, round, outcome, winner, clients, scores, reason, stamp,
         raise Rejected('inconsistent', 'outcome %s names winner %r'
                        % (outcome, winner), 'winner')
     text(reason, 'reason', ctx)
-    time_near(stamp, 'stamp', ctx, optional=True)
     time_value(window_end, 'window_end', optional=True)
     number(timing_uncertainty, 'timing_uncertainty', 0.0,
            ctx.limits.max_dur, nan=True)
@@ -520,25 +540,26 @@ class StampOrder:
 
 # --- the robot's messages ---------------------------------------------------
 
-def action_start(*, round, client_id, action, scheduled, actual, offset,
+def action_start(*, header, round, client_id, action, scheduled, offset,
                  true_time, ctx):
-    """~action_start of DJ Rob and the music: when an action began."""
+    """~action_start of DJ Rob and the music: when an action began
+    (header.stamp, global)."""
+    header_time(header, ctx)
     round_number(round, ctx)
     client_name(client_id, 'client_id', ctx)
     choice(action, 'action', ('dance', 'music'))
     time_near(scheduled, 'scheduled', ctx)
-    time_near(actual, 'actual', ctx)
     number(offset, 'offset', -ctx.limits.max_dur, ctx.limits.max_dur)
     time_value(true_time, 'true_time')
 
 
-def beat(*, round, index, bar_beat, bpm, stamp, ctx):
-    """~beat of the music player."""
+def beat(*, header, round, index, bar_beat, bpm, ctx):
+    """~beat of the music player (header.stamp: the beat's time)."""
+    header_time(header, ctx)
     round_number(round, ctx)
     count(index, 'index', 2 ** 32 - 1)
     count(bar_beat, 'bar_beat', 255)
     number(bpm, 'bpm', 1.0, 1000.0)
-    time_near(stamp, 'stamp', ctx)
 
 
 def twist(*, linear, angular, ctx):

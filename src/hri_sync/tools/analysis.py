@@ -19,7 +19,8 @@ from hri_sync.dance_off.joints import NUM_JOINTS
 from hri_sync.dance_off import verify
 from hri_sync.timing.skew import client_timing, percentiles, start_skew
 from hri_sync.tools.robot_check import check_robot, deg, poses
-from hri_sync.tools.session import (field_or_nan, secs, server_clock)
+from hri_sync.tools.session import (field_or_nan, secs, server_clock,
+                                    stamp_of)
 
 DEFAULT_BEARINGS = [30.0, -30.0]
 DEFAULT_DISTANCE = 1.5
@@ -165,12 +166,12 @@ def decision_rule(config, overrides=None):
 
 def _ack_row(ack, sync):
     m = ack.msg
-    sync_t = secs(sync.msg.stamp) if sync is not None else math.nan
+    sync_t = stamp_of(sync.msg) if sync is not None else math.nan
     return {'ok': bool(m.ok), 'reason': m.reason,
             'offset_s': m.offset, 'uncertainty_ms': ms(m.uncertainty),
             'drift_ppm': m.drift * 1e6,
             'dispatch_ms': ms(secs(m.sync_received) - sync_t),
-            'ack_ms': ms(secs(m.stamp) - sync_t)}
+            'ack_ms': ms(stamp_of(m) - sync_t)}
 
 
 def _result_row(res, frames, truth):
@@ -286,11 +287,11 @@ def summarize_round(session, rnd, clock, pose_list, rule, truth_clients,
     sync = rnd.sync
     if rnd.capture is not None:
         c = rnd.capture.msg
-        row.update({'cr_t': secs(c.cr_t), 'str_aft': c.str_aft,
+        row.update({'cr_t': stamp_of(c), 'str_aft': c.str_aft,
                     'dur': c.dur, 'start': rnd.start,
                     'participants_scheduled': list(c.clients)})
         if sync is not None:
-            row['ack_round_ms'] = ms(secs(c.cr_t) - secs(sync.msg.stamp))
+            row['ack_round_ms'] = ms(stamp_of(c) - stamp_of(sync.msg))
     row['acks'] = {k: _ack_row(a, sync) for k, a in sorted(rnd.acks.items())}
     row['aborted_reason'] = rnd.aborted_reason
     participants = rnd.participants
@@ -341,14 +342,15 @@ def summarize_round(session, rnd, clock, pose_list, rule, truth_clients,
     row['fig5_raw'] = raw5
     row['build_up'] = curves
     if d is not None:
+        decided = stamp_of(d)       # 0: the server's clock was not synced
         row['decision'] = {
             'outcome': d.outcome, 'winner': d.winner,
             'winner_client': participants[d.winner - 1]
             if 1 <= d.winner <= len(participants) else None,
             'reason': d.reason, 'scores': list(d.scores),
-            'stamp': secs(d.stamp) if hasattr(d, 'stamp') else math.nan,
-            'latency_ms': ms(secs(d.stamp) - rnd.end)
-            if hasattr(d, 'stamp') and secs(d.stamp) > 0 else math.nan}
+            'stamp': decided,
+            'latency_ms': ms(decided - rnd.end) if decided > 0
+            else math.nan}
         row['recomputed'] = _recompute(session, rnd, rule)
     row['starts'] = _starts(rnd)
     row['beats'] = len(rnd.beats)
@@ -441,7 +443,7 @@ def summarize(session, rule_overrides=None, tolerance=10.0):
     truth = config.get('truth_clients')
     truth_clients = set(truth) if isinstance(truth, list) else set()
     clock = server_clock(session, SERVER_ID)
-    syncs = [secs(r.sync.msg.stamp) for r in session.rounds.values()
+    syncs = [stamp_of(r.sync.msg) for r in session.rounds.values()
              if r.sync is not None]
     t0 = min(syncs) if syncs else clock.to_global(session.start)
     pose_list = poses(session.odom)
@@ -453,6 +455,7 @@ def summarize(session, rule_overrides=None, tolerance=10.0):
            'topics': {t: k for t, k in sorted(session.topics.items())},
            'old_types': {k: {'bag': v[0], 'package': v[1]}
                          for k, v in session.old_types.items()},
+           'pre_header_types': list(session.pre_header),
            'config': config, 'decision_rule': rule,
            'truth_clients': sorted(truth_clients),
            'heading_tolerance_deg': tolerance,

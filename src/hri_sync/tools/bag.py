@@ -7,6 +7,12 @@ an empty bag, messages recorded with another version of hri_sync's
 message definitions (their md5sums differ from this package's ``msg/``).
 Messages are decoded with the definitions recorded in the bag itself, so
 a field a bag lacks is simply absent from its messages.
+
+One older version is read as a matter of course: the definitions just
+before the timestamped messages got a ``std_msgs/Header`` (``PRE_HEADER``),
+whose global stamp is in its own field (``stamp``, ``cr_t`` of a
+CaptureData, ``actual`` of an ActionStart); ``session.stamp_of`` reads
+both shapes.
 """
 import glob
 import os
@@ -17,6 +23,21 @@ PKG = 'hri_sync'
 MAGIC = b'#ROSBAG V2.0\n'
 OP_MSGDATA, OP_BAGHEADER, OP_IDXDATA, OP_CHUNK, OP_CHUNKINFO, OP_CONN = \
     2, 3, 4, 5, 6, 7
+
+
+# md5sums of the definitions before std_msgs/Header (issue 13): every
+# other field as now.
+PRE_HEADER = {
+    'hri_sync/ActionStart': 'fe01d6e1508656b37f44bd4744df470b',
+    'hri_sync/Beat': 'cccc2c950ebda498796d9c8e2b00cbf0',
+    'hri_sync/CaptureCommand': 'ee29ab455ee0ce7e1aa3e082c61473c9',
+    'hri_sync/CaptureData': '883c9c56a6d7b6333abbe6f2fb39ed6a',
+    'hri_sync/ClientResult': 'acac2b405079bc53753177a99ef9d8de',
+    'hri_sync/Decision': '1eba2c819c38cb6c6e1c0ae637e9e952',
+    'hri_sync/RoundStatus': 'c68b48bc6bd4f04bb0e7962af502264e',
+    'hri_sync/SyncAck': '6aa0903f0f0c64e25807457eb45a269d',
+    'hri_sync/SyncTime': 'e035faab1d0985f73ad882f146234ff7',
+}
 
 
 class BagError(Exception):
@@ -47,6 +68,7 @@ class BagContents:
     topics: dict = field(default_factory=dict)     # topic -> type
     messages: dict = field(default_factory=dict)   # topic -> [Recorded]
     old_types: dict = field(default_factory=dict)  # type -> (bag, ours)
+    pre_header: list = field(default_factory=list)  # types, PRE_HEADER
 
     def of_type(self, msgtype, suffix=''):
         """[Recorded] of every topic of ``msgtype`` (``pkg/Name``) whose
@@ -159,7 +181,8 @@ def read_bag(path, allow_old=False, md5sums=None):
     Raises BagError for an unreadable, unclosed or empty bag, and for
     hri_sync messages recorded with other definitions than this package's
     (unless ``allow_old``: then they are decoded with the bag's own
-    definitions and listed in ``old_types``). ``md5sums``: this package's
+    definitions and listed in ``old_types``); the ``PRE_HEADER`` ones are
+    read and listed in ``pre_header``. ``md5sums``: this package's
     ({type: md5}, default ``current_md5sums()``).
     """
     from rosbags.rosbag1 import Reader, ReaderError
@@ -178,7 +201,12 @@ def read_bag(path, allow_old=False, md5sums=None):
                 kind = conn.msgtype.replace('/msg/', '/')
                 contents.topics[conn.topic] = kind
                 want = ours.get(kind)
-                if want is not None and want != conn.digest:
+                if want is None or want == conn.digest:
+                    pass
+                elif PRE_HEADER.get(kind) == conn.digest:
+                    if kind not in contents.pre_header:
+                        contents.pre_header.append(kind)
+                else:
                     contents.old_types[kind] = (conn.digest, want)
                 if registered.get(conn.msgtype, conn.digest) != conn.digest:
                     raise BagError(

@@ -21,8 +21,8 @@ def round_report(n, acks, capture, results, captured, decision):
     clients = list(capture.clients) if capture else sorted(acks)
     lines = ['round %d' % n]
     if capture:
-        c = Capture(n, capture.cr_t.to_sec(), capture.str_aft, capture.dur,
-                    clients)
+        c = Capture(n, capture.header.stamp.to_sec(), capture.str_aft,
+                    capture.dur, clients)
         lines.append('  window: CR_T %.6f + STR_AFT %.3f s, DUR %.3f s '
                      '(global start %.6f)' % (c.cr_t, c.str_aft, c.dur,
                                               c.start))

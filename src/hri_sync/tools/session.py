@@ -25,12 +25,22 @@ def secs(t):
     return t.sec + t.nanosec * 1e-9
 
 
+# Where a recording made before std_msgs/Header (bag.PRE_HEADER) has
+# the global stamp: SyncTime, SyncAck, RoundStatus, Decision and Beat in
+# ``stamp``, CaptureData in ``cr_t`` (CR_T), ActionStart in ``actual``;
+# CaptureCommand and ClientResult had none.
+PRE_HEADER_STAMPS = ('stamp', 'cr_t', 'actual')
+
+
 def stamp_of(msg):
-    """A message's global stamp: ``stamp`` or ``header.stamp``."""
-    if hasattr(msg, 'stamp'):
-        return secs(msg.stamp)
-    if hasattr(msg, 'header'):
-        return secs(msg.header.stamp)
+    """A message's stamp in s: its ``header.stamp``, or, recorded before
+    the header, its stamp field (``PRE_HEADER_STAMPS``); NaN if none."""
+    header = getattr(msg, 'header', None)
+    if header is not None:
+        return secs(header.stamp)
+    for name in PRE_HEADER_STAMPS:
+        if hasattr(msg, name):
+            return secs(getattr(msg, name))
     return math.nan
 
 
@@ -73,7 +83,7 @@ class Round:
         if self.capture is None:
             return math.nan
         c = self.capture.msg
-        return secs(c.cr_t) + c.str_aft
+        return stamp_of(c) + c.str_aft
 
     @property
     def end(self):
@@ -123,6 +133,7 @@ class Session:
     leds: list = field(default_factory=list)        # [Recorded Led]
     sounds: list = field(default_factory=list)      # [Recorded Sound]
     old_types: dict = field(default_factory=dict)
+    pre_header: list = field(default_factory=list)  # see bag.PRE_HEADER
     start: float = 0.0              # bag time of the first message
     end: float = 0.0
 
@@ -168,6 +179,7 @@ def build_session(contents):
     """Sort ``contents`` (a BagContents) into a Session."""
     s = Session(contents.path, dict(contents.topics),
                 old_types=dict(getattr(contents, 'old_types', {})),
+                pre_header=sorted(getattr(contents, 'pre_header', [])),
                 start=contents.start, end=contents.end)
 
     def each(kind, suffix=''):

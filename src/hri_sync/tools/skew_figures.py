@@ -97,7 +97,8 @@ def analyse_round(n, rec, log_round, clocks, failures, same_sensor=True):
     out['ack_offset_error'] = []
     for c, a in acks.items():
         if c in clocks and a.ok and math.isfinite(a.offset):
-            error = a.offset - clocks[c].offset_at(a.stamp.to_sec())
+            error = a.offset - clocks[c].offset_at(
+                a.header.stamp.to_sec())
             out['ack_offset_error'].append(abs(error))
             out.setdefault('ack_offset_signed', {})[c] = error
     if decision is None:
@@ -110,8 +111,8 @@ def analyse_round(n, rec, log_round, clocks, failures, same_sensor=True):
             fail(failures, 'no_capture_data', 'round %d: no capture_data',
                  n)
         return out
-    out['capture_order'] = (capture.cr_t.to_sec()
-                            - rec.sync[n][1].stamp.to_sec())
+    out['capture_order'] = (capture.header.stamp.to_sec()
+                            - rec.sync[n][1].header.stamp.to_sec())
     out['str_aft'] = capture.str_aft
     results = log_round['results']
     timings = []
