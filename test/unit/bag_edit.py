@@ -7,10 +7,11 @@ from rosbags.rosbag1 import Reader, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 
-def copy_bag(src, dst, edit=None, md5=None):
+def copy_bag(src, dst, edit=None, md5=None, rename=None):
     """Copy ``src`` to ``dst``. ``edit(topic, t_ns, msg)`` returns the
     message to write (changed in place is fine), or None to drop it;
-    ``md5``: {type ('pkg/Name'): md5} to record instead of the real one."""
+    ``md5``: {type ('pkg/Name'): md5} to record instead of the real one;
+    ``rename(topic)``: the topic name to record instead."""
     store = get_typestore(Stores.ROS1_NOETIC)
     with Reader(src) as reader, Writer(dst) as writer:
         conns = {}
@@ -19,7 +20,7 @@ def copy_bag(src, dst, edit=None, md5=None):
                 store.register(get_types_from_msg(c.msgdef.data, c.msgtype))
             kind = c.msgtype.replace('/msg/', '/')
             conns[c.id] = writer.add_connection(
-                c.topic, c.msgtype, msgdef=c.msgdef.data,
+                rename(c.topic) if rename else c.topic, c.msgtype, msgdef=c.msgdef.data,
                 md5sum=(md5 or {}).get(kind, c.digest),
                 callerid=c.ext.callerid, latching=c.ext.latching)
         for c, t, raw in reader.messages():
@@ -109,7 +110,7 @@ def to_header_shape(src, dst, msg_dir):
             if PRE_HEADER.get(kind) == c.digest:
                 msgdef, md5 = new.generate_msgdef(c.msgtype, ros_version=1)
             conns[c.id] = writer.add_connection(
-                c.topic, c.msgtype, msgdef=msgdef, md5sum=md5,
+                rename(c.topic) if rename else c.topic, c.msgtype, msgdef=msgdef, md5sum=md5,
                 callerid=c.ext.callerid, latching=c.ext.latching)
         for c, t, raw in reader.messages():
             if PRE_HEADER.get(c.msgtype.replace('/msg/', '/')) == c.digest:

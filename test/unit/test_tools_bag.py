@@ -39,6 +39,23 @@ def test_session_bag_reads_whole():
                                    'server'}
 
 
+def test_topics_recorded_by_relative_names(tmp_path):
+    # rosbag record in a system's namespace records 'decision', not
+    # '/lab1/decision': read as '/decision', the session is the same.
+    relative = str(tmp_path / 'relative.bag')
+    bag_edit.copy_bag(SESSION, relative,
+                      rename=lambda t: t if t == '/diagnostics'
+                      else t.lstrip('/'))
+    with Reader(relative) as r:
+        assert 'dance_off/config' in {c.topic for c in r.connections}
+    c = bag.read_bag(relative)
+    assert c.messages.get('/dance_off/config') and c.messages.get('/odom')
+    s, whole = build_session(c), build_session(bag.read_bag(SESSION))
+    assert s.config == whole.config and s.config['participant_bearings']
+    assert sorted(s.rounds) == sorted(whole.rounds) == [1, 2]
+    assert set(s.clock_states) == set(whole.clock_states)
+
+
 def test_empty_file_and_empty_bag(tmp_path):
     empty = tmp_path / 'empty.bag'
     empty.write_bytes(b'')

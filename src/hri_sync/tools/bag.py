@@ -175,6 +175,10 @@ def _check_readable(path):
         raise BagError('%s is not a rosbag 2.0 file' % path)
 
 
+def _absolute(topic):
+    return '/' + topic.lstrip('/')
+
+
 def read_bag(path, allow_old=False, md5sums=None):
     """Every message of ``path`` as a BagContents.
 
@@ -183,7 +187,9 @@ def read_bag(path, allow_old=False, md5sums=None):
     (unless ``allow_old``: then they are decoded with the bag's own
     definitions and listed in ``old_types``); the ``PRE_HEADER`` ones are
     read and listed in ``pre_header``. ``md5sums``: this package's
-    ({type: md5}, default ``current_md5sums()``).
+    ({type: md5}, default ``current_md5sums()``).  A topic recorded by
+    its relative name (``rosbag record`` in a system's namespace, as the
+    site files run it: ``decision``) is read as ``/decision``.
     """
     from rosbags.rosbag1 import Reader, ReaderError
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
@@ -199,7 +205,7 @@ def read_bag(path, allow_old=False, md5sums=None):
             registered = {}
             for conn in reader.connections:
                 kind = conn.msgtype.replace('/msg/', '/')
-                contents.topics[conn.topic] = kind
+                contents.topics[_absolute(conn.topic)] = kind
                 want = ours.get(kind)
                 if want is None or want == conn.digest:
                     pass
@@ -230,8 +236,9 @@ def read_bag(path, allow_old=False, md5sums=None):
                                        sorted(contents.old_types.items()))))
             for conn, t_ns, raw in reader.messages():
                 msg = store.deserialize_ros1(raw, conn.msgtype)
-                contents.messages.setdefault(conn.topic, []).append(
-                    Recorded(t_ns * 1e-9, conn.topic, msg))
+                topic = _absolute(conn.topic)
+                contents.messages.setdefault(topic, []).append(
+                    Recorded(t_ns * 1e-9, topic, msg))
             # A topic whose connection holds no message was not recorded.
             contents.topics = {t: k for t, k in contents.topics.items()
                                if t in contents.messages}
