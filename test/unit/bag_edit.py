@@ -20,7 +20,8 @@ def copy_bag(src, dst, edit=None, md5=None, rename=None):
                 store.register(get_types_from_msg(c.msgdef.data, c.msgtype))
             kind = c.msgtype.replace('/msg/', '/')
             conns[c.id] = writer.add_connection(
-                rename(c.topic) if rename else c.topic, c.msgtype, msgdef=c.msgdef.data,
+                rename(c.topic) if rename else c.topic, c.msgtype,
+                msgdef=c.msgdef.data,
                 md5sum=(md5 or {}).get(kind, c.digest),
                 callerid=c.ext.callerid, latching=c.ext.latching)
         for c, t, raw in reader.messages():
@@ -110,7 +111,7 @@ def to_header_shape(src, dst, msg_dir):
             if PRE_HEADER.get(kind) == c.digest:
                 msgdef, md5 = new.generate_msgdef(c.msgtype, ros_version=1)
             conns[c.id] = writer.add_connection(
-                rename(c.topic) if rename else c.topic, c.msgtype, msgdef=msgdef, md5sum=md5,
+                c.topic, c.msgtype, msgdef=msgdef, md5sum=md5,
                 callerid=c.ext.callerid, latching=c.ext.latching)
         for c, t, raw in reader.messages():
             if PRE_HEADER.get(c.msgtype.replace('/msg/', '/')) == c.digest:
