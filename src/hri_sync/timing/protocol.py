@@ -248,8 +248,11 @@ class ClientSchedule:
     (also in holdover, when the time server stopped answering and the
     bound grows with the time since the last good sync), else ACK (with
     the holdover's age and cause as the reason when the measurement
-    failed).  ``on_capture`` turns the capture order of the round it
-    ACKed into a Scheduled window or Late.
+    failed).  With a liveness ``Verdict`` (``hri_sync.timing.liveness``:
+    is the DPM alive, its sensor delivering) that is not ok, it NACKs
+    with the verdict's reason (after the clock's, if both fail).
+    ``on_capture`` turns the capture order of the round it ACKed into a
+    Scheduled window or Late.
     """
 
     def __init__(self, client_id, max_uncertainty=math.inf):
@@ -261,12 +264,14 @@ class ClientSchedule:
         self.acked_round = None
         self.ignored = Counter()
 
-    def on_sync(self, round_id, received, now, status):
+    def on_sync(self, round_id, received, now, status, alive=None):
         """Answer sync_time of ``round_id``: a SyncReply.
 
         ``received`` and ``now`` are local times (sync_time's arrival, the
         answer); ``status`` is the clock's ClockStatus (``model``,
-        ``error``) after the measurement the sync_time triggered.
+        ``error``) after the measurement the sync_time triggered;
+        ``alive`` the liveness Verdict of the DPM behind this CPM (None:
+        none to check).
         """
         model = status.model
         ok, reason = True, ''
@@ -284,6 +289,10 @@ class ClientSchedule:
                                % (now - model.local_ref, status.error))
             else:
                 reason = status.reason(now)
+        if alive is not None and not alive.ok:
+            reason = alive.reason if ok else '%s; %s' % (reason,
+                                                         alive.reason)
+            ok = False
         self.acked_round = round_id if ok else None
         if not model.ready:
             return SyncReply(round_id, self.client_id, ok, reason, math.nan,
