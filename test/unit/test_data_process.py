@@ -96,6 +96,25 @@ def test_a_sensor_that_stops_is_partial_once_its_next_sample_is_overdue():
     (r,) = d.poll(L0 + 1.01 + 0.03)      # the end, plus the margin
     assert r.status == 'partial' and r.frames == 7
     assert r.coverage < 0.9
+    assert r.diagnostics['sensor_silent'] == (
+        'no sample from the sensor for the last 0.660 s of the window')
+
+
+def test_a_sensor_that_never_sent_is_named_in_the_result():
+    d = dp(margin=0.03)
+    start = L0 + OFFSET + 1.0
+    d.open(1, start, start + 1.0)
+    (r,) = d.poll(L0 + 2.0 + 0.03)
+    assert r.diagnostics['sensor_silent'] == (
+        'no sample from the sensor since this DPM started')
+
+
+def test_a_delivering_sensor_is_not_called_silent():
+    d = dp()
+    start = L0 + OFFSET + 0.01
+    d.open(1, start, start + 1.0)
+    (r,) = results(feed(d, ticks(22)))
+    assert 'sensor_silent' not in r.diagnostics
 
 
 def test_late_sample_after_the_result_is_counted_and_named():

@@ -48,6 +48,9 @@ def good(msg_type):
             first_frame_offset=0.01, wake_lateness=0.004, value=3.2,
             timing_uncertainty=0.0002,
             diagnostics=[{'key': 'terms', 'value': '1199'}]),
+        'hri_sync/DpmState': dict(
+            header=dict(header, stamp=NOW - 2.0), client_id='left',
+            input='/left/skeleton', samples=40, sample_age=0.04, rate=20.0),
         'hri_sync/Decision': dict(
             header=hdr(NOW), round=5, outcome='winner', winner=2,
             clients=['left', 'right'], scores=[1.5, 3.2],
@@ -312,6 +315,27 @@ def test_clock_state_not_ok_is_not_checked_further():
     v.check('hri_sync/ClockState', dict(
         good('hri_sync/ClockState'), ok=False, reason='no answer',
         offset=0.0, uncertainty=1e9, samples=0, local_ref=0.0), CTX)
+
+
+@pytest.mark.parametrize('change,reason', [
+    (dict(header={'stamp': NOW + 1000.0}), 'time_in_future'),
+    (dict(header={'stamp': math.nan}), 'time_not_finite'),
+    (dict(client_id='right'), 'wrong_client'),
+    (dict(samples=-1), 'out_of_range'),
+    (dict(sample_age=-0.5), 'out_of_range'),
+    (dict(sample_age=math.inf), 'not_finite'),
+    (dict(rate=math.inf), 'not_finite'),
+    (dict(sample_age=math.nan), 'inconsistent'),
+    (dict(input='x' * 5000), 'text_too_long')])
+def test_dpm_state_rejections(change, reason):
+    ctx = dataclasses.replace(CTX, client='left')
+    assert rejected('hri_sync/DpmState', ctx=ctx, **change).reason == reason
+
+
+def test_dpm_state_before_any_sample():
+    v.check('hri_sync/DpmState', dict(
+        good('hri_sync/DpmState'), samples=0, sample_age=math.nan,
+        rate=math.nan), CTX)
 
 
 @pytest.mark.parametrize('change,reason', [

@@ -5,14 +5,16 @@ from collections import Counter
 
 import rospy
 
-from hri_sync.msg import CaptureData, SyncAck, SyncTime
+from hri_sync.msg import CaptureData, DpmState, SyncAck, SyncTime
 from hri_sync.ros.diagnostics import round_diagnostics
 from hri_sync.ros.inbox import Inbox
 from hri_sync.ros.names import protocol_topic
 from hri_sync.ros.outbox import Publisher
-from hri_sync.ros.params import header, param, positive, stamp
+from hri_sync.ros.params import (ParamError, header, param, positive, stamp,
+                                 wait_for)
 from hri_sync.ros.synced_clock import SyncedClock
 from hri_sync.timing.health import client_tally
+from hri_sync.timing.liveness import Beat, Liveness
 from hri_sync.timing.protocol import Capture, ClientSchedule, Late
 from hri_sync.timing.validate import Context
 
@@ -28,9 +30,17 @@ class ClientProcess:
     /diagnostics: ``clock``, ``rounds`` and ``input`` (the inbox's
     counts, and capture orders the schedule ignored; one for other
     clients is not counted).
+
+    With ``liveness`` (a CPM with a DPM behind it) it ACKs only while
+    that DPM's heartbeat (/<client_id>/dpm_state) is at most
+    ``~dpm_timeout`` s old and its sensor's last sample at most
+    ``~sensor_timeout`` s (<= 0: no sensor to watch); a failing check
+    may turn within ``~liveness_wait`` s (a DPM starting) before the
+    CPM NACKs with its reason.
     """
 
-    def __init__(self, client_id, on_capture, on_late=None, inbox=None):
+    def __init__(self, client_id, on_capture, on_late=None, inbox=None,
+                 liveness=False):
         self.client_id = client_id
         self.on_capture = on_capture
         self.on_late = on_late
@@ -52,6 +62,7 @@ class ClientProcess:
                              context=lambda: self.context(
                                  self.schedule.acked_round),
                              queue_size=10)
+        self.liveness = self._liveness() if liveness else None
         self.tally = client_tally()
         self.diagnostics = round_diagnostics(
             client_id, self.tally, self.synced_clock,
@@ -60,6 +71,36 @@ class ClientProcess:
             capture_topic + ' ' + why: n
             for why, n in dict(self.schedule.ignored).items()
             if why != 'not_a_participant'})
+
+    def _liveness(self):
+        """The liveness rule from ~params, fed by the DPM's heartbeat."""
+        sensor_timeout = param('sensor_timeout', 1.0, float)
+        try:
+            live = Liveness(param('dpm_timeout', 2.0, float),
+                            sensor_timeout if sensor_timeout > 0 else None,
+                            time.time())
+        except ValueError as e:
+            raise ParamError(str(e))
+        self.liveness_wait = param('liveness_wait', 1.0, float,
+                                   lambda x: x >= 0, '>= 0 s')
+
+        def on_state(msg):
+            live.on_beat(Beat(time.time(), msg.input, msg.samples,
+                              msg.sample_age, msg.rate))
+        self.inbox.subscribe(
+            '/%s/dpm_state' % self.client_id, DpmState, on_state, 'dpm',
+            client=self.client_id,
+            context=lambda: Context(local_now=time.time()), queue_size=1)
+        return live
+
+    def alive(self):
+        """The liveness Verdict now (None without a check), waiting up to
+        ~liveness_wait s for a failing one to turn."""
+        if self.liveness is None:
+            return None
+        wait_for(lambda: self.liveness.verdict(time.time()).ok,
+                 self.liveness_wait, poll=0.02)
+        return self.liveness.verdict(time.time())
 
     def context(self, round_id):
         """The global now (when the clock is usable) and ``round_id``
@@ -71,7 +112,9 @@ class ClientProcess:
     def _on_sync_time(self, msg):
         received = time.time()
         status = self.synced_clock.measure()
-        r = self.schedule.on_sync(msg.round, received, time.time(), status)
+        alive = self.alive()
+        r = self.schedule.on_sync(msg.round, received, time.time(), status,
+                                  alive)
         no_model = math.isnan(r.stamp)
         self._ack_pub.publish(SyncAck(
             # The core's NaN times: no clock model yet, so no time.

@@ -334,6 +334,20 @@ class DataProcess:
                             coverage=stats['coverage'],
                             diagnostics=dict(self._totals(), error=why))
 
+    def _silence(self, end, period):
+        """Why the sensor counts as silent at the window's ``end`` (global):
+        no sample ever, or none for more than three periods before it;
+        '' when it was delivering."""
+        if self._last_stamp is None:
+            return 'no sample from the sensor since this DPM started'
+        gap = end - self._last_stamp
+        if not math.isfinite(period):
+            period = self.period
+        if math.isfinite(period) and gap > 3 * period:
+            return ('no sample from the sensor for the last %.3f s of the '
+                    'window' % gap)
+        return ''
+
     def _close(self, w):
         del self.windows[w.round]
         self.closed.append((w.round, w.start, w.end))
@@ -350,6 +364,9 @@ class DataProcess:
             'unstamped': sum(w.rejected[k] for k in (
                 'no_device_stamp', 'bad_device_stamp')),
             'bad_device_stamps': w.rejected['bad_device_stamp']})
+        silent = self._silence(w.end, stats['period'])
+        if silent:
+            diagnostics['sensor_silent'] = silent
         return WindowResult(
             w.round, status, w.start, w.end,
             frames=res.frames_used if res else 0,

@@ -484,6 +484,26 @@ def decision(*, header, round, outcome, winner, clients, scores, reason,
            ctx.limits.max_dur, nan=True)
 
 
+def dpm_state(*, header, client_id, input, samples, sample_age, rate, ctx):
+    """<id>/dpm_state: a DPM's heartbeat for its CPM (same host).
+
+    ``header.stamp`` is the host's local clock, near ``ctx.local_now``;
+    the sample age (NaN before the first sample) and the rate (NaN:
+    unknown) are non-negative.
+    """
+    lim = ctx.limits
+    time_near(header_stamp(header), 'header.stamp',
+              Context(now=ctx.local_now, limits=lim))
+    client_name(client_id, 'client_id', ctx)
+    text(input, 'input', ctx)
+    count(samples, 'samples', 2 ** 32 - 1)
+    number(sample_age, 'sample_age', 0.0, lim.past + lim.future, nan=True)
+    number(rate, 'rate', 0.0, 1e6, nan=True)
+    if samples and math.isnan(sample_age):
+        raise Rejected('inconsistent', '%d samples but no sample age'
+                       % samples, 'sample_age')
+
+
 # --- samples ----------------------------------------------------------------
 
 def skeleton(*, header, client_id, user_id, device_stamp, positions,
@@ -615,6 +635,7 @@ VALIDATORS = {
     'hri_sync/RoundStatus': round_status,
     'hri_sync/ClockState': clock_state,
     'hri_sync/ClientResult': client_result,
+    'hri_sync/DpmState': dpm_state,
     'hri_sync/Decision': decision,
     'hri_sync/Skeleton': skeleton,
     'hri_sync/Sample': sample,
