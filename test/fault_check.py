@@ -11,6 +11,10 @@ decided round is won by participant 2), and its defined outcome.
   or, once the DPM is respawned, is decided with left's result; the last
   round is decided with it.  Then the recorder is stopped and round 1
   (before the fault) must be whole in the bag.
+- ``dpm_frozen``: left's DPM frozen (SIGSTOP) mid-window of round 2, so
+  its heartbeat stops: round 2 is decided over right naming left's
+  missing result, round 3 aborts with left NACKing "dpm not alive";
+  after SIGCONT a later round is decided with left.
 - ``cpm_killed``: left's CPM frozen (SIGSTOP) after round 1's decision,
   so it cannot ACK round 2, and SIGKILLed once round 2 aborted naming
   left ("no ACK from left"); it is respawned and a later round is
@@ -25,7 +29,8 @@ decided round is won by participant 2), and its defined outcome.
   sensor; after SIGCONT a later round is decided with left again.
 
 Each step has a generous deadline (none is a timing assertion); every
-node of the dance-off must be alive at the end.
+node of the dance-off but the CM and the round monitor (done with their
+rounds) must be alive at the end.
 """
 import os
 import signal
@@ -44,8 +49,9 @@ from hri_sync.ros.round_log import RoundLog
 from hri_sync.tools.harness import alive
 
 CALLER = '/fault_check'
-NODES = ['/control_module', '/decision_module', '/left/cpm', '/left/dpm',
-         '/right/cpm', '/right/dpm', '/left/sensor', '/right/sensor']
+# Alive at the end (the CM and round monitor exit after their rounds).
+NODES = ['/decision_module', '/left/cpm', '/left/dpm', '/right/cpm',
+         '/right/dpm', '/left/sensor', '/right/sensor']
 STEP = 90.0            # s: deadline of each step (generous, not a bound)
 
 
@@ -179,6 +185,25 @@ class Fault(unittest.TestCase):
         self.assertNotEqual(node_pid('/left/dpm'), old,
                             'left/dpm was not respawned')
         self.check_bag()
+
+    def check_dpm_frozen(self):
+        self.assert_won_by_right(1, with_left=True)
+        self.mid_window(2)
+        frozen = self.signal_node('/left/dpm', signal.SIGSTOP)
+        try:
+            d = self.wait_decision(2)
+            self.assertEqual((d.outcome, d.winner), ('winner', 2), d.reason)
+            self.assertIn('left has no usable result (missing)', d.reason)
+            d = self.wait_decision(3)
+            self.assertEqual(d.outcome, 'aborted', d.reason)
+            ack = self.record(3)['acks'].get('left')
+            self.assertIsNotNone(ack, 'round 3: no ACK/NACK of left')
+            self.assertFalse(ack.ok)
+            self.assertTrue(ack.reason.startswith(
+                'dpm not alive: no dpm_state for'), ack.reason)
+        finally:
+            os.kill(frozen, signal.SIGCONT)
+        self.later_rounds_recover(4, 'left refused (dpm not alive')
 
     def check_cpm_killed(self):
         self.assert_won_by_right(1, with_left=True)
