@@ -200,7 +200,7 @@ def subscribed_topics(exclude):
 # The protocol role that owns a topic, by its last name component.
 ROLES = {'sync_time': 'cm', 'capture_data': 'cm', 'round_status': 'cm',
          'decision': 'dm', 'sync_ack': 'cpm', 'client_result': 'dpm',
-         'clock_state': 'cpm', 'capture_command': 'cpm',
+         'clock_state': 'cpm', 'capture_command': 'cpm', 'dpm_state': 'dpm',
          'skeleton': 'sensor', 'captured': 'dpm', 'odom': 'base',
          'velocity': 'robot', 'led1': 'robot', 'led2': 'robot',
          'sound': 'robot'}

@@ -157,6 +157,24 @@ def test_a_malformed_window_is_an_error_and_a_repeated_command_ignored():
     assert d.counts['duplicate_command'] == 1
 
 
+def test_a_conflicting_command_for_a_closed_round_is_captured():
+    # A forged order of round 2 came and went; the CPM's own, for another
+    # window, is captured, and the conflict counted.
+    d = dp(margin=0.03)
+    forged = L0 + OFFSET + 0.01
+    d.open(2, forged, forged + 0.5)
+    (r,) = d.poll(L0 + 0.6)
+    start = L0 + OFFSET + 1.0
+    d.open(2, start, start + 1.0)
+    assert d.counts['conflicting_command'] == 1
+    assert 2 in d.windows
+    assert d.open(2, start, start + 0.5).results == []   # open: ignored
+    assert d.counts['conflicting_command'] == 2
+    assert d.windows[2].end == start + 1.0
+    assert d.open(2, forged, forged + 0.5).results == []  # a repeat
+    assert d.counts['duplicate_command'] == 1
+
+
 def test_wake_lateness_is_measured_against_the_window_start():
     d = dp()
     start = L0 + OFFSET + 0.5

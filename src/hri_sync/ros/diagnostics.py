@@ -164,7 +164,8 @@ class ProcessDiagnostics:
             time.monotonic()))
         diagnostics.add_tally('results', self.results)
         diagnostics.rejections(lambda: {
-            '%s %s' % (command_topic if why == 'duplicate_command'
+            '%s %s' % (command_topic if why in ('duplicate_command',
+                                                'conflicting_command')
                        else input_topic, why): n
             for why, n in counts().items() if why != 'settling'}, *sources)
 

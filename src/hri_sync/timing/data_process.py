@@ -263,12 +263,26 @@ class DataProcess:
     def open(self, round_id, start, end):
         """A capture command for [start, end) (global).  Returns a Step:
         the samples of the history already in the window, and an error
-        result when the window cannot be captured."""
+        result when the window cannot be captured.
+
+        A repeated command is ignored ('duplicate_command'); one for a
+        round whose window is open with other times too, while one for
+        a round already closed with other times is captured (the CPM
+        orders once per round: an earlier order of that round was not
+        its own, e.g. a forged one); both count 'conflicting_command'.
+        """
         step = Step()
-        if round_id in self.windows or any(
-                r == round_id for r, _, _ in self.closed):
+        if (round_id, start, end) in self.closed or (
+                round_id in self.windows
+                and (self.windows[round_id].start,
+                     self.windows[round_id].end) == (start, end)):
             self.counts['duplicate_command'] += 1
             return step
+        if round_id in self.windows or any(
+                r == round_id for r, _, _ in self.closed):
+            self.counts['conflicting_command'] += 1
+            if round_id in self.windows:
+                return step
         why = None
         if self.clock is None:
             why = 'no clock_state from the CPM'
