@@ -13,7 +13,8 @@ decided round is won by participant 2), and its defined outcome.
   (before the fault) must be whole in the bag.
 - ``dpm_frozen``: left's DPM frozen (SIGSTOP) mid-window of round 2, so
   its heartbeat stops: round 2 is decided over right naming left's
-  missing result, round 3 aborts with left NACKing "dpm not alive";
+  missing result, round 3 aborts with left NACKing "dpm not alive"
+  (and its CPM's ``dpm`` status on /diagnostics is ERROR saying so);
   after SIGCONT a later round is decided with left.
 - ``cpm_killed``: left's CPM frozen (SIGSTOP) after round 1's decision,
   so it cannot ACK round 2, and SIGKILLed once round 2 aborted naming
@@ -41,7 +42,7 @@ from xmlrpc.client import ServerProxy
 import rosgraph
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 from hri_sync.msg import RoundStatus
 from hri_sync.ros.inbox import Inbox
@@ -86,6 +87,7 @@ class Fault(unittest.TestCase):
         rospy.Subscriber('/round_status', RoundStatus, cls.statuses.append,
                          queue_size=100)
         cls.diagnostics = {}
+        cls.levels = {}
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics,
                          queue_size=100)
 
@@ -93,6 +95,7 @@ class Fault(unittest.TestCase):
     def on_diagnostics(cls, msg):
         for s in msg.status:
             cls.diagnostics[s.name] = {kv.key: kv.value for kv in s.values}
+            cls.levels.setdefault(s.name, []).append((s.level, s.message))
 
     # -- helpers -------------------------------------------------------------
 
@@ -201,6 +204,12 @@ class Fault(unittest.TestCase):
             self.assertFalse(ack.ok)
             self.assertTrue(ack.reason.startswith(
                 'dpm not alive: no dpm_state for'), ack.reason)
+            self.assertTrue(wait(lambda: any(
+                level == DiagnosticStatus.ERROR
+                and m.startswith('dpm not alive')
+                for level, m in self.levels.get('left/cpm: dpm', [])),
+                10.0), "/diagnostics: no ERROR 'dpm not alive' from "
+                'left/cpm: dpm')
         finally:
             os.kill(frozen, signal.SIGCONT)
         self.later_rounds_recover(4, 'left refused (dpm not alive')

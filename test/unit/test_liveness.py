@@ -150,3 +150,18 @@ def test_sample_meter_silent_sensor_has_no_rate_but_an_age():
     assert samples == 10
     assert age == pytest.approx(9.55)
     assert math.isnan(rate)
+
+
+def test_health_for_diagnostics():
+    live = rule(started=99.0)
+    h = live.health(100.0)
+    assert h.level == 2 and h.message.startswith('dpm not alive')
+    assert h.message.endswith(': NACKs')
+    live.on_beat(beat(100.0, age=0.05, rate=20.0))
+    h = live.health(100.5)
+    assert (h.level, h.message) == (
+        0, 'dpm alive, sensor /left/skeleton at 20.0 Hz')
+    assert h.value('sample_age') == '0.550'
+    assert h.value('dpm_state_age') == '0.500'
+    h = live.health(101.5)
+    assert h.level == 2 and 'sensor /left/skeleton silent' in h.message

@@ -67,6 +67,9 @@ class ClientProcess:
         self.diagnostics = round_diagnostics(
             client_id, self.tally, self.synced_clock,
             self.schedule.max_uncertainty)
+        if self.liveness is not None:
+            self.diagnostics.add('dpm', lambda: self.liveness.health(
+                time.time()))
         self.diagnostics.rejections(self.inbox.summary, lambda: {
             capture_topic + ' ' + why: n
             for why, n in dict(self.schedule.ignored).items()

@@ -13,6 +13,8 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
+from hri_sync.timing.health import ERROR, OK, Health, text
+
 
 @dataclass
 class Beat:
@@ -90,6 +92,27 @@ class Liveness:
                            '(~sensor_timeout %.1f s)'
                            % (beat.input, age, self.sensor_timeout))
         return Verdict(True)
+
+    def health(self, now):
+        """The rule's state at ``now`` for /diagnostics: OK while alive,
+        ERROR with the verdict's reason (the CPM NACKs) otherwise."""
+        v = self.verdict(now)
+        beat = self.last
+        values = (('dpm_timeout', text(self.dpm_timeout)),
+                  ('sensor_timeout', text(self.sensor_timeout)))
+        if beat is not None:
+            values += (('dpm_state_age', text(now - beat.received)),
+                       ('sensor', beat.input),
+                       ('samples', text(beat.samples)),
+                       ('sample_age', text(beat.sample_age
+                                           + now - beat.received)),
+                       ('rate', text(beat.rate, '%.1f')))
+        if not v.ok:
+            return Health(ERROR, v.reason + ': NACKs', values)
+        if self.sensor_timeout is None:
+            return Health(OK, 'dpm alive', values)
+        return Health(OK, 'dpm alive, sensor %s at %s Hz'
+                      % (beat.input, text(beat.rate, '%.1f')), values)
 
 
 class SampleMeter:
