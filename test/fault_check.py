@@ -24,6 +24,12 @@ decided round is won by participant 2), and its defined outcome.
   node during the session; every flood message any CPM saw is rejected
   as from the wrong sender and counted on /diagnostics, none acted on,
   and every round is decided for participant 2.
+- ``sensor_killed``: left's replay sensor SIGKILLed in the middle of
+  round 1's window: the launch goes on (the sensor is respawned, not
+  required); round 1 is decided for participant 2 with a result of left
+  (partial, or ok if the new sensor filled the window); each later round
+  aborts naming left's silent sensor or is decided with left, the last
+  one with it.
 - ``sensor_silent``: left's replay sensor frozen (SIGSTOP) in the middle
   of round 1's window: left's round 1 result is partial and says the
   sensor went silent; round 2 aborts with left's CPM NACKing naming the
@@ -256,6 +262,15 @@ class Fault(unittest.TestCase):
             self.assertLessEqual(counted(), sent)
             # Only the CM's own orders were acted on.
             self.assertLessEqual(accepted, self.rounds, values)
+
+    def check_sensor_killed(self):
+        self.mid_window(1)
+        old = self.signal_node('/left/sensor', signal.SIGKILL)
+        self.assert_won_by_right(1, with_left=True)
+        self.later_rounds_recover(2, 'left refused (sensor /left/skeleton '
+                                     'silent')
+        self.assertNotEqual(node_pid('/left/sensor'), old,
+                            'left/sensor was not respawned')
 
     def check_sensor_silent(self):
         self.mid_window(1)
