@@ -1,8 +1,8 @@
 #!/usr/bin/python3
 """Checks a client whose tracker names a sensor that does not exist (issue 13).
 
-client.launch runs the skeleton_tracker with required="true", so a tracker
-that gave up would take the launch down with it.  Over ``~duration`` s:
+A tracker that gave up would exit (client.launch respawns it, and its
+failed_opens count would start over).  Over ``~duration`` s:
 every /diagnostics status of the tracker is an ERROR naming the device URI
 and the retry, its failed_opens count goes up (it keeps retrying), no
 skeleton is published, and the tracker, CPM and DPM still answer at the end.
