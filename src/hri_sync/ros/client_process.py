@@ -32,7 +32,7 @@ class ClientProcess:
     clients is not counted).
 
     With ``liveness`` (a CPM with a DPM behind it) it ACKs only while
-    that DPM's heartbeat (/<client_id>/dpm_state) is at most
+    that DPM's heartbeat (``dpm_state`` in its namespace) is at most
     ``~dpm_timeout`` s old and its sensor's last sample at most
     ``~sensor_timeout`` s (<= 0: no sensor to watch); a failing check
     may turn within ``~liveness_wait`` s (a DPM starting) before the
@@ -91,7 +91,7 @@ class ClientProcess:
             live.on_beat(Beat(time.time(), msg.input, msg.samples,
                               msg.sample_age, msg.rate))
         self.inbox.subscribe(
-            '/%s/dpm_state' % self.client_id, DpmState, on_state, 'dpm',
+            'dpm_state', DpmState, on_state, 'dpm',
             client=self.client_id,
             context=lambda: Context(local_now=time.time()), queue_size=1)
         return live
