@@ -8,7 +8,7 @@ import rospy
 from hri_sync.msg import CaptureData, DpmState, SyncAck, SyncTime
 from hri_sync.ros.diagnostics import round_diagnostics
 from hri_sync.ros.inbox import Inbox
-from hri_sync.ros.names import protocol_topic
+from hri_sync.ros.names import client_topic, protocol_topic
 from hri_sync.ros.outbox import Publisher
 from hri_sync.ros.params import (ParamError, header, param, positive, stamp,
                                  wait_for)
@@ -77,21 +77,22 @@ class ClientProcess:
 
     def _liveness(self):
         """The liveness rule from ~params, fed by the DPM's heartbeat."""
-        sensor_timeout = param('sensor_timeout', 1.0, float)
+        sensor_timeout = param('sensor_timeout', 2.0, float)
         try:
             live = Liveness(param('dpm_timeout', 2.0, float),
                             sensor_timeout if sensor_timeout > 0 else None,
                             time.time())
         except ValueError as e:
             raise ParamError(str(e))
-        self.liveness_wait = param('liveness_wait', 1.0, float,
+        self.liveness_wait = param('liveness_wait', 1.5, float,
                                    lambda x: x >= 0, '>= 0 s')
 
         def on_state(msg):
             live.on_beat(Beat(time.time(), msg.input, msg.samples,
                               msg.sample_age, msg.rate))
         self.inbox.subscribe(
-            'dpm_state', DpmState, on_state, 'dpm',
+            client_topic(self.client_id, 'dpm_state'), DpmState, on_state,
+            'dpm',
             client=self.client_id,
             context=lambda: Context(local_now=time.time()), queue_size=1)
         return live
