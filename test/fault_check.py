@@ -318,13 +318,15 @@ class Fault(unittest.TestCase):
                  'captured': 0}
         with rosbag.Bag(path) as bag:
             for topic, msg, _ in bag.read_messages():
-                if topic == '/capture_data' and msg.round == 1:
+                # The recorder records relative names: 'capture_data'.
+                topic = topic.lstrip('/')
+                if topic == 'capture_data' and msg.round == 1:
                     found['capture'] += 1
-                elif topic == '/client_result' and msg.round == 1:
+                elif topic == 'client_result' and msg.round == 1:
                     found['results'].add(msg.client_id)
-                elif topic == '/decision' and msg.round == 1:
+                elif topic == 'decision' and msg.round == 1:
                     found['decision'] += 1
-                elif topic == '/left/captured' and (
+                elif topic == 'left/captured' and (
                         start <= msg.header.stamp.to_sec() < start + c.dur):
                     found['captured'] += 1
         self.assertEqual(found['capture'], 1, found)
@@ -339,6 +341,7 @@ class Fault(unittest.TestCase):
         self.assertGreater(found['captured'], 0, found)
         self.assertLessEqual(found['captured'],
                              left.frames + left.frames_rejected)
+        os.remove(path)
 
 
 if __name__ == '__main__':
