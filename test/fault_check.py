@@ -53,6 +53,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from hri_sync.msg import RoundStatus
 from hri_sync.ros.inbox import Inbox
 from hri_sync.ros.round_log import RoundLog
+from hri_sync.timing.protocol import Capture
 from hri_sync.tools.harness import alive
 
 CALLER = '/fault_check'
@@ -138,9 +139,8 @@ class Fault(unittest.TestCase):
         clock is the time server's: all on one host, none faked)."""
         self.assertTrue(wait(lambda: self.record(n).get('capture')),
                         'round %d: no capture_data' % n)
-        c = self.record(n)['capture']
-        time.sleep(max(0.0, c.cr_t.to_sec() + c.str_aft + c.dur / 2
-                       - time.time()))
+        c = Capture.from_msg(self.record(n)['capture'])
+        time.sleep(max(0.0, c.start + c.dur / 2 - time.time()))
 
     def signal_node(self, name, sig):
         pid = node_pid(name)
@@ -312,8 +312,7 @@ class Fault(unittest.TestCase):
         self.assertTrue(wait(lambda: os.path.exists(path) and not
                              os.path.exists(path + '.active'), 30.0),
                         'the recorder did not close %s' % path)
-        c = self.record(1)['capture']
-        start = c.cr_t.to_sec() + c.str_aft
+        c = Capture.from_msg(self.record(1)['capture'])
         found = {'capture': 0, 'results': set(), 'decision': 0,
                  'captured': 0}
         with rosbag.Bag(path) as bag:
@@ -327,7 +326,7 @@ class Fault(unittest.TestCase):
                 elif topic == 'decision' and msg.round == 1:
                     found['decision'] += 1
                 elif topic == 'left/captured' and (
-                        start <= msg.header.stamp.to_sec() < start + c.dur):
+                        c.start <= msg.header.stamp.to_sec() < c.end):
                     found['captured'] += 1
         self.assertEqual(found['capture'], 1, found)
         self.assertEqual(found['results'], {'left', 'right'}, found)

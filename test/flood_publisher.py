@@ -10,6 +10,7 @@ import random
 import time
 
 import rospy
+from std_msgs.msg import Header
 
 from hri_sync.msg import CaptureData
 
@@ -26,8 +27,8 @@ def main():
     due = time.monotonic()
     while sent < count and not rospy.is_shutdown():
         pub.publish(CaptureData(
-            round=rng.randint(1, rounds), cr_t=rospy.Time.from_sec(
-                time.time()), str_aft=0.5, dur=3.0,
+            header=Header(stamp=rospy.Time.from_sec(time.time())),
+            round=rng.randint(1, rounds), str_aft=0.5, dur=3.0,
             clients=['left', 'right']))
         sent += 1
         due += 1.0 / rate
