@@ -52,6 +52,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 from hri_sync.msg import RoundStatus
 from hri_sync.ros.inbox import Inbox
+from hri_sync.ros.params import wait_for
 from hri_sync.ros.round_log import RoundLog
 from hri_sync.timing.protocol import Capture
 from hri_sync.tools.harness import alive
@@ -73,12 +74,8 @@ def node_pid(name):
 
 
 def wait(predicate, timeout=STEP):
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline or rospy.is_shutdown():
-            return predicate()
-        time.sleep(0.05)
-    return True
+    """Poll ``predicate`` until true or ``timeout`` s; its last value."""
+    return wait_for(predicate, timeout, poll=0.05)
 
 
 class Fault(unittest.TestCase):

@@ -13,7 +13,6 @@ clients' nodes stay alive.
 """
 import os
 import signal
-import time
 import unittest
 from xmlrpc.client import ServerProxy
 
@@ -23,6 +22,7 @@ import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 from hri_sync.msg import CaptureData, RoundStatus
+from hri_sync.ros.params import wait_for
 from hri_sync.ros.round_log import RoundLog
 from hri_sync.tools.harness import alive, descendants
 
@@ -47,12 +47,8 @@ def children(pid):
 
 
 def wait(predicate, timeout):
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline or rospy.is_shutdown():
-            return predicate()
-        time.sleep(0.1)
-    return True
+    """Poll ``predicate`` until true or ``timeout`` s; its last value."""
+    return wait_for(predicate, timeout, poll=0.1)
 
 
 class TimeServerDies(unittest.TestCase):
