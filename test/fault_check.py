@@ -43,9 +43,7 @@ import os
 import signal
 import time
 import unittest
-from xmlrpc.client import ServerProxy
 
-import rosgraph
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
@@ -54,23 +52,14 @@ from hri_sync.msg import RoundStatus
 from hri_sync.ros.inbox import Inbox
 from hri_sync.ros.params import wait_for
 from hri_sync.ros.round_log import RoundLog
+from hri_sync.ros.unique import node_pid
 from hri_sync.timing.protocol import Capture
 from hri_sync.tools.harness import alive
 
-CALLER = '/fault_check'
 # Alive at the end (the CM and round monitor exit after their rounds).
 NODES = ['/decision_module', '/left/cpm', '/left/dpm', '/right/cpm',
          '/right/dpm', '/left/sensor', '/right/sensor']
 STEP = 90.0            # s: deadline of each step (generous, not a bound)
-
-
-def node_pid(name):
-    """The pid of ROS node ``name`` (None when it is gone)."""
-    try:
-        uri = rosgraph.Master(CALLER).lookupNode(name)
-        return ServerProxy(uri).getPid(CALLER)[2]
-    except Exception:       # not registered, or not answering: gone
-        return None
 
 
 def wait(predicate, timeout=STEP):

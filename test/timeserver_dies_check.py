@@ -14,9 +14,7 @@ clients' nodes stay alive.
 import os
 import signal
 import unittest
-from xmlrpc.client import ServerProxy
 
-import rosgraph
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
@@ -24,20 +22,11 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from hri_sync.msg import CaptureData, RoundStatus
 from hri_sync.ros.params import wait_for
 from hri_sync.ros.round_log import RoundLog
+from hri_sync.ros.unique import node_pid
 from hri_sync.tools.harness import alive, descendants
 
-CALLER = '/timeserver_dies_check'
 SURVIVORS = ['/control_module', '/decision_module', '/a/cpm', '/a/dpm',
              '/b/cpm', '/b/dpm']
-
-
-def node_pid(name):
-    """The pid of ROS node ``name`` (None when it is gone)."""
-    try:
-        uri = rosgraph.Master(CALLER).lookupNode(name)
-        return ServerProxy(uri).getPid(CALLER)[2]
-    except Exception:       # not registered, or not answering: gone
-        return None
 
 
 def children(pid):

@@ -74,11 +74,11 @@ class _Timeout(xmlrpc.client.Transport):
         return conn
 
 
-def check(name, timeout=3.0):
-    """Raise ``Duplicate`` if a live node is registered as ``name`` on
-    this process's master; nothing if the master cannot be reached (the
-    node's own start waits for it)."""
-    master = rosgraph.Master('/hri_sync_unique_check')
+def live_node(name, timeout=3.0, caller='/hri_sync_unique_check'):
+    """(uri, pid) of a live node registered as ``name`` on this process's
+    master, else None; OSError or rosgraph.MasterException when the master
+    cannot be reached."""
+    master = rosgraph.Master(caller)
 
     def lookup(n):
         try:
@@ -89,19 +89,36 @@ def check(name, timeout=3.0):
     def ping(uri):
         try:
             code, _, pid = xmlrpc.client.ServerProxy(
-                uri, transport=_Timeout(timeout)).getPid(
-                    '/hri_sync_unique_check')
+                uri, transport=_Timeout(timeout)).getPid(caller)
         except (OSError, xmlrpc.client.Error):
             return None
         return pid if code == 1 else None
 
+    return live_duplicate(name, lookup, ping)
+
+
+def node_pid(name, timeout=3.0):
+    """The pid of live node ``name``; None when it is gone (or the master
+    cannot be reached)."""
     try:
-        found = live_duplicate(name, lookup, ping)
+        found = live_node(name, timeout)
+    except (OSError, rosgraph.MasterException):
+        return None
+    return found[1] if found else None
+
+
+def check(name, timeout=3.0):
+    """Raise ``Duplicate`` if a live node is registered as ``name`` on
+    this process's master; nothing if the master cannot be reached (the
+    node's own start waits for it)."""
+    try:
+        found = live_node(name, timeout)
     except (OSError, rosgraph.MasterException):
         return
     if found:
         try:
-            client_id = master.getParam(name + '/client_id')
+            client_id = rosgraph.Master('/hri_sync_unique_check').getParam(
+                name + '/client_id')
         except (OSError, rosgraph.MasterException):
             client_id = None
         raise Duplicate(message(name, found[0], found[1],
