@@ -32,6 +32,7 @@ class RoundLog:
 
     def __init__(self, clients, captured_type=None, inbox=None):
         self.rounds = {}
+        self.captured_clients = list(clients) if captured_type else []
         self.lock = threading.Lock()
         topics = (('sync_ack', SyncAck, 'acks', 'cpm'),
                   ('capture_data', CaptureData, 'capture', 'cm'),
@@ -84,3 +85,14 @@ class RoundLog:
                         if c and c.start <= s[0] < c.end:
                             r['captured'].setdefault(client, []).append(s)
             self._pending = {}
+
+    def missing_captured(self, n):
+        """Clients of round ``n`` whose result used more samples than
+        their captured topic has brought so far (a DPM republishes a
+        window's last samples after its result)."""
+        self.assign_captured()
+        with self.lock:
+            r = self.round(n)
+            return [c for c in self.captured_clients if c in r['results']
+                    and len(r['captured'].get(c, [])) <
+                    r['results'][c].frames]
