@@ -51,13 +51,13 @@ unit: setup
 check: setup
 	@$(ROOT)/scripts/check_package.sh
 
-# A fresh catkin_make install runs the nodes and tools (test/install_space.sh).
+# A fresh catkin_make install runs the nodes and tools (test/system/install_space.sh).
 test-install: setup
-	@$(ROOT)/test/install_space.sh
+	@$(ROOT)/test/system/install_space.sh
 
-# The site launch files on four network namespaces (root; test/site_multihost.py).
+# The site launch files on four network namespaces (root; test/system/site_multihost.py).
 test-site: setup
-	@$(SOURCE) && $(ROS_PY) $(ROOT)/test/site_multihost.py
+	@$(SOURCE) && $(ROS_PY) $(ROOT)/test/system/site_multihost.py
 
 rostest: setup
 	@$(SOURCE) && $(ROS_PY) $(ROOT)/scripts/run_rostests.py $(ROOT)/test

@@ -97,8 +97,8 @@ install(DIRECTORY include/hri_sync/
   DESTINATION ${CATKIN_PACKAGE_INCLUDE_DESTINATION})
 
 if(CATKIN_ENABLE_TESTING)
-  # Built with everything (make build), run by test/tracker_gtest.test in make test.
-  catkin_add_gtest(tracker_gtest test/tracker_gtest.cpp)
+  # Built with everything (make build), run by test/rostest/tracker_gtest.test in make test.
+  catkin_add_gtest(tracker_gtest test/unit/tracker_gtest.cpp)
   target_link_libraries(tracker_gtest hri_sync_tracker_core)
   target_compile_definitions(tracker_gtest PRIVATE HRI_SYNC_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
   set_target_properties(tracker_gtest PROPERTIES

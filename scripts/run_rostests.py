@@ -3,8 +3,8 @@
 
     run_rostests.py TEST_DIR [NAME_SUBSTRING ...]
 
-Runs TEST_DIR/*.test with rostest, then the script-driven tests,
-TEST_DIR/scripted/test_*.py, with pytest: those need what rostest cannot
+Runs TEST_DIR/rostest/*.test with rostest, then the script-driven tests,
+TEST_DIR/system/test_*.py, with pytest: those need what rostest cannot
 give (e.g. a master they restart) and start their own processes.  Each
 test's full output goes to .ws/test_logs/<name>.log; a failing test's
 tail is printed.  The last line is 'rostest: N passed, N failed'; the exit
@@ -53,8 +53,8 @@ def main():
     logs = os.path.join(root, '.ws', 'test_logs')
     results = os.path.join(root, '.ws', 'test_results')
     os.makedirs(logs, exist_ok=True)
-    files = sorted(glob.glob(os.path.join(test_dir, '*.test'))) + sorted(
-        glob.glob(os.path.join(test_dir, 'scripted', 'test_*.py')))
+    files = sorted(glob.glob(os.path.join(test_dir, 'rostest', '*.test'))) + \
+        sorted(glob.glob(os.path.join(test_dir, 'system', 'test_*.py')))
     files = [f for f in files if not wanted or any(w in f for w in wanted)]
     passed, failed = [], []
     for f in files:

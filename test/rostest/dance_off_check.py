@@ -1,0 +1,239 @@
+#!/usr/bin/python3
+"""Checks one dance-off round (issue 3) run by test/rostest/dance_off_round.launch.
+
+Listens to /client_result, /decision and both /<client_id>/captured
+streams and, after the round, checks:
+- the decision is ~expect (no_winner, participant1, participant2 or
+  aborted), over the clients left and right, with scores equal to the
+  usable results' values (NaN for a result without data);
+- a client whose result is not usable (~expect_status_<client> no_data)
+  is named in the decision's reason;
+- each result: status ~expect_status_<client> (default ok), frames and
+  coverage fitting a ~rate Hz sensor over DUR (a silent sensor: partial
+  coverage below 1 and the decision says the result was partial), first
+  frame within one sensor period of the start, a finite score, and as many
+  captured frames republished as the DPM used plus rejected;
+- scores against ~min_expressiveness: below for a still person, above for
+  a mover;
+- with ~nan_joints > 0: NaN joints were counted and the score stays finite;
+- with ~drop > 0: each DPM saw gaps (frames_dropped > 0);
+- with ~verify: records the round with rosbag, then runs verify_decisions
+  on the bag, which must exit 0 and recompute the recorded decision.
+"""
+import math
+import os
+import subprocess
+import tempfile
+import threading
+import time
+import unittest
+
+import rospkg
+import rospy
+import rostest
+
+from hri_sync.msg import ClientResult, Decision, Skeleton
+from hri_sync.tools.harness import stop_group
+
+CLIENTS = ('left', 'right')
+MARGIN = 0.005       # s: device clock map error and rounding at the edges
+RECORD = ['/sync_time', '/sync_ack', '/capture_data', '/round_status',
+          '/client_result', '/decision', '/dance_off/config',
+          '/left/captured', '/right/captured']
+
+
+def diag(result, key):
+    for kv in result.diagnostics:
+        if kv.key == key:
+            return kv.value
+    return None
+
+
+class DanceOffRound(unittest.TestCase):
+    """One round through sensors, protocol, DPMs and DM."""
+
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('dance_off_check')
+        cls.expect = rospy.get_param('~expect')
+        cls.rate = rospy.get_param('~rate', 20.0)
+        cls.dur = rospy.get_param('~dur')
+        cls.min_value = rospy.get_param('~min_expressiveness', 1.0)
+        cls.still = rospy.get_param('~still', '').split(',')
+        cls.movers = rospy.get_param('~movers', '').split(',')
+        cls.nan_joints = rospy.get_param('~nan_joints', 0.0)
+        cls.drop = rospy.get_param('~drop', 0.0)
+        cls.verify = rospy.get_param('~verify', False)
+        cls.timeout = rospy.get_param('~timeout', 60.0)
+        cls.statuses = {c: rospy.get_param('~expect_status_' + c, 'ok')
+                        for c in CLIENTS}
+        cls.lock = threading.Lock()
+        cls.results, cls.captured, cls.decisions = {}, {}, []
+        cls.sent = {c: [] for c in CLIENTS}
+        cls.recorder = None
+        if cls.verify:
+            cls.bag = os.path.join(tempfile.mkdtemp(prefix='dance_off_'),
+                                   'round.bag')
+            cls.recorder = subprocess.Popen(
+                ['rosbag', 'record', '-O', cls.bag] + RECORD,
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                start_new_session=True)
+        rospy.Subscriber('/client_result', ClientResult, cls.on_result)
+        rospy.Subscriber('/decision', Decision, cls.on_decision)
+        for c in CLIENTS:
+            rospy.Subscriber('/%s/captured' % c, Skeleton, cls.on_captured,
+                             c, queue_size=10000)
+            rospy.Subscriber('/%s/skeleton' % c, Skeleton,
+                             lambda m, c=c: cls.sent[c].append(
+                                 m.device_stamp.to_sec()),
+                             queue_size=10000)
+        deadline = time.time() + cls.timeout
+        while not rospy.is_shutdown() and time.time() < deadline:
+            with cls.lock:
+                if cls.decisions:
+                    break
+            time.sleep(0.1)
+        # Results and captured frames come on connections of their own: a
+        # loaded checker may read them after the decision.  Wait for every
+        # result and, in each window, the frames the result counts.
+        deadline = time.time() + cls.timeout
+        while not rospy.is_shutdown() and time.time() < deadline \
+                and not cls.all_arrived():
+            time.sleep(0.1)
+        if cls.recorder is not None:
+            # Ctrl-C to the recorder's process group (rosbag's wrapper and
+            # its record child), then wait for the bag to be closed.
+            stop_group(cls.recorder, timeout=15)
+            deadline = time.time() + 15
+            while time.time() < deadline and (
+                    os.path.exists(cls.bag + '.active')
+                    or not os.path.exists(cls.bag)):
+                time.sleep(0.1)
+
+    @classmethod
+    def all_arrived(cls):
+        """True once every client's result and each result's captured
+        frames arrived."""
+        with cls.lock:
+            if set(cls.results) < set(CLIENTS):
+                return False
+            for c, r in cls.results.items():
+                window = [m for m in cls.captured.get(c, [])
+                          if r.capture_start <= m.header.stamp
+                          < r.capture_end]
+                if len(window) < r.frames + r.frames_rejected:
+                    return False
+        return True
+
+    @classmethod
+    def on_result(cls, msg):
+        with cls.lock:
+            cls.results[msg.client_id] = msg
+
+    @classmethod
+    def on_captured(cls, msg, client):
+        with cls.lock:
+            cls.captured.setdefault(client, []).append(msg)
+
+    @classmethod
+    def on_decision(cls, msg):
+        with cls.lock:
+            cls.decisions.append(msg)
+
+    def decision(self):
+        self.assertTrue(self.decisions, 'no /decision within %.0f s'
+                        % self.timeout)
+        return self.decisions[0]
+
+    def test_decision(self):
+        d = self.decision()
+        self.assertEqual(list(d.clients), list(CLIENTS))
+        if self.expect in ('no_winner', 'aborted'):
+            self.assertEqual((d.outcome, d.winner), (self.expect, 0),
+                             d.reason)
+        else:
+            number = int(self.expect[-1])
+            self.assertEqual((d.outcome, d.winner), ('winner', number),
+                             d.reason)
+        for c, score in zip(CLIENTS, d.scores):
+            self.assertIn(c, self.results)
+            if self.statuses[c] in ('ok', 'partial'):
+                self.assertEqual(score, self.results[c].value)
+            else:
+                self.assertTrue(math.isnan(score), (c, score))
+                self.assertIn('%s has no usable result (%s)'
+                              % (c, self.statuses[c]), d.reason)
+        if any(s == 'partial' for s in self.statuses.values()):
+            self.assertIn('partial', d.reason)
+
+    def test_results(self):
+        self.decision()
+        period = 1.0 / self.rate
+        for c in CLIENTS:
+            r = self.results.get(c)
+            self.assertIsNotNone(r, 'no result from %s' % c)
+            self.assertEqual(r.status, self.statuses[c], c)
+            if r.status == 'no_data':
+                self.assertEqual((r.frames, r.coverage), (0, 0.0), c)
+                self.assertFalse(self.captured.get(c), c)
+                continue
+            self.assertTrue(math.isfinite(r.value), c)
+            self.assertGreaterEqual(r.first_frame_offset, 0.0)
+            window = [m for m in self.captured.get(c, [])
+                      if r.capture_start <= m.header.stamp < r.capture_end]
+            self.assertEqual(len(window), r.frames + r.frames_rejected, c)
+            # What the sensor sent (its device stamps are the true clock,
+            # which the time server serves): the DPM kept every frame of
+            # the window's interior and started with the first one after
+            # the start.  A loaded sensor may skip ticks; that is no loss.
+            start, end = r.capture_start.to_sec(), r.capture_end.to_sec()
+            sent = [t for t in self.sent[c] if start + MARGIN <= t
+                    < end - MARGIN]
+            kept = {round(m.device_stamp.to_sec(), 6) for m in window}
+            lost = [t for t in sent if round(t, 6) not in kept]
+            self.assertEqual(lost, [], '%s: %d sent frames not captured'
+                             % (c, len(lost)))
+            first_sent = min((t for t in self.sent[c] if t >= start),
+                             default=end)
+            self.assertLessEqual(r.first_frame_offset,
+                                 first_sent - start + MARGIN, c)
+            rospy.loginfo('%s: first frame %.1f ms after the start, %d of '
+                          '%d ticks kept', c, r.first_frame_offset * 1e3,
+                          len(window), int(self.dur * self.rate))
+            if r.status == 'ok':
+                self.assertGreaterEqual(r.coverage, 0.9, c)
+                self.assertLessEqual(r.frames, self.dur * self.rate + 1)
+            elif r.status == 'partial':
+                self.assertLess(r.coverage, 0.9, c)
+                self.assertGreater(r.coverage, 0.0, c)
+            if c in self.still:
+                self.assertLess(r.value, self.min_value, c)
+            if c in self.movers:
+                self.assertGreater(r.value, self.min_value, c)
+            if self.nan_joints > 0:
+                self.assertGreater(int(diag(r, 'nonfinite_joints')), 0, c)
+            if self.drop > 0:
+                self.assertGreater(r.frames_dropped, 0, c)
+
+    def test_verify_decisions(self):
+        if not self.verify:
+            self.skipTest('~verify is off for this round')
+        self.decision()
+        self.assertTrue(os.path.exists(self.bag), 'rosbag record made no bag'
+                        + (' (still .active)' if os.path.exists(
+                            self.bag + '.active') else ''))
+        tool = os.path.join(rospkg.RosPack().get_path('hri_sync'), 'nodes',
+                            'verify_decisions')
+        out = subprocess.run(['/usr/bin/python3', tool, self.bag],
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                             universal_newlines=True, timeout=60)
+        self.assertEqual(out.returncode, 0, out.stdout)
+        d = self.decisions[0]
+        self.assertIn('recomputed %s (participant %d)' % (d.outcome, d.winner)
+                      if d.winner else 'recomputed %s' % d.outcome,
+                      out.stdout)
+        self.assertIn('all 1 rounds agree', out.stdout)
+
+
+if __name__ == '__main__':
+    rostest.rosrun('hri_sync', 'dance_off_check', DanceOffRound)

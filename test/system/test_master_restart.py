@@ -1,0 +1,200 @@
+"""A ROS master restart: the nodes say so, exit and come back registered.
+
+Script-driven (rostest owns its master and cannot restart it): starts a
+master on a free port, roslaunches test/system/master_restart.launch against it
+(a CM serving ~start_round, the DM, one client with a C++ tracker, a
+recorder), runs a round, kills the
+master and starts a new one on the same port, then waits for every node
+to be registered with the new master, the CM's ~start_round to be back
+and to go on from the next round number.  Deadlines are generous: they
+bound a hang, not a speed.  Run by scripts/run_rostests.py (make test)
+with the workspace sourced.
+"""
+import os
+import signal
+import socket
+import subprocess
+import tempfile
+import time
+import xmlrpc.client
+
+import pytest
+import rosbag
+import rosgraph
+
+NODES = ['/control_module', '/decision_module', '/a/cpm', '/a/dpm',
+         '/reference', '/a/tracker', '/recorder']
+SERVICE = '/control_module/start_round'
+DEADLINE = 120.0   # s for nodes to (re)register; a hang, not a speed
+LAUNCH = os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                      'master_restart.launch')
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]
+
+
+def wait(what, predicate, timeout=DEADLINE, poll=0.5):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(poll)
+    pytest.fail('%s: not within %.0f s' % (what, timeout))
+
+
+def stop(proc, sig=signal.SIGINT, timeout=30.0):
+    """Stop a process group we started; SIGKILL if it lingers."""
+    if proc.poll() is not None:
+        return
+    try:
+        os.killpg(proc.pid, sig)
+        proc.wait(timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(timeout)
+    except ProcessLookupError:
+        pass
+
+
+class Session:
+    """A master we own, a roslaunch against it, their logs."""
+
+    def __init__(self, tmp):
+        self.port = free_port()
+        self.uri = 'http://127.0.0.1:%d/' % self.port
+        self.tmp = tmp
+        self.env = dict(os.environ, ROS_MASTER_URI=self.uri,
+                        ROS_HOME=tmp, ROS_LOG_DIR=os.path.join(tmp, 'log'))
+        self.master = None
+        self.masters = 0
+        self.launch_log = os.path.join(tmp, 'roslaunch.log')
+        self.bag = os.path.join(tmp, 'session.bag')
+        self.launch = None
+
+    def start_master(self):
+        self.masters += 1
+        log = open(os.path.join(self.tmp, 'master%d.log' % self.masters),
+                   'w')
+        self.master = subprocess.Popen(
+            ['rosmaster', '--core', '-p', str(self.port)], env=self.env,
+            stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        return wait('master %d answering' % self.masters, self.master_pid,
+                    timeout=60.0)
+
+    def master_pid(self):
+        try:
+            return rosgraph.Master('/test', self.uri).getPid()
+        except (OSError, rosgraph.MasterException):
+            return None
+
+    def lookup(self, kind, name):
+        try:
+            return getattr(rosgraph.Master('/test', self.uri),
+                           'lookup' + kind)(name)
+        except (OSError, rosgraph.MasterException):
+            return None
+
+    def connected(self, node, topic):
+        """Whether ``node`` has a live connection on ``topic``."""
+        uri = self.lookup('Node', node)
+        try:
+            _code, _msg, links = xmlrpc.client.ServerProxy(uri).getBusInfo(
+                '/test')
+        except (OSError, TypeError, xmlrpc.client.Error):
+            return False
+        return any(link[4] == topic and link[5] for link in links)
+
+    def start_launch(self):
+        out = open(self.launch_log, 'w')
+        self.launch = subprocess.Popen(
+            ['roslaunch', LAUNCH, 'bag:=' + self.bag],
+            env=self.env, stdout=out, stderr=subprocess.STDOUT,
+            start_new_session=True)
+
+    def start_round(self):
+        """Call ~start_round; its response's message."""
+        out = subprocess.run(['rosservice', 'call', SERVICE], env=self.env,
+                             capture_output=True, text=True, timeout=120)
+        assert out.returncode == 0, out.stdout + out.stderr
+        return out.stdout
+
+    def log(self):
+        with open(self.launch_log) as f:
+            return f.read()
+
+    def close(self):
+        if self.launch is not None:
+            stop(self.launch)
+        if self.master is not None:
+            stop(self.master, signal.SIGTERM)
+
+
+@pytest.fixture
+def session():
+    with tempfile.TemporaryDirectory(prefix='hri_sync_master_') as tmp:
+        s = Session(tmp)
+        try:
+            yield s
+        finally:
+            s.close()
+
+
+def registered(s, before=None):
+    """Every node's URI when all are registered (and, given ``before``,
+    all with a new process), else None."""
+    uris = {n: s.lookup('Node', n) for n in NODES}
+    if not all(uris.values()) or not s.lookup('Service', SERVICE):
+        return None
+    if before and any(uris[n] == before[n] for n in NODES):
+        return None
+    return uris
+
+
+def test_nodes_come_back_registered_after_a_master_restart(session):
+    s = session
+    first_pid = s.start_master()
+    s.start_launch()
+    before = wait('every node registered', lambda: registered(s))
+    reply = s.start_round()
+    # No time server answers: the round aborts at once, and counts.
+    assert 'round 1 aborted: the server cannot reach its time server' \
+        in reply, reply
+
+    stop(s.master, signal.SIGKILL)
+    second_pid = s.start_master()
+    assert second_pid != first_pid
+    after = wait('every node registered with the new master',
+                 lambda: registered(s, before))
+    assert set(after) == set(NODES)
+    # The respawned tracker (C++) found its private params on the new master.
+    assert 'virtual://' in rosgraph.Master('/test', s.uri).getParam(
+        '/a/tracker/device')
+
+    log = s.log()
+    for node in NODES:
+        assert ('the ROS master at %s restarted' % s.uri) in log
+        assert ('no longer knows %s at %s' % (node, before[node])) in log
+    assert 'exits (status 75)' in log
+    assert 'exit code 75' in log           # roslaunch saw it and respawned
+
+    # The respawned CM serves ~start_round and goes on from round 2.
+    reply = s.start_round()
+    assert 'round 2 aborted: the server cannot reach its time server' \
+        in reply, reply
+    assert s.launch.poll() is None, 'roslaunch ended:\n' + log[-3000:]
+
+    # The recorder closed its first bag at the restart and records on into
+    # a second one: round 1 is in the first, round 2 (latched) in the second.
+    wait('the new recorder connected to /round_status',
+         lambda: s.connected('/recorder', '/round_status'))
+    stop(s.launch)
+    rounds = {}
+    for path in (s.bag, s.bag[:-4] + '.restart1.bag'):
+        with rosbag.Bag(path) as bag:
+            rounds[path] = {m.round for _t, m, _s in
+                            bag.read_messages(topics=['/round_status'])}
+    assert list(rounds.values()) == [{1}, {2}], rounds
