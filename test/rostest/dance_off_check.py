@@ -33,7 +33,7 @@ import rospy
 import rostest
 
 from hri_sync.msg import ClientResult, Decision, Skeleton
-from hri_sync.tools.harness import stop_group
+from hri_sync.tools.procs import stop_group
 
 CLIENTS = ('left', 'right')
 MARGIN = 0.005       # s: device clock map error and rounding at the edges
