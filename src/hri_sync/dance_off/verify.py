@@ -12,7 +12,7 @@ with the decision module's rule and parameters. Reading a recording is
 import math
 from dataclasses import dataclass, field
 
-from hri_sync.timing.decision import ABORTED, decide
+from hri_sync.timing.decision import ABORTED, USABLE, decide
 from hri_sync.dance_off.expressiveness import (DEFAULT_MIN_CONFIDENCE,
                                                SkeletonExpressiveness)
 from hri_sync.timing.processors import Frame
@@ -87,7 +87,7 @@ def check_client(result, captured):
     if frames:
         check.first_frame_offset = frames[0].stamp - start
     check.value_recomputed = res.value if frames else math.nan
-    if result.status in ('ok', 'partial'):
+    if result.status in USABLE:
         if res.frames_used != result.frames:
             check.problems.append('frames %d recorded, %d recomputed'
                                   % (result.frames, res.frames_used))
@@ -115,13 +115,13 @@ def check_round(decision, results, captured, config, aborted_reason=None):
             continue
         c = check_client(result, captured.get(client, []))
         check.clients.append(c)
-        value = c.value_recomputed if result.status in ('ok', 'partial') \
+        value = c.value_recomputed if result.status in USABLE \
             else math.nan
         recomputed[client] = (result.status, value)
     for client, score in zip(participants, decision.scores):
         result = results.get(client)
         recorded = result.value if result is not None and \
-            result.status in ('ok', 'partial') else math.nan
+            result.status in USABLE else math.nan
         if not _close(score, recorded):
             check.problems.append('decision score of %s %.9g differs from its '
                                   'result %.9g' % (client, score, recorded))

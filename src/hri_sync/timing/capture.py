@@ -17,8 +17,10 @@ from collections import Counter, deque
 import numpy as np
 
 from hri_sync.timing.processors import Frame, WindowRun
+from hri_sync.timing.vocabulary import MIN_COVERAGE, ResultStatus
 
-OK, PARTIAL, NO_DATA, ERROR = 'ok', 'partial', 'no_data', 'error'
+OK, PARTIAL, NO_DATA, ERROR = (ResultStatus.OK, ResultStatus.PARTIAL,
+                               ResultStatus.NO_DATA, ResultStatus.ERROR)
 
 
 class SampleBuffer:
@@ -413,7 +415,7 @@ class CaptureWindow:
             self.completed_by = 'timeout'
         return self.complete
 
-    def finish(self, min_coverage=0.9):
+    def finish(self, min_coverage=MIN_COVERAGE):
         """Process the remaining samples; returns (status, ProcessResult
         or None, window_stats dict, error text)."""
         while self._waiting:
