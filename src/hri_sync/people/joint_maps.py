@@ -7,7 +7,8 @@ person's own, in every format. Positions convert into the Skeleton frame
 (x to the sensor's right, y up, z away from the sensor, metres):
 
 - Kinect v1 and v2 SDK camera space: x grows to the sensor's left, so
-  x is negated (``KINECT_AXES``);
+  x is negated (``KINECT_AXES``); hri_sync's own ``<client>_sensor`` tf
+  frames have these axes too (``hri_sync.dance_off.frames``);
 - Azure Kinect (k4abt) depth camera: x right, y down, z forward, so y is
   negated (``OPTICAL_AXES``);
 - a REP 103 frame (x forward, y left, z up: ``openni_depth_frame``, a
@@ -99,3 +100,11 @@ def select(points, names, joint_map):
         if all(s in index for s in sources):
             out[j] = np.mean([points[index[s]] for s in sources], axis=0)
     return out
+
+
+def from_skeleton_frame(points, convention):
+    """The inverse of ``to_skeleton_frame``."""
+    p = np.asarray(points, dtype=float)
+    if convention == 'rep103':
+        return np.stack([p[..., 2], -p[..., 0], p[..., 1]], axis=-1)
+    return to_skeleton_frame(p, convention)     # its own inverse

@@ -10,6 +10,9 @@ score; nothing is assumed from the user id:
   several are in it at once, the one first seen there stays;
 - the participant is *lost* when its frames stop for ``lost_after`` s (a
   tracking loss) or its torso leaves the zone;
+- a new user id where the participant was a moment ago (torsos within
+  ``same_place`` m: two people cannot be that close) is the tracker
+  re-identifying the participant: a *switch*, counted, with no loss;
 - after a loss, the next person inside the zone continues the
   participant: a new user id there (the tracker re-identified the same
   person) is a *switch*, counted; the same id coming back is a *resume*;
@@ -89,11 +92,14 @@ def body_point(positions):
 class ParticipantSelector:
     """Chooses the participant's frames in one window [start, end)."""
 
-    def __init__(self, zone=None, lost_after=0.5, start=0.0, end=0.0):
+    def __init__(self, zone=None, lost_after=0.5, start=0.0, end=0.0,
+                 same_place=0.25):
         if not lost_after > 0:
             raise ValueError('lost_after must be > 0 s, not %r' % lost_after)
         self.zone = zone
         self.lost_after = float(lost_after)
+        self.same_place = float(same_place)
+        self.where = None         # its last body point
         self.start, self.end = float(start), float(end)
         self.current = None       # user id followed, or None
         self.previous = None      # the last one followed
@@ -144,12 +150,22 @@ class ParticipantSelector:
         if self.current is None:
             if inside:
                 self._follow(stamp, user_id)
+                self.where = point
                 return PARTICIPANT
+        elif user_id != self.current and inside and self.where is not None \
+                and np.linalg.norm(point - self.where) < self.same_place:
+            self.present += max(0.0, stamp - self.since)
+            self.previous = self.current
+            self._follow(stamp, user_id)
+            self.where = point
+            return PARTICIPANT
         elif user_id == self.current:
             # A frame without a usable joint stays the participant's (the
             # score counts it as rejected); one out of the zone is a leave.
             if inside or point is None:
                 self.last_seen = stamp
+                if point is not None:
+                    self.where = point
                 return PARTICIPANT
             self._lose(stamp, 'left_zone')
         elif inside:
