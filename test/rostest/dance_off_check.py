@@ -17,6 +17,8 @@ streams and, after the round, checks:
   a mover;
 - with ~nan_joints > 0: NaN joints were counted and the score stays finite;
 - with ~drop > 0: each DPM saw gaps (frames_dropped > 0);
+- ~expect_diagnostics ('client:key>value;client:key=value'): a result's
+  field (frames_dropped...) or diagnostic compared with a number;
 - with ~verify: records the round with rosbag, then runs verify_decisions
   on the bag, which must exit 0 and recompute the recorded decision.
 """
@@ -64,6 +66,9 @@ class DanceOffRound(unittest.TestCase):
         cls.nan_joints = rospy.get_param('~nan_joints', 0.0)
         cls.drop = rospy.get_param('~drop', 0.0)
         cls.verify = rospy.get_param('~verify', False)
+        cls.expect_diagnostics = [
+            e.strip() for e in rospy.get_param(
+                '~expect_diagnostics', '').split(';') if e.strip()]
         cls.timeout = rospy.get_param('~timeout', 60.0)
         cls.statuses = {c: rospy.get_param('~expect_status_' + c, 'ok')
                         for c in CLIENTS}
@@ -214,6 +219,17 @@ class DanceOffRound(unittest.TestCase):
                 self.assertGreater(int(diag(r, 'nonfinite_joints')), 0, c)
             if self.drop > 0:
                 self.assertGreater(r.frames_dropped, 0, c)
+        for expect in self.expect_diagnostics:
+            client, _, rule = expect.partition(':')
+            op = '>' if '>' in rule else '='
+            key, _, value = rule.partition(op)
+            r = self.results[client]
+            got = getattr(r, key) if hasattr(r, key) else diag(r, key)
+            self.assertIsNotNone(got, '%s: no %s' % (client, key))
+            if op == '>':
+                self.assertGreater(float(got), float(value), expect)
+            else:
+                self.assertEqual(str(got), value, expect)
 
     def test_verify_decisions(self):
         if not self.verify:
