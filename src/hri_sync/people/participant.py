@@ -68,6 +68,8 @@ class Zone:
             except ValueError:
                 raise ValueError('participant zone %r is not 4 numbers'
                                  % spec)
+        if len(spec) == 1 and isinstance(spec[0], (list, tuple)):
+            spec = spec[0]          # [[...]]: a launch arg in brackets
         if len(spec) != 4:
             raise ValueError('a participant zone is [x_min, x_max, z_min, '
                              'z_max], not %r' % (spec,))
