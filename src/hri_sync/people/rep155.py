@@ -16,9 +16,10 @@ lookup of any link in the sensor frame gives the tracked joint.
 """
 import numpy as np
 
-from hri_sync.dance_off.frames import quaternion, skeleton_point
+from hri_sync.dance_off.frames import quaternion
 from hri_sync.dance_off.joints import INDEX
 from hri_sync.people.adapters import HUMAN_LINKS
+from hri_sync.people.joint_maps import from_skeleton_frame
 
 # Links placed at a tracked joint; the others sit at their parent.
 AT_JOINT = {
@@ -57,12 +58,14 @@ def body_axes(points):
     return np.column_stack([np.cross(y, z), y, z])
 
 
-def body_transforms(body_id, positions):
+def body_transforms(body_id, positions, convention='kinect'):
     """[(parent, child, (x, y, z), (qx, qy, qz, qw))] of one body, the
     first from the sensor frame (parent ``None``: the caller names it),
     or [] when the hips and neck are not tracked. ``positions``: (15, 3)
-    in the Skeleton frame."""
-    points = np.array([skeleton_point(p) for p in positions], dtype=float)
+    in the Skeleton frame; ``convention``: the sensor frame's axes
+    (hri_sync.people.joint_maps; 'kinect', x left, y up, z forward, is
+    hri_sync's own <client>_sensor frame)."""
+    points = from_skeleton_frame(positions, convention)
     axes = body_axes(points)
     if axes is None:
         return []
