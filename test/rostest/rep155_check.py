@@ -104,6 +104,7 @@ class Rep155(unittest.TestCase):
         bad = Skeleton(client_id='left', user_id=9)
         bad.header.stamp = rospy.Time.now()
         bad.header.frame_id = 'left_sensor'
+        bad.device_stamp = bad.header.stamp
         bad.confidence = [math.nan] * 15
         for p in bad.positions:
             p.x, p.y, p.z = 0.0, 1.0, 2.0
