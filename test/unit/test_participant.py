@@ -140,3 +140,18 @@ def test_processor_absent_participant_has_no_data():
 def test_processor_bad_zone_param():
     with pytest.raises(ValueError):
         SkeletonExpressiveness(participant_zone=[1, 2, 3])
+
+
+def test_zone_in_the_world_frame():
+    # a sensor at (3, 0, 1) m looking back along -x (yaw pi): a person 2 m
+    # in front of it, straight ahead, stands at world x 1, y 0
+    zone = Zone.parse('0.5, 1.5, -0.5, 0.5', '3 0 1 3.14159265 0')
+    assert zone.contains((0.0, 0.0, 2.0))
+    # the Skeleton's x is the sensor's right: 1 m to its right is world
+    # y +1 (the sensor looks along -x, so its right is +y)
+    assert not zone.contains((1.0, 0.0, 2.0))
+    assert Zone.parse('0.5, 1.5, 0.5, 1.5', [3, 0, 1, 3.14159265, 0]
+                      ).contains((1.0, 0.0, 2.0))
+    assert Zone.parse('1 2 3 4', '') == Zone(1, 2, 3, 4)
+    with pytest.raises(ValueError):
+        Zone.parse('1 2 3 4', '1 2 3')

@@ -184,7 +184,9 @@ class SkeletonExpressiveness(Processor):
     Skeleton frame, or empty: the whole view) and ``lost_after`` (s, 0.5):
     with several people on the topic only the participant's frames are
     scored (``hri_sync.people.participant``); the others' are rejected
-    and counted (``bystander_frames``). T is the window (end - start),
+    and counted (``bystander_frames``). With ``zone_sensor_pose`` ([x, y,
+    z, yaw, pitch] of the sensor in world) the zone is [x_min, x_max,
+    y_min, y_max] in the world frame. T is the window (end - start),
     stamps are the frames' global stamps. A message without 15 positions
     and 15 confidences is rejected as malformed. Incremental: ``add``
     updates the running sum, ``result`` reads it.
@@ -193,10 +195,10 @@ class SkeletonExpressiveness(Processor):
     msg_type = 'hri_sync/Skeleton'
 
     def __init__(self, min_confidence=DEFAULT_MIN_CONFIDENCE,
-                 participant_zone=None, lost_after=0.5):
+                 participant_zone=None, lost_after=0.5, zone_sensor_pose=None):
         super().__init__()
         self.min_confidence = float(min_confidence)
-        self.zone = Zone.parse(participant_zone)
+        self.zone = Zone.parse(participant_zone, zone_sensor_pose)
         self.lost_after = float(lost_after)
         self.begin(0.0, 0.0)
 

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hri_sync.dance_off.frames import SENSOR, rotation, skeleton_point
 from hri_sync.dance_off.joints import INDEX
 
 TORSO = INDEX['torso']
@@ -36,15 +37,26 @@ PARTICIPANT, BYSTANDER = 'participant', 'bystander'
 
 @dataclass(frozen=True)
 class Zone:
-    """A floor rectangle in the sensor's Skeleton frame (m: x to the
-    sensor's right, z away from it); heights are not limited."""
+    """A floor rectangle, heights not limited: in the sensor's Skeleton
+    frame (m: x to the sensor's right, z away from it) or, with
+    ``sensor_pose``, in the world frame (REP 103: its x and y; the second
+    pair of bounds is then y)."""
 
     x_min: float
     x_max: float
     z_min: float
     z_max: float
+    sensor_pose: tuple = None   # (x, y, z, yaw, pitch) of the sensor in world
 
     def __post_init__(self):
+        if self.sensor_pose is not None:
+            pose = tuple(float(v) for v in self.sensor_pose)
+            if len(pose) != 5 or not all(math.isfinite(v) for v in pose):
+                raise ValueError('a sensor pose is [x, y, z, yaw, pitch] '
+                                 '(m, rad), not %r' % (self.sensor_pose,))
+            rot = rotation(pose[3], pose[4], SENSOR)
+            object.__setattr__(self, 'sensor_pose', pose)
+            object.__setattr__(self, '_rot', rot)
         values = (self.x_min, self.x_max, self.z_min, self.z_max)
         if not all(isinstance(v, (int, float)) and math.isfinite(v)
                    for v in values) or self.x_min >= self.x_max \
@@ -54,31 +66,45 @@ class Zone:
                              % (values,))
 
     @classmethod
-    def parse(cls, spec):
+    def parse(cls, spec, sensor_pose=None):
         """A Zone from ``[x_min, x_max, z_min, z_max]`` (a list or a
-        string of 4 numbers), None for an empty spec (no zone)."""
+        string of 4 numbers), None for an empty spec (no zone); with
+        ``sensor_pose`` (a list or string of 5 numbers, or empty) in
+        the world frame."""
         if spec is None or (isinstance(spec, str) and not spec.strip()) \
                 or (isinstance(spec, (list, tuple)) and not spec):
             return None
-        if isinstance(spec, str):
-            try:
-                spec = [float(v) for v in
-                        spec.replace('[', ' ').replace(']', ' ')
-                        .replace(',', ' ').split()]
-            except ValueError:
-                raise ValueError('participant zone %r is not 4 numbers'
-                                 % spec)
-        if len(spec) == 1 and isinstance(spec[0], (list, tuple)):
-            spec = spec[0]          # [[...]]: a launch arg in brackets
+        spec = _numbers(spec)
         if len(spec) != 4:
             raise ValueError('a participant zone is [x_min, x_max, z_min, '
                              'z_max], not %r' % (spec,))
-        return cls(*(float(v) for v in spec))
+        pose = _numbers(sensor_pose) if sensor_pose is not None else []
+        return cls(*(float(v) for v in spec), sensor_pose=pose or None)
 
     def contains(self, p):
-        """Whether point ``p`` (x, y, z) is in the zone (NaN: not)."""
-        return bool(self.x_min <= p[0] <= self.x_max
-                    and self.z_min <= p[2] <= self.z_max)
+        """Whether Skeleton-frame point ``p`` (x, y, z; sensor frame) is
+        in the zone (NaN: not)."""
+        if self.sensor_pose is None:
+            a, b = p[0], p[2]
+        else:
+            w = self._rot @ np.asarray(skeleton_point(p)) + \
+                np.asarray(self.sensor_pose[:3])
+            a, b = w[0], w[1]
+        return bool(self.x_min <= a <= self.x_max
+                    and self.z_min <= b <= self.z_max)
+
+
+def _numbers(spec):
+    """A list of floats from a list or a string of numbers."""
+    if isinstance(spec, str):
+        try:
+            return [float(v) for v in spec.replace('[', ' ').replace(
+                ']', ' ').replace(',', ' ').split()]
+        except ValueError:
+            raise ValueError('%r is not a list of numbers' % spec)
+    if len(spec) == 1 and isinstance(spec[0], (list, tuple)):
+        spec = spec[0]
+    return [float(v) for v in spec]
 
 
 def body_point(positions):
