@@ -155,3 +155,16 @@ def test_zone_in_the_world_frame():
     assert Zone.parse('1 2 3 4', '') == Zone(1, 2, 3, 4)
     with pytest.raises(ValueError):
         Zone.parse('1 2 3 4', '1 2 3')
+
+
+def test_processor_params_recorded_for_a_recompute():
+    """verify_decisions remakes the processor from a result's diagnostics."""
+    proc = SkeletonExpressiveness(0.4, participant_zone='-0.5, 0.5, 1.5, 3',
+                                  lost_after=0.7,
+                                  zone_sensor_pose=[1, 2, 1, 0.5, 0.1])
+    text = {k: str(v) for k, v in proc.result().diagnostics.items()}
+    again = SkeletonExpressiveness(**SkeletonExpressiveness.params_from(text))
+    assert (again.zone, again.lost_after, again.min_confidence) == (
+        proc.zone, 0.7, 0.4)
+    plain = SkeletonExpressiveness(**SkeletonExpressiveness.params_from({}))
+    assert plain.zone is None and plain.min_confidence == 0.5

@@ -205,6 +205,27 @@ class SkeletonExpressiveness(Processor):
     def device_stamp(self, msg):
         return _seconds(msg.device_stamp)
 
+    def zone_params(self):
+        """The participant params as result diagnostics (text), from
+        which ``params_from`` makes the same processor again."""
+        z = self.zone
+        return {'participant_zone': '' if z is None else '%r, %r, %r, %r' % (
+                    z.x_min, z.x_max, z.z_min, z.z_max),
+                'zone_sensor_pose': '' if z is None or z.sensor_pose is None
+                else ', '.join(repr(v) for v in z.sensor_pose),
+                'lost_after': self.lost_after}
+
+    @staticmethod
+    def params_from(diagnostics):
+        """Processor params from a result's diagnostics (a dict of
+        text), defaults where they are not recorded."""
+        d = diagnostics
+        return {'min_confidence': float(d.get('min_confidence',
+                                              DEFAULT_MIN_CONFIDENCE)),
+                'participant_zone': d.get('participant_zone', ''),
+                'zone_sensor_pose': d.get('zone_sensor_pose', ''),
+                'lost_after': float(d.get('lost_after', 0.5))}
+
     def begin(self, start, end):
         self._duration = end - start
         self._run = RunningExpressiveness(NUM_JOINTS, self.min_confidence)
@@ -238,6 +259,7 @@ class SkeletonExpressiveness(Processor):
                        'terms': res.terms,
                        'min_confidence': self.min_confidence,
                        'T': res.duration}
+        diagnostics.update(self.zone_params())
         diagnostics.update(people)
         return ProcessResult(
             value=res.value, frames_used=res.frames_used,
