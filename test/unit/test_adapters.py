@@ -182,3 +182,30 @@ def test_rep155_next_stamp_closes_and_bad_input():
     for parent, child, t, q in rep155_msgs('b3', p)[:5]:
         m.add(parent, child, 7.0, t, q, 7.0)
     assert m.poll(8.0) == [] and m.counts['missing_joints'] == 1
+
+
+def test_fuzzed_input_never_raises():
+    """Random frames, ids, stamps and coordinates (NaN, inf, huge): every
+    adapter counts or passes them, none raises (seeded)."""
+    rng = np.random.default_rng(20)
+    names = ['head_1', 'neck_2', 'torso_x', 'left_hand_0', 'right_foot_77',
+             'body_ab', 'l_elbow_ab', 'torso_ab', 'camera', '', '_', 'head_']
+    frames = ['openni_depth_frame', 'camera_link', 'depth_camera_link', '',
+              'body_ab', 'l_p_shoulder_ab']
+    values = [0.0, 1.0, -3.0, np.nan, np.inf, -np.inf, 1e300]
+    a, b, c = OpenniTf(min_joints=3), AzureKinectMarkers(min_joints=3), \
+        Rep155Tf('camera_link', min_joints=3)
+    for k in range(3000):
+        t = float(rng.choice([k * 0.01, 0.0, -1.0, np.nan, 1e12]))
+        xyz = tuple(float(v) for v in rng.choice(values, 3))
+        q = tuple(float(v) for v in rng.choice(values, 4))
+        parent, child = rng.choice(frames), rng.choice(names)
+        a.add(parent, child, t, xyz, k * 0.01)
+        c.add(parent, child, t, xyz, q, k * 0.01, static=bool(k % 7 == 0))
+        b.add([(int(rng.integers(-200, 3300)), rng.choice(frames), t, xyz,
+                int(rng.integers(0, 4))) for _ in range(rng.integers(0, 40))])
+        if k % 50 == 0:
+            a.poll(k * 0.01)
+            c.poll(k * 0.01)
+    for adapter in (a, b, c):
+        assert sum(adapter.counts.values()) > 0

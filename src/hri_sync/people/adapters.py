@@ -20,7 +20,9 @@ Each adapter validates at the boundary and counts what it rejects in
 sensor), ``missing_joints`` (fewer than ``min_joints`` of the 15),
 ``bad_id`` (an id the format cannot have), ``out_of_range`` (a joint
 farther than ``max_coordinate`` m), ``mixed_stamps`` (one body's joints
-with different stamps). It never raises on input. Ids that jump (the
+with different stamps), ``bad_stamp``, ``bad_transform`` (a REP 155
+transform not finite, far, or with no rotation). It never raises on
+input. Ids that jump (the
 tracker gives the person in the same place a new id from one frame to
 the next) are passed on and counted in ``counts['id_jumps']``; the
 participant selector follows the person (``hri_sync.people.participant``).
@@ -40,8 +42,6 @@ from hri_sync.people.participant import body_point
 
 MAX_COORDINATE = 100.0       # m, as hri_sync.timing.validate.Limits
 SAME_PLACE = 0.25            # m: a new id this close to an old one: a jump
-REASONS = ('wrong_frame', 'missing_joints', 'bad_id', 'out_of_range',
-           'mixed_stamps')
 
 
 @dataclass
@@ -263,8 +263,13 @@ def split_link(frame):
 
 
 def rotation_matrix(q):
-    """3x3 rotation of a quaternion (x, y, z, w), normalised."""
-    x, y, z, w = np.asarray(q, dtype=float) / np.linalg.norm(q)
+    """3x3 rotation of a quaternion (x, y, z, w), normalised; ValueError
+    for one that is not finite or has no length."""
+    q = np.asarray(q, dtype=float).reshape(4)
+    norm = np.linalg.norm(q) if np.isfinite(q).all() else 0.0
+    if not 1e-6 < norm < 1e6:
+        raise ValueError('not a rotation: %r' % (q,))
+    x, y, z, w = q / norm
     return np.array([
         [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
         [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
@@ -304,7 +309,10 @@ class Rep155Tf(Adapter):
         try:
             r = rotation_matrix(rotation)
             t = np.asarray(translation, dtype=float).reshape(3)
-        except (ValueError, ZeroDivisionError, FloatingPointError):
+        except (ValueError, TypeError):
+            return self.reject('bad_transform')
+        if not (np.isfinite(t).all() and np.all(np.abs(t) <=
+                                                 self.max_coordinate)):
             return self.reject('bad_transform')
         out = []
         pending = self._pending.get(body)
