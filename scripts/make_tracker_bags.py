@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Make bags of other trackers' skeleton formats from the motion in data/motion.
+"""Make bags of other trackers' skeleton formats from data/motion.
 
 For the adapter rostests (nodes/skeleton_adapter): a dancer
 (cmu_60_01_salsa) sampled at 20 Hz with 3 mm white tracker noise
