@@ -111,6 +111,27 @@ def test_id_jumps_are_counted():
     assert a.counts['id_jumps'] == 1 and a.frames == 2
 
 
+def test_id_jumps_rejected_while_the_old_id_lives():
+    """reject_jumps: a second id on the same person is rejected while the
+    first is still tracked; once the first is gone it is the person."""
+    a = OpenniTf(reject_jumps=True)
+    p = pose()
+    sent = {1: 0, 2: 0}
+
+    def frame(user, t0):
+        out = []
+        for child, t in openni_transforms(user, p):
+            out += a.add('openni_depth_frame', child, t0, t, t0)
+        sent[user] += len(out)
+    for k in range(10):                   # both ids, 0.3 s
+        frame(1, 1.0 + k * 0.033)
+        frame(2, 1.001 + k * 0.033)
+    for k in range(10):                   # id 1 lost: id 2 goes on
+        frame(2, 1.5 + k * 0.033)
+    assert sent == {1: 10, 2: 10}
+    assert a.counts['id_jump'] == 10 and a.counts['id_jumps'] == 1
+
+
 def markers(body, p, stamp=5.0, frame='depth_camera_link'):
     return [(i, frame, stamp, t, 0) for i, t in azure_markers(body, p)]
 

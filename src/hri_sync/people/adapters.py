@@ -24,8 +24,11 @@ with different stamps), ``bad_stamp``, ``bad_transform`` (a REP 155
 transform not finite, far, or with no rotation). It never raises on
 input. Ids that jump (the
 tracker gives the person in the same place a new id from one frame to
-the next) are passed on and counted in ``counts['id_jumps']``; the
-participant selector follows the person (``hri_sync.people.participant``).
+the next) are counted in ``counts['id_jumps']`` and, by default
+(``reject_jumps`` False), passed on: the participant selector follows
+the person across the new id (``hri_sync.people.participant``); with
+``reject_jumps`` the frames of a jumped id are rejected (``id_jump``) for
+as long as the old id was seen within the last 0.2 s.
 """
 import math
 from collections import Counter
@@ -58,13 +61,14 @@ class Adapter:
     """Validation and counting shared by the formats."""
 
     def __init__(self, source_frame, min_joints=NUM_JOINTS,
-                 max_coordinate=MAX_COORDINATE):
+                 max_coordinate=MAX_COORDINATE, reject_jumps=False):
         if not 1 <= min_joints <= NUM_JOINTS:
             raise ValueError('min_joints must be within 1..%d, not %r'
                              % (NUM_JOINTS, min_joints))
         self.source_frame = source_frame
         self.min_joints = int(min_joints)
         self.max_coordinate = float(max_coordinate)
+        self.reject_jumps = bool(reject_jumps)
         self.counts = Counter()
         self.frames = 0                 # Bodies made
         self._last = {}                 # user id -> (stamp, point)
@@ -93,24 +97,33 @@ class Adapter:
         if confidence is None:
             confidence = np.ones(NUM_JOINTS)
         confidence = np.where(finite, np.clip(confidence, 0.0, 1.0), 0.0)
-        self._note_jump(stamp, user_id, positions)
+        if self._jumped(stamp, user_id, positions) and self.reject_jumps:
+            return self.reject('id_jump')
         self.frames += 1
         return [Body(stamp, user_id, positions, confidence)]
 
-    def _note_jump(self, stamp, user_id, positions):
-        """Count a new id appearing where another was a frame ago."""
+    def _jumped(self, stamp, user_id, positions):
+        """Whether ``user_id`` is a new id where another was a moment
+        ago (counted once per new id)."""
         point = body_point(positions)
-        if user_id not in self._last and point is not None:
-            for other, (t, p) in self._last.items():
+        for other in [u for u, (t, _, _) in self._last.items()
+                      if stamp - t > 5.0]:
+            del self._last[other]
+        if point is None:
+            return user_id in self._last and self._last[user_id][2]
+        jumped = self._last[user_id][2] if user_id in self._last else False
+        if user_id not in self._last:
+            for other, (t, p, _) in self._last.items():
                 if 0 <= stamp - t <= 0.2 and \
                         np.linalg.norm(point - p) < SAME_PLACE:
                     self.counts['id_jumps'] += 1
+                    jumped = True
                     break
-        if point is not None:
-            self._last[user_id] = (stamp, point)
-        for other in [u for u, (t, _) in self._last.items()
-                      if stamp - t > 5.0]:
-            del self._last[other]
+        if jumped and not any(0 <= stamp - t <= 0.2 for u, (t, _, j) in
+                              self._last.items() if u != user_id and not j):
+            jumped = False      # the old id is gone: this one is the person
+        self._last[user_id] = (stamp, point, jumped)
+        return jumped
 
 
 def _user_number(text):
