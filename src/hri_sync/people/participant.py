@@ -74,11 +74,11 @@ class Zone:
         if spec is None or (isinstance(spec, str) and not spec.strip()) \
                 or (isinstance(spec, (list, tuple)) and not spec):
             return None
-        spec = _numbers(spec)
+        spec = numbers(spec)
         if len(spec) != 4:
             raise ValueError('a participant zone is [x_min, x_max, z_min, '
                              'z_max], not %r' % (spec,))
-        pose = _numbers(sensor_pose) if sensor_pose is not None else []
+        pose = numbers(sensor_pose) if sensor_pose is not None else []
         return cls(*(float(v) for v in spec), sensor_pose=pose or None)
 
     def contains(self, p):
@@ -94,7 +94,7 @@ class Zone:
                     and self.z_min <= b <= self.z_max)
 
 
-def _numbers(spec):
+def numbers(spec):
     """A list of floats from a list or a string of numbers."""
     if isinstance(spec, str):
         try:
