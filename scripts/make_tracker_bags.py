@@ -11,7 +11,9 @@ For the adapter rostests (nodes/skeleton_adapter): a dancer
   tracker_azure    the Azure Kinect ROS driver: /body_tracking_data
                    MarkerArrays, marker id = body id x 100 + k4abt joint,
                    32 joints in depth_camera_link (x right, y down, z
-                   forward), body 0
+                   forward): the dancer is body 0; body 1 a second dancer
+                   (cmu_61_01_salsa) 3.5 m to the sensor's left, a
+                   bystander outside the test's participant zone
   tracker_rep155   a REP 155 body tracker: a /tf message per frame with
                    the body_<id> tree (human_description links) of body
                    'dncr1' under camera_link (REP 103 axes)
@@ -45,9 +47,9 @@ BASE = 1000.0       # s: the first frame's stamp (a device clock from > 0)
 CASES = ('tracker_openni', 'tracker_azure', 'tracker_rep155')
 
 
-def frames(dur, rate=20.0, seed=11):
+def frames(dur, rate=20.0, seed=11, clip='cmu_60_01_salsa'):
     motion = load_motion(os.path.join(ROOT, 'data', 'motion',
-                                      'cmu_60_01_salsa.npz'))
+                                      clip + '.npz'))
     source = SkeletonSource(motion, noise=0.003, seed=seed)
     return source.frames(tick_times(0.0, 0.01, rate, 0.0, dur), 0.0)
 
@@ -70,7 +72,7 @@ def transform(store, t, parent, child, xyz, q=(0.0, 0.0, 0.0, 1.0)):
                 x=float(q[0]), y=float(q[1]), z=float(q[2]), w=float(q[3]))))
 
 
-def write(path, case, f, store):
+def write(path, case, f, store, other=None):
     T = store.types
     tf_type = 'tf2_msgs/msg/TFMessage'
     if os.path.exists(path):
@@ -103,7 +105,11 @@ def write(path, case, f, store):
                 writer.write(conn, ns(t), store.serialize_ros1(msg, tf_type))
             else:
                 markers = []
-                for mid, xyz in azure_markers(0, p):
+                bodies = azure_markers(0, p)
+                if other is not None:
+                    bodies += azure_markers(1, other.positions[k]
+                                            + [-3.5, 0.0, 0.0])
+                for mid, xyz in bodies:
                     markers.append(T['visualization_msgs/msg/Marker'](
                         header=T['std_msgs/msg/Header'](
                             seq=0, stamp=ros_time(store, t),
@@ -137,13 +143,14 @@ def main():
     store = typestore()
     store.register(get_types_from_msg(TF_MESSAGE, 'tf2_msgs/msg/TFMessage'))
     f = frames(args.dur)
+    other = frames(args.dur, seed=12, clip='cmu_61_01_salsa')
     status = 0
     for case in args.cases:
         if case not in CASES:
             sys.exit('make_tracker_bags: unknown case %r (known: %s)'
                      % (case, ', '.join(CASES)))
         path = os.path.join(args.out, case + '.bag')
-        write(path, case, f, store)
+        write(path, case, f, store, other)
         size = os.path.getsize(path)
         print('%s: %d frames -> %s (%.0f kB)' % (
             case, len(f.stamps), os.path.relpath(path, ROOT), size / 1024.0))
