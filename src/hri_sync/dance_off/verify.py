@@ -13,8 +13,7 @@ import math
 from dataclasses import dataclass, field
 
 from hri_sync.timing.decision import ABORTED, USABLE, decide
-from hri_sync.dance_off.expressiveness import (DEFAULT_MIN_CONFIDENCE,
-                                               SkeletonExpressiveness)
+from hri_sync.dance_off.expressiveness import SkeletonExpressiveness
 from hri_sync.timing.processors import Frame
 
 REL_TOL = 1e-6
@@ -66,11 +65,11 @@ def _close(a, b):
     return math.isclose(a, b, rel_tol=REL_TOL, abs_tol=ABS_TOL)
 
 
-def _min_confidence(result):
-    for kv in result.diagnostics:
-        if kv.key == 'min_confidence':
-            return float(kv.value)
-    return DEFAULT_MIN_CONFIDENCE
+def _processor(result):
+    """The result's processor again, with the params its diagnostics
+    recorded (min_confidence, the participant zone)."""
+    return SkeletonExpressiveness(**SkeletonExpressiveness.params_from(
+        {kv.key: kv.value for kv in result.diagnostics}))
 
 
 def check_client(result, captured):
@@ -81,7 +80,7 @@ def check_client(result, captured):
     frames = [Frame(s, m) for s, m in captured if start <= s < end]
     if not frames and result.frames:
         check.problems.append('no captured frames recorded for the window')
-    res = SkeletonExpressiveness(_min_confidence(result)).process(
+    res = _processor(result).process(
         frames, start, end)
     check.frames_recomputed = res.frames_used
     if frames:
