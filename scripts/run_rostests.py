@@ -112,11 +112,16 @@ class Runner:
         os.makedirs(self.logs, exist_ok=True)
 
     def command(self, path, name):
-        xml = os.path.join(self.results, 'hri_sync', 'rostest-%s.xml' % name)
+        """(its summary XML, the command) of one test.  Each test writes
+        its results in a folder of its own: tests that include one launch
+        file name their checkers alike, and would overwrite each other's
+        result files when run at once."""
+        results = os.path.join(self.results, name)
+        xml = os.path.join(results, 'hri_sync', 'rostest-%s.xml' % name)
         if path.endswith('.py'):
             return xml, [sys.executable, '-m', 'pytest', '-q', '-p',
                          'no:cacheprovider', '--junitxml', xml, path]
-        return xml, ['rostest', '--results-base-dir', self.results,
+        return xml, ['rostest', '--results-base-dir', results,
                      '--results-filename', '%s.xml' % name,
                      'hri_sync', os.path.basename(path)]
 
