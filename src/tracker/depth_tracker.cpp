@@ -173,6 +173,8 @@ Plane fitFloor(const PointGrid& g, uint32_t seed) {
   return best;
 }
 
+// Over 80 lines: one flood fill of the points off the floor into connected
+// bodies and the choice among them, which share the per-body statistics.
 Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* prev_centroid) {
   Segmentation seg;
   const int n = g.width * g.height;
