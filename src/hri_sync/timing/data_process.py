@@ -13,10 +13,10 @@ import math
 from collections import Counter, deque
 from dataclasses import dataclass, field
 
-from hri_sync.timing.capture import (ERROR, ArrivalStamps, CaptureWindow,
-                                     DeviceClockMapper, SampleBuffer,
+from hri_sync.timing.capture import (ERROR, CaptureWindow, SampleBuffer,
                                      window_stats)
 from hri_sync.timing.clock import ClockModel
+from hri_sync.timing.mapping import ArrivalStamps, DeviceClockMapper
 from hri_sync.timing.processors import Processor
 from hri_sync.timing.vocabulary import DRIFT_BOUND, MIN_COVERAGE
 
