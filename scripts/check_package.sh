@@ -4,7 +4,8 @@
 #            (rosdep check --from-paths . --ignore-src);
 #   lint     catkin_lint -W1 reports no error;
 #   launch   roslaunch-check passes on every launch file, and every arg
-#            a user can set (no value=) has a doc.
+#            a user can set (no value=) has a doc;
+#   mypy     the core packages (timing, dance_off; mypy.ini) type-check.
 # Without a rosdep database (no `rosdep update`, or no network) rosdep and
 # catkin_lint use an offline one in .ws/rosdep: Debian's own list of the
 # ROS keys plus scripts/rosdep/system-keys.yaml for the system keys.
@@ -59,6 +60,9 @@ if missing:
     print('\n'.join(missing))
 sys.exit(1 if missing else 0)
 PY
+
+echo "check_package: mypy (mypy.ini: src/hri_sync/timing, src/hri_sync/dance_off)"
+(cd "$ROOT" && mypy) || fail "mypy"
 
 [ $status = 0 ] && echo "check_package: all passed"
 exit $status

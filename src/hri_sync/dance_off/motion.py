@@ -28,6 +28,7 @@ quaternion components to 1/32767.
 
 import os
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -49,7 +50,7 @@ class Motion:
 
     times: np.ndarray               # (N,)
     positions: np.ndarray           # (N, 15, 3) metres, sensor frame
-    orientations: np.ndarray = None  # (N, 15, 4) quaternions x, y, z, w
+    orientations: Optional[np.ndarray] = None  # (N, 15, 4) quaternions x, y, z, w
     name: str = ''
 
     def __post_init__(self):

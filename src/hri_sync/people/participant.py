@@ -24,6 +24,7 @@ score; nothing is assumed from the user id:
 """
 import math
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -46,7 +47,7 @@ class Zone:
     x_max: float
     z_min: float
     z_max: float
-    sensor_pose: tuple = None   # (x, y, z, yaw, pitch) of the sensor in world
+    sensor_pose: Optional[tuple] = None   # (x, y, z, yaw, pitch) of the sensor in world
 
     def __post_init__(self):
         if self.sensor_pose is not None:

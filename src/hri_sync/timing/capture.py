@@ -11,8 +11,11 @@ import heapq
 import math
 from array import array
 from collections import Counter, deque
+from typing import Any, Deque, Dict, List, Optional, Sequence, Tuple
 
-from hri_sync.timing.processors import Frame, WindowRun
+from hri_sync.timing.processors import (Frame, ProcessResult, Processor,
+                                        WindowRun)
+from hri_sync.timing.times import GlobalTime, Seconds
 from hri_sync.timing.vocabulary import MIN_COVERAGE, ResultStatus
 
 OK, PARTIAL, NO_DATA, ERROR = (ResultStatus.OK, ResultStatus.PARTIAL,
@@ -25,23 +28,25 @@ class SampleBuffer:
     Keeps the samples of the last ``keep`` seconds (by stamp).
     """
 
-    def __init__(self, keep=2.0):
+    def __init__(self, keep: Seconds = 2.0) -> None:
         self.keep = keep
-        self._frames = deque()
+        self._frames: Deque[Frame] = deque()
 
-    def add(self, stamp, msg):
+    def add(self, stamp: GlobalTime, msg: Any) -> None:
         """Store one sample with its global stamp."""
         self._frames.append(Frame(stamp, msg))
         while self._frames and self._frames[0].stamp < stamp - self.keep:
             self._frames.popleft()
 
-    def take(self, start, end):
+    def take(self, start: GlobalTime, end: GlobalTime) -> List[Frame]:
         """The samples stamped in [start, end), in stamp order."""
         return sorted((f for f in self._frames if start <= f.stamp < end),
                       key=lambda f: f.stamp)
 
 
-def window_stats(stamps, start, end, max_gap=None):
+def window_stats(stamps: Sequence[float], start: GlobalTime,
+                 end: GlobalTime,
+                 max_gap: Optional[Seconds] = None) -> Dict[str, Any]:
     """Coverage, dropped frames and first-frame offset of a window.
 
     ``stamps`` are the kept samples' global stamps (sorted).  The nominal
@@ -70,7 +75,8 @@ def window_stats(stamps, start, end, max_gap=None):
             'first_frame_offset': stamps[0] - start}
 
 
-def window_status(used, coverage, min_coverage, failed=False):
+def window_status(used: int, coverage: float, min_coverage: float,
+                  failed: bool = False) -> str:
     """The status rule of a ClientResult: error when processing failed,
     no_data when no sample in the window was usable (``used``: how many
     the processor used), partial when the data covered less than
@@ -95,8 +101,9 @@ class CaptureWindow:
     comes too late for stamp order, is counted in ``late``, never added.
     """
 
-    def __init__(self, round_id, start, end, processor, reorder=0.2,
-                 margin=0.03):
+    def __init__(self, round_id: int, start: GlobalTime, end: GlobalTime,
+                 processor: Processor, reorder: Seconds = 0.2,
+                 margin: Seconds = 0.03) -> None:
         if not (math.isfinite(start) and math.isfinite(end) and end > start):
             raise ValueError('capture window [%r, %r) is empty or not '
                              'finite' % (start, end))
@@ -107,17 +114,19 @@ class CaptureWindow:
         self.complete = False
         self.completed_by = ''
         self.late = 0
-        self.rejected = Counter()  # samples refused at stamping, by reason
+        self.rejected: Counter = Counter()  # refused at stamping, by reason
         self.bound = 0.0           # worst stamp error bound of its samples
         self.stamps = array('d')   # in-window stamps, arrival order
         self.wake_lateness = math.nan
         self._run = WindowRun(processor, start, end)
-        self._waiting = []         # heap of (stamp, seq, msg)
+        # heap of (stamp, seq, msg)
+        self._waiting: List[Tuple[float, int, Any]] = []
         self._seq = 0
         self._fed = -math.inf      # stamp of the last sample processed
         self._newest = -math.inf   # newest stamp offered
 
-    def offer(self, stamp, msg, arrival, bound=0.0):
+    def offer(self, stamp: GlobalTime, msg: Any, arrival: GlobalTime,
+              bound: Seconds = 0.0) -> bool:
         """Offer a sample stamped ``stamp`` that arrived at global time
         ``arrival`` with stamp error bound ``bound``.  Returns True when it
         is in the window (and so is to be republished as captured)."""
@@ -151,7 +160,8 @@ class CaptureWindow:
         self._fed = stamp
         self._run.add(Frame(stamp, msg))
 
-    def due(self, now, period, lag=0.0):
+    def due(self, now: GlobalTime, period: Seconds,
+            lag: Seconds = 0.0) -> bool:
         """Whether, at global time ``now``, the window is complete for
         lack of samples: its end and the next sample expected after the
         newest one (``period`` s later; NaN when unknown) are ``margin``
@@ -159,7 +169,7 @@ class CaptureWindow:
         have been arriving).  Marks it complete when so."""
         if self.complete:
             return True
-        expected = self.end
+        expected: float = self.end
         if math.isfinite(period) and math.isfinite(self._newest):
             expected = max(expected, self._newest + period)
         if now >= expected + self.margin + lag:
@@ -167,7 +177,8 @@ class CaptureWindow:
             self.completed_by = 'timeout'
         return self.complete
 
-    def finish(self, min_coverage=MIN_COVERAGE):
+    def finish(self, min_coverage: float = MIN_COVERAGE) -> Tuple[
+            str, Optional[ProcessResult], Dict[str, Any], str]:
         """Process the remaining samples; returns (status, ProcessResult
         or None, window_stats dict, error text)."""
         while self._waiting:

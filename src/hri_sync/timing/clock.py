@@ -7,7 +7,9 @@ clock.  A model maps local to global time and bounds its own error.
 """
 import math
 from dataclasses import dataclass
+from typing import Callable, Dict, Iterable, List
 
+from hri_sync.timing.times import GlobalTime, LocalTime, Seconds
 from hri_sync.timing.vocabulary import DRIFT_BOUND
 
 MAX_DRIFT = 0.01       # |d offset / d local| of any usable model (1 %)
@@ -25,37 +27,37 @@ class NtpSample:
     t4: float
 
     @property
-    def offset(self):
+    def offset(self) -> Seconds:
         """Global minus local, assuming symmetric paths."""
         return ((self.t2 - self.t1) + (self.t3 - self.t4)) / 2.0
 
     @property
-    def delay(self):
+    def delay(self) -> Seconds:
         """Round-trip network delay, excluding the server's hold time."""
         return (self.t4 - self.t1) - (self.t3 - self.t2)
 
     @property
-    def local_mid(self):
+    def local_mid(self) -> LocalTime:
         """Local time the offset refers to (middle of the exchange)."""
-        return (self.t1 + self.t4) / 2.0
+        return LocalTime((self.t1 + self.t4) / 2.0)
 
 
 @dataclass(frozen=True)
 class OffsetMeasurement:
     """The best exchange of a burst, NTP-style."""
 
-    local: float        # local time the offset refers to
-    offset: float       # global minus local, s
-    delay: float        # round trip of the chosen exchange, s
+    local: LocalTime    # local time the offset refers to
+    offset: Seconds     # global minus local, s
+    delay: Seconds      # round trip of the chosen exchange, s
     exchanges: int      # answered exchanges in the burst
 
     @property
-    def uncertainty(self):
+    def uncertainty(self) -> Seconds:
         """Error bound of the offset: half the round trip (path asymmetry)."""
         return self.delay / 2.0
 
 
-def best_offset(samples):
+def best_offset(samples: Iterable[NtpSample]) -> OffsetMeasurement:
     """Return the minimum-delay sample of a burst as an OffsetMeasurement.
 
     Raises ValueError for an empty burst or a sample with negative delay.
@@ -84,8 +86,9 @@ class ClockModel:
     model is the identity with an infinite uncertainty: not ``ready``.
     """
 
-    def __init__(self, local_ref=0.0, offset=0.0, drift=0.0,
-                 uncertainty=math.inf, drift_bound=0.0):
+    def __init__(self, local_ref: float = 0.0, offset: Seconds = 0.0,
+                 drift: float = 0.0, uncertainty: Seconds = math.inf,
+                 drift_bound: float = 0.0) -> None:
         self.local_ref = local_ref
         self.offset = offset
         self.drift = drift
@@ -93,7 +96,8 @@ class ClockModel:
         self.drift_bound = drift_bound
 
     @classmethod
-    def from_state(cls, local_ref, offset, drift, uncertainty):
+    def from_state(cls, local_ref: float, offset: Seconds, drift: float,
+                   uncertainty: Seconds) -> 'ClockModel':
         """A model from the fields of a ClockState, validated.
 
         Raises ValueError naming the field when a value is not finite,
@@ -103,7 +107,7 @@ class ClockModel:
         """
         return cls(local_ref, offset, drift, uncertainty).validate()
 
-    def validate(self):
+    def validate(self) -> 'ClockModel':
         """Return self if the model is usable; else raise ValueError."""
         for name in ('local_ref', 'offset', 'drift', 'uncertainty',
                      'drift_bound'):
@@ -133,36 +137,36 @@ class ClockModel:
         return self
 
     @property
-    def ready(self):
+    def ready(self) -> bool:
         """True when the model has a finite error bound (a usable model)."""
         return math.isfinite(self.uncertainty)
 
-    def offset_at(self, local):
+    def offset_at(self, local: LocalTime) -> Seconds:
         """Global minus local at local time ``local``."""
         return self.offset + self.drift * (local - self.local_ref)
 
-    def uncertainty_at(self, local):
+    def uncertainty_at(self, local: LocalTime) -> Seconds:
         """The error bound at local time ``local``: ``uncertainty`` grown
         by ``drift_bound`` for every s since (or before) ``local_ref``."""
         return self.uncertainty + self.drift_bound * abs(local
                                                          - self.local_ref)
 
-    def to_global(self, local):
+    def to_global(self, local: LocalTime) -> GlobalTime:
         """Convert a local time to global time."""
-        return local + self.offset_at(local)
+        return GlobalTime(local + self.offset_at(local))
 
-    def to_local(self, global_time):
+    def to_local(self, global_time: GlobalTime) -> LocalTime:
         """Convert a global time to local time (inverse of to_global)."""
-        return ((global_time - self.offset + self.drift * self.local_ref)
-                / (1.0 + self.drift))
+        return LocalTime((global_time - self.offset
+                          + self.drift * self.local_ref) / (1.0 + self.drift))
 
-    def snapshot(self, local):
+    def snapshot(self, local: LocalTime) -> 'ClockModel':
         """A copy whose uncertainty is the bound at ``local``, growth off:
         the model as published at that instant."""
         return ClockModel(self.local_ref, self.offset, self.drift,
                           self.uncertainty_at(local))
 
-    def state(self):
+    def state(self) -> Dict[str, float]:
         """The model as a dict (the model fields of hri_sync/ClockState)."""
         return {'local_ref': self.local_ref, 'offset': self.offset,
                 'drift': self.drift, 'uncertainty': self.uncertainty}
@@ -182,9 +186,10 @@ class GlobalClock(ClockModel):
     touched.
     """
 
-    def __init__(self, local_clock, window=120.0, min_span=2.0,
-                 max_drift=1e-3, delay_slack=0.0005,
-                 drift_bound=DRIFT_BOUND):
+    def __init__(self, local_clock: Callable[[], LocalTime],
+                 window: Seconds = 120.0, min_span: Seconds = 2.0,
+                 max_drift: float = 1e-3, delay_slack: Seconds = 0.0005,
+                 drift_bound: float = DRIFT_BOUND) -> None:
         super().__init__(drift_bound=drift_bound)
         if not (math.isfinite(drift_bound) and drift_bound >= 0):
             raise ValueError('drift bound must be >= 0 s/s, got %r'
@@ -194,9 +199,9 @@ class GlobalClock(ClockModel):
         self.min_span = min_span
         self.max_drift = max_drift
         self.delay_slack = delay_slack
-        self.measurements = []
+        self.measurements: List[OffsetMeasurement] = []
 
-    def add(self, m):
+    def add(self, m: OffsetMeasurement) -> None:
         """Add an OffsetMeasurement and refit the model."""
         self.measurements.append(m)
         horizon = m.local - self.window
@@ -234,10 +239,10 @@ class GlobalClock(ClockModel):
         residuals = [abs(x.offset - self.offset_at(x.local)) for x in near]
         self.uncertainty = best / 2.0 + max(residuals)
 
-    def now(self):
+    def now(self) -> GlobalTime:
         """The current global time."""
         return self.to_global(self._local_clock())
 
-    def state(self):
+    def state(self) -> Dict[str, float]:
         """The model as a dict (fields of hri_sync/ClockState)."""
         return dict(super().state(), samples=len(self.measurements))

@@ -9,10 +9,17 @@ test vectors.
 """
 import functools
 import math
+from typing import Any, Dict, Generic, Optional, TypeVar
 
 import numpy as np
 
-class TimeMapping:
+from hri_sync.timing.times import DeviceTime, GlobalTime, Seconds
+
+# A mapping's source clock.
+Source = TypeVar('Source', GlobalTime, DeviceTime)
+
+
+class TimeMapping(Generic[Source]):
     """The contract of a time mapping: a sample's source time to global.
 
     ``observe(source, arrival)`` one sample (its time on the mapping's
@@ -24,28 +31,28 @@ class TimeMapping:
 
     kind = ''
 
-    def observe(self, source, arrival):
+    def observe(self, source: Source, arrival: GlobalTime) -> None:
         raise NotImplementedError
 
     @property
-    def ready(self):
+    def ready(self) -> bool:
         raise NotImplementedError
 
-    def to_global(self, source):
+    def to_global(self, source: Source) -> GlobalTime:
         raise NotImplementedError
 
-    def reset(self):
+    def reset(self) -> None:
         raise NotImplementedError
 
-    def state(self):
+    def state(self) -> Dict[str, Any]:
         raise NotImplementedError
 
     @property
-    def residual(self):
+    def residual(self) -> Seconds:
         raise NotImplementedError
 
 
-class ArrivalStamps(TimeMapping):
+class ArrivalStamps(TimeMapping[GlobalTime]):
     """Arrival stamping: a sample's source time is its global arrival.
 
     The identity map; its error is the sample's delivery delay (sensor to
@@ -54,27 +61,27 @@ class ArrivalStamps(TimeMapping):
 
     kind = 'arrival'
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.samples = 0
 
-    def observe(self, source, arrival):
+    def observe(self, source: GlobalTime, arrival: GlobalTime) -> None:
         self.samples += 1
 
     @property
-    def ready(self):
+    def ready(self) -> bool:
         return True
 
-    def to_global(self, source):
+    def to_global(self, source: GlobalTime) -> GlobalTime:
         return source
 
-    def reset(self):
+    def reset(self) -> None:
         self.samples = 0
 
-    def state(self):
+    def state(self) -> Dict[str, Any]:
         return {'kind': self.kind, 'ready': True, 'samples': self.samples}
 
     @property
-    def residual(self):
+    def residual(self) -> Seconds:
         return 0.0
 
 
@@ -95,7 +102,7 @@ def _pairs(n):
     return np.triu_indices(n, 1)
 
 
-class DeviceClockMapper(TimeMapping):
+class DeviceClockMapper(TimeMapping[DeviceTime]):
     """Maps a sensor's own timestamps to global time.
 
     Each sample gives ``arrival - device`` (global arrival minus device
@@ -111,7 +118,8 @@ class DeviceClockMapper(TimeMapping):
 
     kind = 'device'
 
-    def __init__(self, window=30.0, min_span=5.0, settle=5):
+    def __init__(self, window: Seconds = 30.0, min_span: Seconds = 5.0,
+                 settle: int = 5) -> None:
         self.window = window
         self.min_span = min_span
         self.settle = settle
@@ -122,17 +130,17 @@ class DeviceClockMapper(TimeMapping):
 
     def _clear(self):
         self._lo = self._hi = 0
-        self.offset = None
+        self.offset: Optional[float] = None
         self.drift = 0.0
         self.ref = 0.0
 
-    def observe(self, device, arrival):
+    def observe(self, device: DeviceTime, arrival: GlobalTime) -> None:
         """Add one sample's device stamp and global arrival time, and
         refit."""
         self.add(device, arrival)
         self.refit()
 
-    def add(self, device, arrival):
+    def add(self, device: DeviceTime, arrival: GlobalTime) -> None:
         """Add one sample without refitting: ``to_global`` keeps the last
         fit until ``refit`` (the fit costs O(points in the window))."""
         if not (math.isfinite(device) and math.isfinite(arrival)):
@@ -145,7 +153,7 @@ class DeviceClockMapper(TimeMapping):
         t = self._device[self._lo:self._hi]
         self._lo += int(np.searchsorted(t, device - self.window, 'left'))
 
-    def refit(self):
+    def refit(self) -> None:
         """Fit the map to the samples in the window."""
         self._fit()
 
@@ -210,33 +218,35 @@ class DeviceClockMapper(TimeMapping):
             d - (base + self.drift * (t - self.ref))))
 
     @property
-    def ready(self):
+    def ready(self) -> bool:
         """Whether the fit holds enough samples to map stamps."""
         return self._hi - self._lo >= self.settle
 
     @property
-    def samples(self):
+    def samples(self) -> int:
         """Points in the fit's window."""
         return self._hi - self._lo
 
     @property
-    def last_device(self):
+    def last_device(self) -> Optional[DeviceTime]:
         """The newest device stamp in the fit (None when empty)."""
-        return float(self._device[self._hi - 1]) if self.samples else None
+        return DeviceTime(float(self._device[self._hi - 1])) \
+            if self.samples else None
 
-    def to_global(self, device):
+    def to_global(self, device: DeviceTime) -> GlobalTime:
         """Global time of a device stamp (call observe first)."""
         if self.offset is None:
             raise ValueError('no sample observed yet')
-        return device + self.offset + self.drift * (device - self.ref)
+        return GlobalTime(device + self.offset
+                          + self.drift * (device - self.ref))
 
-    def reset(self):
+    def reset(self) -> None:
         """Start the fit over (counted in ``resets``)."""
         self._clear()
         self.resets += 1
 
     @property
-    def residual(self):
+    def residual(self) -> Seconds:
         """The median height of each ~1 s bin's least-delayed sample above
         the fitted line (s): the scatter of the envelope the map follows;
         a bin of stalled samples, which the line ignores, does not count.
@@ -249,7 +259,7 @@ class DeviceClockMapper(TimeMapping):
         line = self.offset + self.drift * (t[idx] - self.ref)
         return max(0.0, _median(d[idx] - line))
 
-    def state(self):
+    def state(self) -> Dict[str, Any]:
         return {'kind': self.kind, 'ready': self.ready,
                 'offset': self.offset, 'drift': self.drift, 'ref': self.ref,
                 'samples': self.samples, 'resets': self.resets,

@@ -8,6 +8,7 @@ records; the nodes turn them into messages.
 import math
 from collections import Counter
 from dataclasses import dataclass, field
+from typing import Optional
 
 
 class ProtocolError(ValueError):
@@ -77,7 +78,7 @@ class StrAftPolicy:
     offset uncertainty, plus ``margin``, never below ``minimum``.
     """
 
-    fixed: float = None
+    fixed: Optional[float] = None
     margin: float = 0.25
     latency_factor: float = 3.0
     minimum: float = 0.1

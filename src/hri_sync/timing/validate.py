@@ -24,6 +24,7 @@ need history (a repeated sample stamp) are in ``StampOrder``.
 import math
 import re
 from dataclasses import dataclass, field
+from typing import Optional
 
 from hri_sync.timing.vocabulary import (NUM_JOINTS, Outcome, ResultStatus,
                                         RoundState)
@@ -82,11 +83,11 @@ class Context:
     unknown).
     """
 
-    now: float = None
-    local_now: float = None
-    round: int = None
-    client: str = None
-    sync_sent: float = None
+    now: Optional[float] = None
+    local_now: Optional[float] = None
+    round: Optional[int] = None
+    client: Optional[str] = None
+    sync_sent: Optional[float] = None
     limits: Limits = field(default_factory=Limits)
 
 
