@@ -44,31 +44,44 @@ build:
 	  -perm /111 -exec chmod a-x {} +
 	@echo "built: source $(WS)/devel/setup.bash"
 
-unit: setup
-	cd $(ROOT) && PYTHONPATH=$(ROOT)/src:$$PYTHONPATH $(VENV)/bin/python -m pytest -q test/unit
+# Each stage's command (the targets below run setup first; `test` runs it
+# once, then the stages).
+UNIT = cd $(ROOT) && PYTHONPATH=$(ROOT)/src:$$PYTHONPATH $(VENV)/bin/python -m pytest -q test/unit
+CHECK = $(ROOT)/scripts/check_package.sh
+INSTALL_CHECK = $(ROOT)/test/system/install_space.sh
+SITE = $(SOURCE) && $(ROS_PY) $(ROOT)/test/system/site_multihost.py
+ROSTESTS = $(SOURCE) && $(ROS_PY) $(ROOT)/scripts/run_rostests.py $(ROOT)/test
 
-# rosdep keys, catkin_lint, roslaunch-check (scripts/check_package.sh).
+unit: setup
+	$(UNIT)
+
+# rosdep keys, catkin_lint, roslaunch-check, mypy (scripts/check_package.sh).
 check: setup
-	@$(ROOT)/scripts/check_package.sh
+	@$(CHECK)
 
 # A fresh catkin_make install runs the nodes and tools (test/system/install_space.sh).
 test-install: setup
-	@$(ROOT)/test/system/install_space.sh
+	@$(INSTALL_CHECK)
 
 # The site launch files on four network namespaces (root; test/system/site_multihost.py).
 test-site: setup
-	@$(SOURCE) && $(ROS_PY) $(ROOT)/test/system/site_multihost.py
+	@$(SITE)
 
 rostest: setup
-	@$(SOURCE) && $(ROS_PY) $(ROOT)/scripts/run_rostests.py $(ROOT)/test
+	@$(ROSTESTS)
 
+# The rostests (each in a network namespace of its own, several at once)
+# run beside the other stages; their report is printed after them.
 test: setup
 	@status=0; \
-	$(MAKE) --no-print-directory unit || status=1; \
-	$(MAKE) --no-print-directory check || status=1; \
-	$(MAKE) --no-print-directory test-install || status=1; \
-	$(MAKE) --no-print-directory test-site || status=1; \
-	$(MAKE) --no-print-directory rostest || status=1; \
+	( $(ROSTESTS) > $(WS)/rostest.out 2>&1; echo $$? > $(WS)/rostest.rc ) & \
+	rostests=$$!; \
+	( $(UNIT) ) || status=1; \
+	$(CHECK) || status=1; \
+	$(INSTALL_CHECK) || status=1; \
+	( $(SITE) ) || status=1; \
+	wait $$rostests; cat $(WS)/rostest.out; \
+	[ "$$(cat $(WS)/rostest.rc)" = 0 ] || status=1; \
 	exit $$status
 
 # `make test` RUNS times in a row beside one busy loop per core, JSON
