@@ -46,7 +46,7 @@ class GlobalSchedule:
     """Host times of timeline offsets: ``start + t`` on the global clock,
     converted with this client's clock model (its CPM's ClockState on
     ``clock_state``, validated), or taken as host time before it has
-    one."""
+    one (a replay waits for it: ``wait_for_clock``)."""
 
     def __init__(self, client_id, start):
         self.start = start
@@ -61,6 +61,20 @@ class GlobalSchedule:
             self.clock = model_from_msg(msg)
         except ValueError as e:     # keeps the last good model
             rospy.logwarn_throttle(10, '%s: %s', rospy.get_name(), e)
+
+    def wait_for_clock(self, timeout):
+        """Wait up to ``timeout`` s for the client's clock model, so the
+        replay does not jump by the clock's offset when it comes; True if
+        it came."""
+        deadline = time.monotonic() + timeout
+        while self.clock is None and time.monotonic() < deadline \
+                and not rospy.is_shutdown():
+            time.sleep(0.05)
+        if self.clock is None:
+            rospy.logwarn('%s: no clock_state from the CPM after %.0f s: '
+                          'replaying on the host clock', rospy.get_name(),
+                          timeout)
+        return self.clock is not None
 
     def local(self, t):
         """Host time of timeline offset ``t`` s."""
