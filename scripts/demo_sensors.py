@@ -22,6 +22,8 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 CLIENTS = ('skeleton', 'imu', 'audio', 'camera')
+# The unit of a result whose processor does not say (in 'unit').
+UNITS = {'skeleton': 'm^2/s^2'}
 
 
 def free_port():
@@ -30,13 +32,16 @@ def free_port():
         return s.getsockname()[1]
 
 
-def report(capture, results):
+def report(capture, results, acks):
     """The lines to print for the window and its results."""
     from hri_sync.timing.protocol import Capture
     w = Capture.from_msg(capture)
     lines = ['round %d: window [%.3f, %.3f) global s (CR_T %.3f + STR_AFT '
              '%.3f s, DUR %.1f s)' % (w.round, w.start, w.end, w.cr_t,
                                       w.str_aft, w.dur)]
+    lines += ['  %-9s clock %+.4f s off the time server (measured at the '
+              'ACK, +/- %.3f ms)' % (c, -a.offset, a.uncertainty * 1e3)
+              for c, a in sorted(acks.items())]
     for c in sorted(results):
         r, t = results[c]
         d = {kv.key: kv.value for kv in r.diagnostics}
@@ -44,7 +49,8 @@ def report(capture, results):
             '  %-9s %-7s value %10.4g %-9s %5d frames (%d rejected), '
             'coverage %.2f, first frame +%.1f ms, timing uncertainty '
             '%.2f ms, result %.0f ms after the window' % (
-                c, r.status, r.value, d.get('unit', ''), r.frames,
+                c, r.status, r.value, d.get('unit', UNITS.get(c, '')),
+                r.frames,
                 r.frames_rejected, r.coverage, r.first_frame_offset * 1e3,
                 r.timing_uncertainty * 1e3, (t - w.end) * 1e3))
     return lines
@@ -53,7 +59,7 @@ def report(capture, results):
 def main():
     import rosgraph
     import rospy
-    from hri_sync.msg import CaptureData, ClientResult
+    from hri_sync.msg import CaptureData, ClientResult, SyncAck
     args = ['ntp_port:=%d' % free_port()] + sys.argv[1:]
     clients = list(CLIENTS) + (['joints'] if 'joints:=true' in args else [])
     port = free_port()
@@ -77,7 +83,10 @@ def main():
                 time.sleep(0.5)
             rospy.init_node('demo_sensors', disable_signals=True)
             captures, results = [], {}
+            acks = {}
             rospy.Subscriber('/capture_data', CaptureData, captures.append)
+            rospy.Subscriber('/sync_ack', SyncAck, lambda m: acks.__setitem__(
+                m.client_id, m) if m.ok else None)
             rospy.Subscriber('/client_result', ClientResult,
                              lambda m: results.__setitem__(
                                  m.client_id, (m, time.time())))
@@ -93,7 +102,7 @@ def main():
                 os.killpg(launch.pid, signal.SIGKILL)
     if not captures:
         sys.exit('sensors demo: no round started (see %s)' % log_path)
-    print('\n'.join(report(captures[0], results)))
+    print('\n'.join(report(captures[0], results, acks)))
     bad = [c for c in clients if c not in results
            or results[c][0].status != ClientResult.OK]
     if bad:
