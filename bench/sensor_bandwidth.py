@@ -23,8 +23,11 @@ topic, as a recorder would, and counts what comes) and once without
 (``off``), ``--rounds`` windows of ``--dur`` s each.  Per run: frames
 sent by each publisher in the window (its own send stamps) and captured
 (the result's frames + rejected), their ratio; each result's and the
-decision's latency after the window's end (true clock; the server runs on
-it); each DPM's CPU share of one core over the window (utime + stime
+decision's latency after the window's end, as received here (true
+clock; the server runs on it; this process also receives every captured
+stream with republish on, so its own load delays it) and as made (their
+header.stamp, global, minus the window's end); each DPM's CPU share of
+one core over the window (utime + stime
 from /proc) and its peak RSS (VmHWM); the publishers' CPU share; the
 host's 1-minute load average before and after.  Progress to stderr, one
 JSON object per run on stdout, then a summary object last.
@@ -128,7 +131,7 @@ def publish(kind, topic, seconds, out):
     np.save(out, np.array(sent))
 
 
-# --- one run -------------------------------------------------------------------
+# --- one run ---------------------------------------------------------------
 
 def launch_text(clients, ntp_port, rounds, dur, republish):
     lines = ['<launch>',
@@ -280,11 +283,15 @@ def run(args, scenario, republish):
            'dur_s': args.dur, 'rounds': args.rounds,
            'load_average': load, 'clients': {}}
     ratios, result_lat, decision_lat = [], [], []
+    result_made, decision_made = [], []
     for n in sorted(listener.captures):
         end_true = dl.to_true(listener.clock,
                               Capture.from_msg(listener.captures[n]).end)
         if n in listener.decisions:
-            decision_lat.append(listener.decisions[n][0] - end_true)
+            t, d = listener.decisions[n]
+            decision_lat.append(t - end_true)
+            decision_made.append(d.header.stamp.to_sec()
+                                 - d.window_end.to_sec())
     for c in clients:
         sent_all = np.load(os.path.join(work, c + '.npy'))
         row = {'windows': []}
@@ -298,10 +305,13 @@ def run(args, scenario, republish):
             if got:
                 t, r = got
                 captured = r.frames + r.frames_rejected
+                made = r.header.stamp.to_sec() - w.end
                 item.update({'status': r.status, 'captured': captured,
                              'captured_ratio': round(captured / sent, 4)
                              if sent else None,
+                             'result_made_ms': round(made * 1e3, 1),
                              'result_latency_ms': round((t - e) * 1e3, 1)})
+                result_made.append(made)
                 if sent:
                     ratios.append(captured / sent)
                 result_lat.append(t - e)
@@ -332,7 +342,9 @@ def run(args, scenario, republish):
                              'mean': round(sum(ratios) / len(ratios), 4)
                              if ratios else None}
     out['result_latency_ms'] = ms(result_lat)
+    out['result_made_ms'] = ms(result_made)
     out['decision_latency_ms'] = [round(x * 1e3, 1) for x in decision_lat]
+    out['decision_made_ms'] = [round(x * 1e3, 1) for x in decision_made]
     shares = [r.get('dpm_cpu_share') for r in out['clients'].values()
               if r.get('dpm_cpu_share') is not None]
     out['dpm_cpu_share_sum'] = round(sum(shares), 3)
@@ -371,7 +383,8 @@ def main():
             runs.append(r)
     print(json.dumps({'summary': [
         {k: r.get(k) for k in ('scenario', 'republish', 'captured_ratio',
-                               'result_latency_ms', 'decision_latency_ms',
+                               'result_latency_ms', 'result_made_ms',
+                               'decision_latency_ms', 'decision_made_ms',
                                'dpm_cpu_share_sum', 'load_average',
                                'error')} for r in runs]}), flush=True)
 

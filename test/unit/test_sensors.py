@@ -9,7 +9,6 @@ import pytest
 
 from hri_sync.sensors.audio import (AudioLevel, check_chunk, chunk_at, dbfs,
                                     read_wav)
-from hri_sync.sensors.generic import HeaderCount
 from hri_sync.sensors.image import ImageMotion, check_image, image_array
 from hri_sync.sensors.imu import ImuActivity
 from hri_sync.sensors.joint_state import JointSpeed
