@@ -19,7 +19,8 @@ each message with the host clock):
 
 Each scenario runs once with the DPMs republishing their captured
 samples (``republish on``: this bench subscribes to every ``captured``
-topic, as a recorder would, and counts what comes) and once without
+topic, as a recorder would, and counts what comes, or with
+``--recorder rosbag`` rosbag record records them) and once without
 (``off``), ``--rounds`` windows of ``--dur`` s each.  Per run: frames
 sent by each publisher in the window (its own send stamps) and captured
 (the result's frames + rejected), their ratio; each result's and the
@@ -27,8 +28,8 @@ decision's latency after the window's end, as received here (true
 clock; the server runs on it; this process also receives every captured
 stream with republish on, so its own load delays it) and as made (their
 header.stamp, global, minus the window's end); each DPM's CPU share of
-one core over the window (utime + stime
-from /proc) and its peak RSS (VmHWM); the publishers' CPU share; the
+one core over the window (utime + stime from /proc) and its peak RSS
+(VmHWM); the publishers' CPU share; the
 host's 1-minute load average before and after.  Progress to stderr, one
 JSON object per run on stdout, then a summary object last.
 """
@@ -133,7 +134,7 @@ def publish(kind, topic, seconds, out):
 
 # --- one run ---------------------------------------------------------------
 
-def launch_text(clients, ntp_port, rounds, dur, republish):
+def launch_text(clients, ntp_port, rounds, dur, republish, bag=None):
     lines = ['<launch>',
              '  <include file="$(find hri_sync)/launch/timeserver.launch">',
              '    <arg name="ntp_port" value="%d"/>' % ntp_port,
@@ -157,7 +158,23 @@ def launch_text(clients, ntp_port, rounds, dur, republish):
             '    <arg name="input" value="/sensors/%s"/>' % c,
             '    <arg name="republish" value="%s"/>' % str(republish).lower(),
             '  </include>']
+    if bag:
+        lines.append('  <node pkg="rosbag" type="record" name="recorder" '
+                     'output="log" args="-O %s %s"/>' % (bag, ' '.join(
+                         '/%s/captured' % c for c in clients)))
     return '\n'.join(lines + ['</launch>']) + '\n'
+
+
+def bag_stamps(path, clients):
+    """{client: [global header stamps of its captured messages]}."""
+    import rosbag
+    out = {c: [] for c in clients}
+    with rosbag.Bag(path) as bag:
+        for topic, msg, _ in bag.read_messages(raw=True):
+            c = topic.strip('/').split('/')[0]
+            if c in out:
+                out[c].append(dl.skeleton_stamps(msg[1])[1])
+    return out
 
 
 def cpu_seconds(pid):
@@ -195,8 +212,10 @@ def run(args, scenario, republish):
     work = tempfile.mkdtemp(prefix='sensor_bandwidth_')
     launch_file = os.path.join(work, 'bench.launch')
     with open(launch_file, 'w') as f:
+        bag = os.path.join(work, 'captured.bag') \
+            if republish and args.recorder == 'rosbag' else None
         f.write(launch_text(clients, ntp_port, args.rounds, args.dur,
-                            republish))
+                            republish, bag))
     env = dict(os.environ, ROS_MASTER_URI='http://localhost:%d' % port)
     os.environ['ROS_MASTER_URI'] = env['ROS_MASTER_URI']
     launch_log = open(os.path.join(work, 'roslaunch.log'), 'w')
@@ -226,10 +245,10 @@ def run(args, scenario, republish):
                  c.split('_')[1], '/sensors/' + c, '%g' % total,
                  os.path.join(work, c + '.npy')], env=env,
                 stdout=launch_log, stderr=subprocess.STDOUT)
-        if not rospy.core.is_initialized():
-            rospy.init_node('sensor_bandwidth', disable_signals=True)
+        rospy.init_node('sensor_bandwidth', disable_signals=True)
         listener = dl.Listener(rospy, msgs, true_time)
-        counter = CapturedCounter(rospy, clients) if republish else None
+        counter = CapturedCounter(rospy, clients) \
+            if republish and not bag else None
         # Rounds start on the CM's service once every DPM has samples.
         states = {}
         for c in clients:
@@ -273,13 +292,19 @@ def run(args, scenario, republish):
         pcpu1 = {c: cpu_seconds(p.pid) for c, p in pubs.items()}
         peak = {n: dl.vm(p, 'VmHWM') for n, p in dpms.items()}
         load.append(round(os.getloadavg()[0], 2))
-        time.sleep(3.0)         # the last captured samples (republish)
+        # The last captured samples: each DPM sends its last ~2 s
+        # (~republish_delay) at 1000 a second after its result.
+        time.sleep(3.0 + 2.0 * max(STREAMS[c.split('_')[1]][0]
+                                   for c in clients) / 1000.0)
     finally:
         dl.stop(launch)
         for p in pubs.values():
             p.wait()
         launch_log.close()
+    republished = bag_stamps(bag, clients) if bag else \
+        counter.stamps if counter else None
     out = {'scenario': scenario, 'republish': bool(republish),
+           'recorder': (args.recorder if republish else None),
            'dur_s': args.dur, 'rounds': args.rounds,
            'load_average': load, 'clients': {}}
     ratios, result_lat, decision_lat = [], [], []
@@ -315,11 +340,9 @@ def run(args, scenario, republish):
                 if sent:
                     ratios.append(captured / sent)
                 result_lat.append(t - e)
-                if counter:
-                    with counter.lock:
-                        item['republished'] = sum(
-                            1 for x in counter.stamps[c]
-                            if w.start <= x < w.end)
+                if republished is not None:
+                    item['republished'] = sum(
+                        1 for x in republished[c] if w.start <= x < w.end)
             row['windows'].append(item)
         name = '/%s/dpm' % c
         if cpu0.get(name) is not None and cpu1.get(name) is not None:
@@ -359,26 +382,46 @@ def main():
                     default='both')
     ap.add_argument('--dur', type=float, default=60.0, help='DUR, s')
     ap.add_argument('--rounds', type=int, default=1)
+    ap.add_argument('--recorder', choices=('count', 'rosbag'),
+                    default='count',
+                    help='with republish on, who receives captured: this '
+                    'bench counting (rospy AnyMsg) or rosbag record')
     ap.add_argument('--publish', nargs=4, metavar=('KIND', 'TOPIC', 'S',
                                                    'OUT'),
+                    help=argparse.SUPPRESS)
+    ap.add_argument('--run', nargs=2, metavar=('SCENARIO', 'REPUBLISH'),
                     help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.publish:
         kind, topic, seconds, out = args.publish
         publish(kind, topic, float(seconds), out)
         return
+    if args.run:        # one run, in a process of its own (one master)
+        s, m = args.run[0], args.run[1] == 'on'
+        try:
+            r = run(args, s, m)
+        except (RuntimeError, OSError) as e:
+            log('%s failed: %s', s, e)
+            r = {'scenario': s, 'republish': m, 'error': str(e)}
+        print(json.dumps(r), flush=True)
+        return
     scenarios = sorted(SCENARIOS) if args.scenario == 'all' \
         else [args.scenario]
-    modes = {'on': [True], 'off': [False], 'both': [True, False]}[
+    modes = {'on': ['on'], 'off': ['off'], 'both': ['on', 'off']}[
         args.republish]
     runs = []
     for s in scenarios:
         for m in modes:
+            out = subprocess.run(
+                [sys.executable, os.path.abspath(__file__), '--run', s, m,
+                 '--dur', '%g' % args.dur, '--rounds', str(args.rounds),
+                 '--recorder', args.recorder],
+                stdout=subprocess.PIPE, text=True).stdout.strip()
             try:
-                r = run(args, s, m)
-            except (RuntimeError, OSError) as e:
-                log('%s failed: %s', s, e)
-                r = {'scenario': s, 'republish': m, 'error': str(e)}
+                r = json.loads(out.splitlines()[-1])
+            except (IndexError, ValueError):
+                r = {'scenario': s, 'republish': m == 'on',
+                     'error': 'no result: %r' % out[-300:]}
             print(json.dumps(r), flush=True)
             runs.append(r)
     print(json.dumps({'summary': [
