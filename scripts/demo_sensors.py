@@ -18,6 +18,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -60,7 +61,8 @@ def main():
     import rosgraph
     import rospy
     from hri_sync.msg import CaptureData, ClientResult, SyncAck
-    args = ['ntp_port:=%d' % free_port()] + sys.argv[1:]
+    from hri_sync.ros.replay import start_round_when_delivering
+    args = ['ntp_port:=%d' % free_port(), 'rounds:=0'] + sys.argv[1:]
     clients = list(CLIENTS) + (['joints'] if 'joints:=true' in args else [])
     port = free_port()
     os.environ['ROS_MASTER_URI'] = 'http://localhost:%d' % port
@@ -90,16 +92,21 @@ def main():
             rospy.Subscriber('/client_result', ClientResult,
                              lambda m: results.__setitem__(
                                  m.client_id, (m, time.time())))
+            # The round once every sensor delivers (a replay starts when
+            # its client's clock is known).
+            threading.Thread(target=start_round_when_delivering,
+                             args=(clients, 120.0), daemon=True).start()
             deadline = time.monotonic() + 300
             while (len(results) < len(clients) or not captures) and \
                     launch.poll() is None and time.monotonic() < deadline:
                 time.sleep(0.2)
         finally:
-            os.killpg(launch.pid, signal.SIGINT)
-            try:
-                launch.wait(30)
-            except subprocess.TimeoutExpired:
-                os.killpg(launch.pid, signal.SIGKILL)
+            if launch.poll() is None:
+                os.killpg(launch.pid, signal.SIGINT)
+                try:
+                    launch.wait(30)
+                except subprocess.TimeoutExpired:
+                    os.killpg(launch.pid, signal.SIGKILL)
     if not captures:
         sys.exit('sensors demo: no round started (see %s)' % log_path)
     print('\n'.join(report(captures[0], results, acks)))

@@ -3,7 +3,8 @@
 processor used, bad input injected on every new path.
 
 The five clients (skeleton, imu, audio, camera, joints; each on its own
-skewed clock) capture one window.  In its middle this checker publishes,
+skewed clock) capture one window, started on the CM's service once every
+client's sensor delivers.  In its middle this checker publishes,
 on the clients' input topics, ~bad messages of each kind: an image whose
 data does not match step x height, one of an unknown encoding, an IMU
 sample with a NaN acceleration, a joint state with a NaN position, an
@@ -23,6 +24,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import Image, Imu, JointState
 
 from hri_sync.msg import AudioChunk, CaptureData, ClientResult, Decision
+from hri_sync.ros.replay import start_round_when_delivering
 from hri_sync.timing.protocol import Capture
 
 # client: (low, high) of a plausible value of the replayed recording
@@ -86,7 +88,9 @@ class SensorsRound(unittest.TestCase):
 
     def test_round(self):
         n = rospy.get_param('~bad', 4)
-        self.assertTrue(self.wait(lambda: self.captures, 200.0),
+        reply = start_round_when_delivering(sorted(RANGES), 200.0)
+        rospy.loginfo('start_round: %s', reply.message)
+        self.assertTrue(self.wait(lambda: self.captures, 60.0),
                         'no capture_data: the round never started')
         window = Capture.from_msg(self.captures[0])
         # The middle of the window, on the host clock (global within ms).

@@ -97,3 +97,28 @@ class GlobalSchedule:
                 return True
             time.sleep(min(delay, 0.2))
         return False
+
+
+def start_round_when_delivering(clients, timeout, service=
+                                '/control_module/start_round'):
+    """Wait (up to ``timeout`` s) until every client's DPM reports samples
+    from its sensor (``/<client>/dpm_state``: some, the last under 1 s
+    old), then ask the CM for a round (its ~start_round service, with
+    ``rounds:=0``) and return its reply: a round started while a replay
+    sensor is still starting would be refused by that client's CPM."""
+    from std_srvs.srv import Trigger
+    from hri_sync.msg import DpmState
+    states = {}
+    subs = [rospy.Subscriber('/%s/dpm_state' % c, DpmState,
+                             lambda m, c=c: states.__setitem__(c, m))
+            for c in clients]
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and not rospy.is_shutdown() and not (
+            len(states) == len(clients) and all(
+                m.samples > 0 and m.sample_age < 1.0
+                for m in states.values())):
+        time.sleep(0.1)
+    for s in subs:
+        s.unregister()
+    rospy.wait_for_service(service, max(1.0, deadline - time.monotonic()))
+    return rospy.ServiceProxy(service, Trigger)()
