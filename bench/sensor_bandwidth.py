@@ -250,25 +250,11 @@ def run(args, scenario, republish):
         counter = CapturedCounter(rospy, clients) \
             if republish and not bag else None
         # Rounds start on the CM's service once every DPM has samples.
-        states = {}
-        for c in clients:
-            rospy.Subscriber('/%s/dpm_state' % c, msgs.DpmState,
-                             lambda m, c=c: states.__setitem__(c, m))
-        deadline = time.time() + setup
-        while time.time() < deadline and not (
-                len(states) == len(clients) and
-                all(m.samples > 0 and m.sample_age < 1.0
-                    for m in states.values())):
-            time.sleep(0.2)
-        from std_srvs.srv import Trigger
-        rospy.wait_for_service('/control_module/start_round',
-                               max(1.0, deadline - time.time()))
-        start_round = rospy.ServiceProxy('/control_module/start_round',
-                                         Trigger)
-        threading.Thread(target=lambda: [start_round() for _ in
-                                         range(args.rounds)],
-                         daemon=True).start()
-        deadline = time.time() + 30
+        from hri_sync.ros.replay import start_round_when_delivering
+        threading.Thread(target=lambda: [
+            start_round_when_delivering(clients, setup)
+            for _ in range(args.rounds)], daemon=True).start()
+        deadline = time.time() + setup + 30
         while not listener.captures and time.time() < deadline:
             time.sleep(0.1)
         if not listener.captures:

@@ -104,8 +104,9 @@ def start_round_when_delivering(clients, timeout, service=
     """Wait (up to ``timeout`` s) until every client's DPM reports samples
     from its sensor (``/<client>/dpm_state``: some, the last under 1 s
     old), then ask the CM for a round (its ~start_round service, with
-    ``rounds:=0``) and return its reply: a round started while a replay
-    sensor is still starting would be refused by that client's CPM."""
+    ``rounds:=0``) and return its reply, once the round is over (call it
+    in a thread): a round started while a replay sensor is still starting
+    would be refused by that client's CPM."""
     from std_srvs.srv import Trigger
     from hri_sync.msg import DpmState
     states = {}
