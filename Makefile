@@ -85,6 +85,11 @@ demo: setup
 demo-sensors: setup
 	@$(SOURCE) && $(ROS_PY) $(ROOT)/scripts/demo_sensors.py
 
+# The data path at camera and IMU/audio bandwidth, 60 s windows (JSON;
+# bench/sensor_bandwidth.py, docs/sensors.md).
+bench-sensors: setup
+	@$(SOURCE) && $(ROS_PY) $(ROOT)/bench/sensor_bandwidth.py --dur 60
+
 bench: setup
 	@$(SOURCE) && $(ROS_PY) $(ROOT)/bench/sync_skew.py --clients 2 --rounds 20
 

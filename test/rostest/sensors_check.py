@@ -1,8 +1,9 @@
 #!/usr/bin/python3
-"""A mixed-sensor round (launch/sensors.launch joints:=true): every stock
-processor used, bad input injected on every new path.
+"""A mixed-sensor round (launch/sensors.launch joints:=true generic:=true):
+every stock processor used, bad input injected on every new path.
 
-The five clients (skeleton, imu, audio, camera, joints; each on its own
+The six clients (skeleton, imu, audio, camera, joints, and generic, which
+counts the IMU's stream with HeaderCount; each on its own
 skewed clock) capture one window, started on the CM's service once every
 client's sensor delivers.  In its middle this checker publishes,
 on the clients' input topics, ~bad messages of each kind: an image whose
@@ -29,7 +30,9 @@ from hri_sync.timing.protocol import Capture
 
 # client: (low, high) of a plausible value of the replayed recording
 RANGES = {'skeleton': (1.0, 1e4), 'imu': (1.0, 200.0), 'audio': (0.1, 0.95),
-          'camera': (0.05, 50.0), 'joints': (0.1, 1e3)}
+          'camera': (0.05, 50.0), 'joints': (0.1, 1e3),
+          # HeaderCount of the 100 Hz IMU stream over 5 s (+ the bad ones)
+          'generic': (450.0, 550.0)}
 
 
 def bad_messages():
