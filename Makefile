@@ -10,7 +10,7 @@ PIP_PACKAGES := rosbags
 SOURCE := source $(WS)/devel/setup.bash
 
 .PHONY: setup apt venv build test unit check test-install test-site rostest \
-	test-load demo bench \
+	test-load demo demo-sensors bench bench-sensors \
 	bench-dj-rob clean
 
 setup: apt venv build
@@ -92,6 +92,16 @@ test-load:
 
 demo: setup
 	@$(SOURCE) && $(ROS_PY) $(ROOT)/scripts/demo.py
+
+# One round of a skeleton, an IMU, an audio and a camera client, each on a
+# skewed clock (scripts/demo_sensors.py; docs/sensors.md).
+demo-sensors: setup
+	@$(SOURCE) && $(ROS_PY) $(ROOT)/scripts/demo_sensors.py
+
+# The data path at camera and IMU/audio bandwidth, 60 s windows (JSON;
+# bench/sensor_bandwidth.py, docs/sensors.md).
+bench-sensors: setup
+	@$(SOURCE) && $(ROS_PY) $(ROOT)/bench/sensor_bandwidth.py --dur 60
 
 bench: setup
 	@$(SOURCE) && $(ROS_PY) $(ROOT)/bench/sync_skew.py --clients 2 --rounds 20

@@ -41,6 +41,7 @@ from hri_sync.msg import ClientResult, ClockState, Decision
 from hri_sync.ros.params import wait_for
 from hri_sync.timing.decision import decide
 
+# The dance-off's; ~clients and ~participants for another ~launch.
 CLIENTS = ('left', 'right', 'dj_rob', 'music')
 PARTICIPANTS = ('left', 'right')
 FRAME = re.compile(r'File "[^"]*/(?:nodes|lib/hri_sync)/(\w+)"|'
@@ -104,7 +105,10 @@ class FuzzDanceOff(unittest.TestCase):
         rospy.Subscriber('/client_result', ClientResult, self.keep,
                          self.results)
         rospy.Subscriber('/decision', Decision, self.keep, self.decisions)
-        for c in CLIENTS:
+        self.clients = rospy.get_param('~clients', list(CLIENTS))
+        self.participants = rospy.get_param('~participants',
+                                            list(PARTICIPANTS))
+        for c in self.clients:
             rospy.Subscriber('/%s/clock_state' % c, ClockState,
                              self.on_clock, c)
         # The launch's output and its nodes' logs, in a folder of ours.
@@ -116,9 +120,10 @@ class FuzzDanceOff(unittest.TestCase):
             ['roslaunch'] + where + [
                 launch, 'rounds:=0',
                 'dur:=%s' % rospy.get_param('~dur', 5.0),
-                'ntp_port:=%d' % rospy.get_param('~ntp_port'),
+                'ntp_port:=%d' % rospy.get_param('~ntp_port')]
+            + rospy.get_param('~launch_args', [
                 'left_seed:=4', 'right_seed:=21',
-                'monitor_required:=false'],
+                'monitor_required:=false']),
             stdout=self.out, stderr=subprocess.STDOUT,
             start_new_session=True,
             env=dict(os.environ, ROS_LOG_DIR=self.log_dir))
@@ -169,7 +174,7 @@ class FuzzDanceOff(unittest.TestCase):
         self.assertTrue(decisions, '%s round: no decision from the DM'
                         % name)
         results = {m.client_id: m for m in mine(
-            self.results, {'/%s/dpm' % c for c in PARTICIPANTS})}
+            self.results, {'/%s/dpm' % c for c in self.participants})}
         return decisions[-1], results
 
     def nodes(self):
@@ -177,7 +182,8 @@ class FuzzDanceOff(unittest.TestCase):
             rospy.get_name(), '/rosout', '/fuzz_publisher'}
 
     def test_fuzzed_dance_off(self):
-        self.assertTrue(wait_for(lambda: self.synced >= set(CLIENTS), 60.0),
+        self.assertTrue(wait_for(lambda: self.synced >= set(self.clients),
+                                 90.0),
                         'clients never synced: %s' % sorted(self.synced))
         rospy.wait_for_service('/control_module/start_round', 30.0)
         decision, _ = self.clean_round('first clean')
@@ -237,11 +243,11 @@ class FuzzDanceOff(unittest.TestCase):
         """What is wrong with a clean round's decision and results."""
         wrong = ['no ok result of %s from its DPM (%s)'
                  % (c, results[c].status if c in results else 'none')
-                 for c in PARTICIPANTS
+                 for c in self.participants
                  if c not in results or results[c].status != ClientResult.OK]
         if wrong:
             return wrong
-        want = decide(list(PARTICIPANTS),
+        want = decide(list(self.participants),
                       {c: (r.status, r.value) for c, r in results.items()},
                       rospy.get_param('~min_expressiveness', 1.0),
                       rospy.get_param('~tie_margin', 0.0), 'partial')

@@ -38,7 +38,8 @@ import rospy
 from hri_sync.ros.inbox import Senders
 
 EXCLUDE = ('/rosout', '/rosout_agg', '/clock', '/tf', '/tf_static')
-CLIENTS = ('left', 'right', 'dj_rob', 'music')
+CLIENTS = ('left', 'right', 'dj_rob', 'music', 'skeleton', 'imu', 'audio',
+           'camera', 'joints')
 WORDS = {
     'status': ('ok', 'partial', 'no_data', 'late', 'error'),
     'outcome': ('winner', 'no_winner', 'tie', 'aborted'),
@@ -47,6 +48,7 @@ WORDS = {
     'frame_id': ('sensor', 'odom', 'base_footprint'),
     'child_frame_id': ('base_footprint',),
     'key': ('error', 'reason', 'unstamped_total'),
+    'encoding': ('rgb8', 'bgr8', 'mono8', '16UC1', '32FC1'),
 }
 PLAUSIBLE = {           # name: (low, high) of a plausible value
     'str_aft': (0.0, 3.0), 'dur': (0.1, 10.0), 'offset': (-2.0, 2.0),
@@ -201,7 +203,9 @@ def subscribed_topics(exclude):
 ROLES = {'sync_time': 'cm', 'capture_data': 'cm', 'round_status': 'cm',
          'decision': 'dm', 'sync_ack': 'cpm', 'client_result': 'dpm',
          'clock_state': 'cpm', 'capture_command': 'cpm', 'dpm_state': 'dpm',
-         'skeleton': 'sensor', 'captured': 'dpm', 'odom': 'base',
+         'skeleton': 'sensor', 'image': 'sensor', 'imu': 'sensor',
+         'joint_states': 'sensor', 'audio': 'sensor', 'samples': 'sensor',
+         'input': 'sensor', 'captured': 'dpm', 'odom': 'base',
          'velocity': 'robot', 'led1': 'robot', 'led2': 'robot',
          'sound': 'robot'}
 

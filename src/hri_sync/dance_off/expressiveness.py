@@ -193,6 +193,7 @@ class SkeletonExpressiveness(Processor):
     """
 
     msg_type = 'hri_sync/Skeleton'
+    topic = 'skeleton'
 
     def __init__(self, min_confidence=DEFAULT_MIN_CONFIDENCE,
                  participant_zone=None, lost_after=0.5, zone_sensor_pose=None):

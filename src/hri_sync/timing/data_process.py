@@ -18,6 +18,7 @@ from hri_sync.timing.capture import (ERROR, CaptureWindow, SampleBuffer,
 from hri_sync.timing.clock import ClockModel
 from hri_sync.timing.mapping import ArrivalStamps, DeviceClockMapper
 from hri_sync.timing.processors import Processor
+from hri_sync.timing.validate import Rejected
 from hri_sync.timing.vocabulary import DRIFT_BOUND, MIN_COVERAGE
 
 STAMP_SOURCES = ('auto', 'arrival', 'device')
@@ -80,6 +81,11 @@ class DataProcess:
     A window is due for lack of samples ``margin`` s, plus the recent
     delivery lag of device-stamped samples, after the next sample was
     expected past its end.
+
+    Every sample is first validated by the processor's ``check``: one it
+    rejects is counted by its reason (``counts``, ``invalid``, and the
+    window its arrival falls in, whose result counts it in
+    ``frames_rejected`` and ``invalid_<reason>``), never stamped.
     """
 
     def __init__(self, make_processor, stamp_source='auto', min_coverage=MIN_COVERAGE,
@@ -91,6 +97,9 @@ class DataProcess:
         probe = make_processor()
         self.make_processor = make_processor
         self.read_device_stamp = probe.device_stamp
+        self.check = probe.check
+        self.invalid = Counter()     # samples the check rejected, by reason
+        self.last_invalid = ''       # the last one's message
         if stamp_source == 'auto':
             stamp_source = ('arrival' if type(probe).device_stamp
                             is Processor.device_stamp else 'device')
@@ -228,6 +237,13 @@ class DataProcess:
             self._reject('no_clock')
             return step
         arrival = self.clock.to_global(local)
+        try:
+            self.check(msg)
+        except Rejected as e:
+            self.invalid[e.reason] += 1
+            self.last_invalid = str(e)[:200]
+            self._reject(e.reason, arrival)
+            return step
         if self.stamp_source == 'device':
             stamped = self._stamp_device(msg, raw, arrival, local)
         else:
@@ -341,6 +357,7 @@ class DataProcess:
                 'device_clock_settling_total': c['settling'],
                 'late_after_result_total': c['late_after_result'],
                 'unreadable_total': c['unreadable'],
+                'invalid_total': sum(self.invalid.values()),
                 'stamp_source': self.stamp_source}
 
     def _error(self, round_id, start, end, why):
@@ -379,13 +396,19 @@ class DataProcess:
             'unstamped': sum(w.rejected[k] for k in (
                 'no_device_stamp', 'bad_device_stamp')),
             'bad_device_stamps': w.rejected['bad_device_stamp']})
+        invalid = {r: w.rejected[r] for r in self.invalid if w.rejected[r]}
+        for reason, n in invalid.items():
+            diagnostics['invalid_' + reason] = n
+        if invalid:
+            diagnostics['invalid_example'] = self.last_invalid
         silent = self._silence(w.end, stats['period'])
         if silent:
             diagnostics['sensor_silent'] = silent
         return WindowResult(
             w.round, status, w.start, w.end,
             frames=res.frames_used if res else 0,
-            frames_rejected=res.frames_rejected if res else 0,
+            frames_rejected=(res.frames_rejected if res else 0)
+            + sum(invalid.values()),
             frames_dropped=stats['dropped'], coverage=stats['coverage'],
             first_frame_offset=stats['first_frame_offset'],
             wake_lateness=w.wake_lateness,

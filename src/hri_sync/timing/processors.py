@@ -33,7 +33,10 @@ class ProcessResult:
 class Processor:
     """Base class of DPM processors.
 
-    Override ``msg_type``, maybe ``device_stamp``, and either
+    Override ``msg_type`` (the ROS type the DPM subscribes to) and
+    ``topic`` (the relative name it subscribes to, in the client's
+    namespace: remap it to the sensor's topic), maybe ``device_stamp``
+    and ``check`` (validation at the boundary), and either
     ``process(frames, start, end)`` (a simple processor: the default
     ``add`` keeps the window's frames and ``result`` passes them to
     ``process``) or ``begin``, ``add`` and ``result`` (an incremental one,
@@ -42,6 +45,7 @@ class Processor:
     """
 
     msg_type = 'hri_sync/Sample'
+    topic = 'samples'
 
     def __init__(self, **params):
         if params:
@@ -52,6 +56,11 @@ class Processor:
     def device_stamp(self, msg):
         """The sample's own device time in s, or None to stamp at arrival."""
         return None
+
+    def check(self, msg):
+        """Validate one incoming message before it is stamped: raise
+        ``hri_sync.timing.validate.Rejected`` (its ``reason`` is counted,
+        per window and on /diagnostics) for one that must not be used."""
 
     def begin(self, start, end):
         """Start a window [start, end) (global s), forgetting the last."""
