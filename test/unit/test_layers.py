@@ -2,10 +2,11 @@
 the imports: a layer imports only itself and the layers below it, and only
 ``hri_sync.ros`` imports ROS (rospy, the generated messages, ...).
 
-    timing  <  dance_off, people  <  robot  <  tools  <  ros
+    timing  <  dance_off, people, sensors  <  robot  <  tools  <  ros
 
 ``timing`` imports nothing of the package; ``people`` (skeletons of
-several people, other trackers' formats) and ``dance_off`` share a layer.
+several people, other trackers' formats), ``sensors`` (stock processors
+of standard sensor messages) and ``dance_off`` share a layer.
 """
 import ast
 import glob
@@ -14,8 +15,8 @@ import os
 import pytest
 
 SRC = os.path.join(os.path.dirname(__file__), '..', '..', 'src', 'hri_sync')
-RANK = {'timing': 0, 'dance_off': 1, 'people': 1, 'robot': 2, 'tools': 3,
-        'ros': 4}
+RANK = {'timing': 0, 'dance_off': 1, 'people': 1, 'sensors': 1, 'robot': 2,
+        'tools': 3, 'ros': 4}
 ROS = ('rospy', 'rosbag', 'roslib', 'rosgraph', 'genpy', 'rostopic',
        'hri_sync.msg', 'hri_sync.srv', 'std_msgs', 'sensor_msgs',
        'geometry_msgs', 'diagnostic_msgs', 'tf2_ros')
