@@ -179,3 +179,27 @@ def test_replay_schedule_pingpong():
     np.testing.assert_allclose(times, [0.0, 0.1, 0.3, 0.5, 0.6, 0.7, 0.9])
     with pytest.raises(ValueError):
         next(replay_schedule([0.0]))
+
+
+def test_perturbation_is_one_seeded_stream_per_imperfection():
+    from hri_sync.dance_off.skeleton_source import Perturbation
+    a, b = Perturbation(0.01, 0.3, seed=5), Perturbation(0.01, 0.3, seed=5)
+    # Drops do not depend on how frames are batched, nor on the noise drawn.
+    kept = np.concatenate([a.kept(4), a.kept(6)])
+    b.jitter(np.zeros((3, 15, 3)))
+    assert (kept == b.kept(10)).all() and 0 < kept.sum() < 10
+    pos = np.ones((15, 3))
+    out = Perturbation(0.01, 0.0, seed=1).jitter(pos)
+    assert out.shape == pos.shape and 0 < np.abs(out - pos).max() < 0.1
+    assert (Perturbation(0.0, 0.0, seed=1).jitter(pos) == pos).all()
+    assert Perturbation(0.0, 0.0).kept(100).all()
+    with pytest.raises(ValueError, match='need noise >= 0, 0 <= drop < 1'):
+        Perturbation(0.0, 1.0)
+
+
+def test_recorded_frames_are_replayed_in_device_order_without_repeats():
+    from hri_sync.dance_off.skeleton_source import recorded_frames
+    frames, rel = recorded_frames(['b', 'a', 'a2', 'c'],
+                                  [10.1, 10.0, 10.0, 10.3])
+    assert frames == ['a', 'b', 'c']       # stable; the repeat left out
+    assert rel == pytest.approx([0.0, 0.1, 0.3])

@@ -38,28 +38,49 @@ def tick_times(start, phase, rate, t0, t1):
     return start + phase + k * period
 
 
+class Perturbation:
+    """A tracker's imperfections: white noise of ``noise`` m per axis on
+    every joint and a probability ``drop`` of losing a frame, each from a
+    seeded stream of its own (one draw per frame for drops, so a seed
+    fixes which frames are dropped however they are batched)."""
+
+    def __init__(self, noise=0.003, drop=0.0, seed=None):
+        if noise < 0 or not 0.0 <= drop < 1.0:
+            raise ValueError('need noise >= 0, 0 <= drop < 1; got noise=%r '
+                             'drop=%r' % (noise, drop))
+        self.noise = float(noise)
+        self.drop = float(drop)
+        noise_seed, drop_seed = np.random.SeedSequence(seed).spawn(2)
+        self.rng = np.random.default_rng(noise_seed)
+        self.drop_rng = np.random.default_rng(drop_seed)
+
+    def kept(self, count):
+        """Which of ``count`` frames survive (bool array)."""
+        return self.drop_rng.random(count) >= self.drop
+
+    def jitter(self, positions):
+        """``positions`` (any shape, metres) with the noise added."""
+        positions = np.asarray(positions, dtype=float)
+        if self.noise > 0:
+            return positions + self.rng.normal(0.0, self.noise,
+                                               positions.shape)
+        return positions
+
+
 class SkeletonSource:
     """Samples a ``hri_sync.dance_off.motion.Motion`` like a live tracker."""
 
     def __init__(self, motion, noise=0.003, drop=0.0, speed=1.0, hold=None,
                  offset=0.0, mode='pingpong', confidence=1.0, seed=None):
-        if noise < 0 or not 0.0 <= drop < 1.0 or speed <= 0:
-            raise ValueError('need noise >= 0, 0 <= drop < 1, speed > 0; got '
-                             'noise=%r drop=%r speed=%r'
-                             % (noise, drop, speed))
+        if speed <= 0:
+            raise ValueError('need speed > 0; got speed=%r' % (speed,))
         self.motion = motion
-        self.noise = float(noise)
-        self.drop = float(drop)
+        self.perturb = Perturbation(noise, drop, seed)
         self.speed = float(speed)
         self.hold = hold
         self.offset = float(offset)
         self.mode = mode
         self.confidence = float(confidence)
-        # Drops draw from a stream of their own, one number per tick, so a
-        # seed fixes which ticks are dropped however the ticks are batched.
-        noise_seed, drop_seed = np.random.SeedSequence(seed).spawn(2)
-        self.rng = np.random.default_rng(noise_seed)
-        self.drop_rng = np.random.default_rng(drop_seed)
 
     def clip_times(self, stamps, start):
         """Motion time shown at host times ``stamps``."""
@@ -71,17 +92,27 @@ class SkeletonSource:
     def frames(self, stamps, start):
         """The frames the sensor produces at ticks ``stamps`` (host time)."""
         stamps = np.asarray(stamps, dtype=float)
-        keep = self.drop_rng.random(stamps.shape) >= self.drop
+        keep = self.perturb.kept(stamps.shape)
         stamps = stamps[keep]
         clip = self.clip_times(stamps, start)
-        pos = self.motion.positions_at(clip, self.mode)
-        if self.noise > 0:
-            pos = pos + self.rng.normal(0.0, self.noise, pos.shape)
+        pos = self.perturb.jitter(self.motion.positions_at(clip, self.mode))
         return SensorFrames(
             stamps=stamps, positions=pos,
             orientations=self.motion.orientations_at(clip, self.mode),
             confidence=np.full((len(stamps), NUM_JOINTS), self.confidence),
             dropped=int(np.sum(~keep)))
+
+
+def recorded_frames(msgs, device_secs):
+    """A recorded stream ready to replay: its frames in device-stamp order
+    (stable), a frame whose stamp does not advance left out, and their
+    times from 0.  Returns (frames, times)."""
+    rel = np.asarray(device_secs, dtype=float)
+    order = np.argsort(rel, kind='stable')
+    msgs = [msgs[i] for i in order]
+    rel = rel[order] - rel[order][0]
+    keep = np.concatenate([[True], np.diff(rel) > 0])
+    return [m for m, k in zip(msgs, keep) if k], rel[keep]
 
 
 def replay_schedule(rel_times):
