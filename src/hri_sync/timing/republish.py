@@ -80,7 +80,7 @@ class CaptureQueue:
     def put(self, captured: List[Tuple[float, Any, Optional[bytes]]]) -> None:
         """Queue [(global stamp, msg, serialized msg or None)]."""
         now = self.clock()
-        self.incoming.extend((now,) + tuple(c) for c in captured)
+        self.incoming.extend((now, t, msg, raw) for t, msg, raw in captured)
 
     def held(self, t: float) -> bool:
         with self.lock:
