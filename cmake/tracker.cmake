@@ -43,6 +43,7 @@ include_directories(include ${catkin_INCLUDE_DIRS} ${OPENNI2_INCLUDE_DIR})
 add_library(hri_sync_tracker_core STATIC
   src/tracker/body.cpp
   src/tracker/render.cpp
+  src/tracker/scene.cpp
   src/tracker/depth_tracker.cpp
   src/tracker/pose_fit.cpp
   src/tracker/clock_map.cpp)
