@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
@@ -29,8 +30,9 @@ double gaussian(uint64_t key) {
 
 void checkRange(const char* what, double v, double lo, double hi) {
   if (!(v >= lo && v <= hi)) {
-    throw std::invalid_argument(std::string(what) + " must be in [" + std::to_string(lo) + ", " +
-                                std::to_string(hi) + "], not " + std::to_string(v));
+    char buf[160];
+    std::snprintf(buf, sizeof(buf), "%s must be in [%g, %g], not %g", what, lo, hi, v);
+    throw std::invalid_argument(buf);
   }
 }
 
@@ -281,10 +283,13 @@ void Scene::collect(double t, Surfaces* s, SceneFrame* out) const {
   out->has_bystander = !bystander_.empty();
   if (!bystander_.empty()) {
     const BodyRig& rig = bystander_[0];
-    Joints b = rig.pose(opt_.bystander == "stand" ? 0.0 : t);
+    const bool walk = opt_.bystander == "walk";
+    Joints b = rig.pose(walk ? t : 0.0);
+    // The walk's path is centred on its mean hip position; a standing bystander on their own hips.
+    Vec3 centre = walk ? walk_centre_ : (b[L_HIP] + b[R_HIP]) * 0.5;
     for (Vec3& p : b) {
-      Vec3 r = p - Vec3(walk_centre_.x, 0, walk_centre_.z);
-      if (opt_.bystander == "walk") {  // the walk (towards the sensor) turned to cross the room along +x
+      Vec3 r = p - Vec3(centre.x, 0, centre.z);
+      if (walk) {  // the walk (towards the sensor) turned to cross the room along +x
         r = Vec3(-r.z, r.y, r.x);
         p = r + Vec3(person_centre_.x, -kTrackFloor, person_centre_.z + opt_.bystander_offset);
       } else {
