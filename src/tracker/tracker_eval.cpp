@@ -43,6 +43,7 @@ struct Stats {
   std::vector<std::vector<double>> err = std::vector<std::vector<double>>(NUM_JOINTS);
   std::vector<double> hands_seen;  ///< hand errors where the tracker's confidence is >= 0.5
   int frames = 0, tracked = 0, dropped = 0;
+  int first_tracked = -1;  ///< frame index of the first tracked frame (calibration done)
   double cpu = 0;
 };
 
@@ -67,6 +68,7 @@ void account(Stats* s, const SkeletonEstimate& est, const Joints& truth) {
   }
   ++s->frames;
   if (!est.tracked) return;
+  if (s->first_tracked < 0) s->first_tracked = s->frames - 1;
   ++s->tracked;
   for (int k = 0; k < NUM_JOINTS; ++k) s->err[k].push_back((est.joints[k] - truth[k]).norm());
   for (int k : {L_HAND, R_HAND})
@@ -250,10 +252,12 @@ int main(int argc, char** argv) {
   mean = all.empty() ? -1 : mean / all.size();
   std::printf("{\"mean_error_m\": %.4f, \"joints\": {%s}, \"hands_p95_error_m\": %.4f, "
               "\"seen_hands_p95_error_m\": %.4f, \"seen_hands_share\": %.4f, \"tracked_share\": %.4f, "
+              "\"tracked_share_after_calibration\": %.4f, \"first_tracked_frame\": %d, "
               "\"fps\": %.1f, \"frames\": %d, \"dropped_frames\": %d, \"resolution\": \"%dx%d\", "
               "\"height_m\": %.3f, \"body\": \"%s\", \"body_height_m\": %.3f, \"scene\": \"%s\"}\n",
               mean, joints.c_str(), pct(hands, 0.95), pct(st.hands_seen, 0.95),
               hands.empty() ? 0.0 : double(st.hands_seen.size()) / hands.size(), st.frames ? double(st.tracked) / st.frames : 0.0,
+              st.first_tracked >= 0 ? double(st.tracked) / (st.frames - st.first_tracked) : 0.0, st.first_tracked,
               st.cpu > 0 ? st.frames / st.cpu : 0.0, st.frames, st.dropped, cam.width, cam.height,
               tracker.model().height, scene ? spec.body.name.c_str() : "model",
               scene ? spec.body.height : 0.0, scene_query.c_str());
