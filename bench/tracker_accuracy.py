@@ -54,6 +54,20 @@ def find_eval():
     return out
 
 
+def still_track(track, tmpdir, seconds=10.0):
+    """A .track of a person standing still in the motion's first pose."""
+    with open(track) as f:
+        first = next(line for line in f
+                     if line.strip() and not line.startswith('#'))
+    pose = first.split()[1:]
+    path = os.path.join(tmpdir, 'still.track')
+    with open(path, 'w') as f:
+        f.write('# the first pose of %s, still\n' % os.path.basename(track))
+        for t in (0.0, seconds):
+            f.write('%g %s\n' % (t, ' '.join(pose)))
+    return path
+
+
 def to_track(motion, tmpdir):
     """A .track file for the motion.
 
@@ -203,14 +217,19 @@ def main():
     ap.add_argument('--jobs', type=int, default=1,
                     help='--matrix cells run at once')
     ap.add_argument('--markdown', help='--matrix: also write the table here')
+    ap.add_argument('--still', action='store_true',
+                    help="a still person in the motion's first pose, 10 s")
     args = ap.parse_args()
     if not os.path.exists(args.motion):
         sys.exit('tracker_accuracy: no such motion file: %s' % args.motion)
     exe = find_eval()
     with tempfile.TemporaryDirectory() as tmp:
         track = to_track(args.motion, tmp)
+        if args.still:
+            track = still_track(track, tmp)
         if args.matrix:
             result = {'motion': os.path.basename(args.motion),
+                      'still': args.still,
                       'commit': git_commit(), 'targets': TARGETS,
                       'through_openni': False,
                       'cells': matrix(exe, track, args)}
@@ -223,6 +242,7 @@ def main():
                               None if args.scene else args.noise,
                               args.background)
             result['motion'] = os.path.basename(args.motion)
+            result['still'] = args.still
             result['through_openni'] = not args.direct
     print(json.dumps(result))
 
