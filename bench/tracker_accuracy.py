@@ -90,6 +90,7 @@ MATRIX_BODIES = ('average', 'short_broad', 'tall_slim', 'loose_clothes')
 MATRIX_SCENES = (('empty', ''), ('wall_floor', 'wall=0.3'),
                  ('bystander', 'bystander=walk&bystander_offset=0.7'))
 MATRIX_NOISE = (('none', ''), ('kinect1', 'noise=kinect1'))
+WALK = os.path.join(ROOT, 'data', 'motion', 'cmu_131_01_walk.track')
 TARGETS = {'mean_error_m': 0.10, 'hands_p95_error_m': 0.25,
            'tracked_share_after_calibration': 0.90, 'fps': 30.0}
 
@@ -137,6 +138,8 @@ def matrix(exe, track, args):
             for noise, nkeys in MATRIX_NOISE:
                 keys = '&'.join(k for k in ('body=' + body, skeys, nkeys)
                                 if k)
+                if scene == 'bystander':
+                    keys += '&bystander_track=' + WALK
                 jobs.append((body, scene, noise, keys))
     cells = []
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
