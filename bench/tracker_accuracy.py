@@ -181,8 +181,8 @@ def markdown(result):
 
 def git_commit():
     try:
-        return subprocess.run(['git', '-C', ROOT, 'rev-parse', '--short',
-                               'HEAD'], capture_output=True, text=True,
+        return subprocess.run(['git', '-C', ROOT, 'describe', '--always',
+                               '--dirty'], capture_output=True, text=True,
                               check=True).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         return ''
@@ -231,9 +231,10 @@ def main():
         if args.still:
             track = still_track(track, tmp)
         if args.matrix:
+            commit = git_commit()  # before the run: the code measured
             result = {'motion': os.path.basename(args.motion),
                       'still': args.still,
-                      'commit': git_commit(), 'targets': TARGETS,
+                      'commit': commit, 'targets': TARGETS,
                       'through_openni': False,
                       'cells': matrix(exe, track, args)}
             if args.markdown:
