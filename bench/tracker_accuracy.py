@@ -116,13 +116,21 @@ def run_eval(exe, track, res, seconds, direct, scene='', noise=None,
 
 
 def judge(cell):
-    """The targets a cell meets (None: the target does not apply)."""
+    """The targets a cell meets (None: the target does not apply).
+
+    A cell never tracked has no error (tracker_eval reports -1): its error
+    targets are not met.
+    """
     no_bystander = cell['scene'] != 'bystander'
+    seen = cell['tracked_share_after_calibration'] > 0
+
+    def error_met(key):
+        if not no_bystander:
+            return None
+        return seen and 0 <= cell[key] <= TARGETS[key]
     return {
-        'mean_error': (cell['mean_error_m'] <= TARGETS['mean_error_m']
-                       if no_bystander else None),
-        'hands_p95': (cell['hands_p95_error_m'] <=
-                      TARGETS['hands_p95_error_m'] if no_bystander else None),
+        'mean_error': error_met('mean_error_m'),
+        'hands_p95': error_met('hands_p95_error_m'),
         'tracked': (cell['tracked_share_after_calibration'] >=
                     TARGETS['tracked_share_after_calibration']),
         'fps': (cell['fps'] >= TARGETS['fps']
@@ -166,13 +174,17 @@ def markdown(result):
     lines = ['| body (height) | scene | noise | mean (m) | hands p95 (m) | '
              'tracked after calib. | frames / CPU s | targets met |',
              '|---|---|---|---|---|---|---|---|']
+    def error(value):
+        return '%.3f' % value if value >= 0 else 'none (never tracked)'
     for c in result['cells']:
-        met = c['met']
+        met = judge(c)
+        body = ('%s (capsule fit model)' % c['body'] if c['body'] == 'model'
+                else '%s (%.2f m)' % (c['body'], c['body_height_m']))
         lines.append(
-            '| %s (%.2f m) | %s | %s | %.3f | %.3f | %.1f %% | %.0f | '
+            '| %s | %s | %s | %s | %s | %.1f %% | %.0f | '
             'mean %s, hands %s, tracked %s, speed %s |' % (
-                c['body'], c['body_height_m'], c['scene'], c['noise'],
-                c['mean_error_m'], c['hands_p95_error_m'],
+                body, c['scene'], c['noise'],
+                error(c['mean_error_m']), error(c['hands_p95_error_m']),
                 100 * c['tracked_share_after_calibration'], c['fps'],
                 mark[met['mean_error']], mark[met['hands_p95']],
                 mark[met['tracked']], mark[met['fps']]))
@@ -190,7 +202,7 @@ def git_commit():
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    ap.add_argument('--motion', required=True, help='.bvh, .npz or .track')
+    ap.add_argument('--motion', default='', help='.bvh, .npz or .track')
     ap.add_argument('--res', default='320x240', choices=['320x240', '640x480'])
     ap.add_argument(
         '--seconds',
@@ -220,10 +232,17 @@ def main():
     ap.add_argument('--jobs', type=int, default=1,
                     help='--matrix cells run at once')
     ap.add_argument('--markdown', help='--matrix: also write the table here')
+    ap.add_argument('--table', metavar='RESULT.json',
+                    help='print the markdown table of a saved --matrix '
+                         'result and exit')
     ap.add_argument('--still', action='store_true',
                     help="a still person in the motion's first pose, 10 s")
     args = ap.parse_args()
-    if not os.path.exists(args.motion):
+    if args.table:
+        with open(args.table) as f:
+            sys.stdout.write(markdown(json.load(f)))
+        return
+    if not args.motion or not os.path.exists(args.motion):
         sys.exit('tracker_accuracy: no such motion file: %s' % args.motion)
     exe = find_eval()
     with tempfile.TemporaryDirectory() as tmp:

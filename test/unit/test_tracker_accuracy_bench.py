@@ -30,14 +30,19 @@ def test_every_target_is_judged_and_bystander_errors_have_none():
     assert by['mean_error'] is None and by['hands_p95'] is None
     assert by['tracked'] is True
     assert bench.judge(cell(res='640x480', fps=10.0))['fps'] is None
+    never = bench.judge(cell(mean=-1.0, hands=-1.0, tracked=0.0))
+    assert never == {'mean_error': False, 'hands_p95': False,
+                     'tracked': False, 'fps': True}
 
 
 def test_markdown_reports_every_cell_met_or_not():
     cells = [cell(), cell(scene='wall_floor', mean=0.2)]
     for c in cells:
         c['met'] = bench.judge(c)
+    cells.append(cell(mean=-1.0, hands=-1.0, tracked=0.0))
     table = bench.markdown({'cells': cells}).splitlines()
-    assert len(table) == 4
+    assert len(table) == 5
+    assert 'none (never tracked)' in table[4] and 'mean **no**' in table[4]
     assert 'mean yes' in table[2] and 'mean **no**' in table[3]
     assert '| tall_slim (1.93 m) | wall_floor | kinect1 | 0.200 |' in table[3]
 
