@@ -22,10 +22,23 @@ uint64_t mix(uint64_t x) {
   x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
   return x ^ (x >> 31);
 }
-double uniform01(uint64_t key) { return (mix(key) >> 11) * (1.0 / 9007199254740992.0); }
-double gaussian(uint64_t key) {
-  double u1 = std::max(uniform01(key), 1e-300), u2 = uniform01(key ^ 0x5851f42d4c957f2dULL);
-  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * kPi * u2);
+// A standard normal sample from the top 12 bits of a hash: the quantile of one
+// of 4096 equal-probability bins (a table: per pixel this is the renderer's
+// hot spot; tails cut at 3.5 sigma).
+double gaussian(uint64_t hash) {
+  static const std::vector<double> quantiles = [] {
+    std::vector<double> q(4096);
+    for (size_t i = 0; i < q.size(); ++i) {
+      double p = (i + 0.5) / q.size(), lo = -8, hi = 8;  // solve Phi(x) = p by bisection
+      for (int k = 0; k < 60; ++k) {
+        double mid = 0.5 * (lo + hi);
+        (0.5 * std::erfc(-mid / std::sqrt(2.0)) < p ? lo : hi) = mid;
+      }
+      q[i] = 0.5 * (lo + hi);
+    }
+    return q;
+  }();
+  return quantiles[hash >> 52];
 }
 
 void checkRange(const char* what, double v, double lo, double hi) {
@@ -372,24 +385,49 @@ void castView(const S& s, const Camera& cam, const Vec3& o, double tilt_rad, dou
         if (std::fabs(den) < 1e-9) continue;
         hit(i, (p.h - p.n.dot(o)) / den, p.label, den / dn, p.albedo);
       }
-      if (!s.boxes.empty()) {
-        Vec3 dr = toRoom(d);
-        for (const auto& bx : s.boxes) {
-          double t0 = -1e30, t1 = 1e30;
-          int axis = 0;
-          const double ov[3] = {o_room.x, o_room.y, o_room.z}, dv[3] = {dr.x, dr.y, dr.z};
-          const double lo[3] = {bx.b.lo.x, bx.b.lo.y, bx.b.lo.z}, hi[3] = {bx.b.hi.x, bx.b.hi.y, bx.b.hi.z};
-          bool miss = false;
-          for (int k = 0; k < 3 && !miss; ++k) {
-            if (std::fabs(dv[k]) < 1e-12) { miss = ov[k] < lo[k] || ov[k] > hi[k]; continue; }
-            double a = (lo[k] - ov[k]) / dv[k], b = (hi[k] - ov[k]) / dv[k];
-            if (a > b) std::swap(a, b);
-            if (a > t0) { t0 = a; axis = k; }
-            t1 = std::min(t1, b);
-            miss = t0 > t1;
-          }
-          if (!miss && t0 > 0) hit(i, t0, bx.label, dv[axis] / dn, bx.albedo);
+    }
+  }
+  // Boxes (room frame), each over its projected bounding box (the whole image
+  // when a corner is behind the view).
+  auto toView = [&](const Vec3& r) {  // room point -> this view's frame
+    Vec3 q = r - Vec3(0, sensor_h, 0);
+    return Vec3(q.x, ca * q.y + sa * q.z, -sa * q.y + ca * q.z) - o;
+  };
+  for (const auto& bx : s.boxes) {
+    int u0 = 0, u1 = W - 1, v0 = 0, v1 = H - 1;
+    double umin = 1e9, umax = -1e9, vmin = 1e9, vmax = -1e9;
+    bool behind = false;
+    for (int k = 0; k < 8; ++k) {
+      Vec3 w = toView(Vec3((k & 1) ? bx.b.hi.x : bx.b.lo.x, (k & 2) ? bx.b.hi.y : bx.b.lo.y,
+                           (k & 4) ? bx.b.hi.z : bx.b.lo.z));
+      if (w.z < 0.05) { behind = true; break; }
+      double pu, pv;
+      cam.project(w, &pu, &pv);
+      umin = std::min(umin, pu); umax = std::max(umax, pu);
+      vmin = std::min(vmin, pv); vmax = std::max(vmax, pv);
+    }
+    if (!behind) {
+      u0 = std::max(0, static_cast<int>(std::floor(umin))); u1 = std::min(W - 1, static_cast<int>(std::ceil(umax)));
+      v0 = std::max(0, static_cast<int>(std::floor(vmin))); v1 = std::min(H - 1, static_cast<int>(std::ceil(vmax)));
+    }
+    const double ov[3] = {o_room.x, o_room.y, o_room.z};
+    const double lo[3] = {bx.b.lo.x, bx.b.lo.y, bx.b.lo.z}, hi[3] = {bx.b.hi.x, bx.b.hi.y, bx.b.hi.z};
+    for (int v = v0; v <= v1; ++v) {
+      for (int u = u0; u <= u1; ++u) {
+        Vec3 d = cam.ray(u, v), dr = toRoom(d);
+        const double dv[3] = {dr.x, dr.y, dr.z};
+        double t0 = -1e30, t1 = 1e30;
+        int axis = 0;
+        bool miss = false;
+        for (int k = 0; k < 3 && !miss; ++k) {
+          if (std::fabs(dv[k]) < 1e-12) { miss = ov[k] < lo[k] || ov[k] > hi[k]; continue; }
+          double a = (lo[k] - ov[k]) / dv[k], b = (hi[k] - ov[k]) / dv[k];
+          if (a > b) std::swap(a, b);
+          if (a > t0) { t0 = a; axis = k; }
+          t1 = std::min(t1, b);
+          miss = t0 > t1;
         }
+        if (!miss && t0 > 0) hit(static_cast<size_t>(v) * W + u, t0, bx.label, dv[axis] / d.norm(), bx.albedo);
       }
     }
   }
@@ -446,26 +484,23 @@ void Scene::render(double t, uint64_t frame_index, const Camera& cam, SceneFrame
         continue;
       }
       if (zz < noise_.min_range || zz > noise_.max_range) continue;
-      const uint64_t key = mix(key0 ^ (i * 0x9e3779b97f4a7c15ULL));
+      // One hash per pixel: its low 32 bits decide a hole, its top 12 the disparity error.
+      const uint64_t hash = mix(key0 ^ (i * 0x9e3779b97f4a7c15ULL));
       if (noise_.holes) {
         // Returned infrared: albedo x cos(incidence) / (z / 2 m)^2; too little and
         // the dot pattern is lost (dark hair, black clothes, grazing surfaces, far floor).
         double signal = shade[i] / ((zz / 2.0) * (zz / 2.0));
         double p_drop = std::clamp((0.045 - signal) / 0.03, 0.0, 1.0);
-        if (p_drop > 0 && uniform01(key ^ 1) < p_drop) continue;
+        if (p_drop > 0 && (hash & 0xffffffffULL) * (1.0 / 4294967296.0) < p_drop) continue;
       }
       if (shadow) {
-        // The point seen here, from the projector: hidden behind something nearer = no pattern.
-        Vec3 p = cam.ray(u, v) * zz - proj;
-        double pu, pv;
-        cam.project(p, &pu, &pv);
-        int iu = static_cast<int>(std::lround(pu)), iv = static_cast<int>(std::lround(pv));
-        if (iu >= 0 && iu < W && iv >= 0 && iv < H) {
-          double zl = zp[static_cast<size_t>(iv) * W + iu];
-          if (zl < p.z - (0.03 + 0.01 * p.z)) continue;
-        }
+        // The point seen here, from the projector: hidden behind something nearer = no
+        // pattern. The projector is shifted along x only, so the point is on the same
+        // row of its image, proj.x W / (z xzFactor) pixels to the side.
+        int iu = static_cast<int>(std::lround(u - proj.x * W / (zz * cam.xzFactor())));
+        if (iu >= 0 && iu < W && zp[static_cast<size_t>(v) * W + iu] < zz - (0.03 + 0.01 * zz)) continue;
       }
-      double d = (1.0 / zz - noise_.c0) / noise_.c1 + noise_.disparity_sigma * gaussian(key ^ 2);
+      double d = (1.0 / zz - noise_.c0) / noise_.c1 + noise_.disparity_sigma * gaussian(hash);
       d = std::round(d);
       if (d < 0 || d > 2046) continue;
       double zq = 1.0 / (noise_.c1 * d + noise_.c0);
