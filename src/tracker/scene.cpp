@@ -80,6 +80,14 @@ std::vector<std::string> BodyShape::presetNames() {
 }
 
 void BodyShape::validate() const {
+  if (name == "model") {
+    BodyShape plain;
+    if (height != plain.height || girth != plain.girth || limbs != plain.limbs || arms != plain.arms ||
+        legs != plain.legs || clothing != plain.clothing || clothes_albedo != plain.clothes_albedo) {
+      throw std::invalid_argument("body=model is the fit model's own capsules on the motion as it is: "
+                                  "height, girth, limbs, arms, legs, clothing and clothes_albedo do not apply");
+    }
+  }
   checkRange("height", height, 1.5, 1.95);
   checkRange("girth", girth, 0.6, 1.6);
   checkRange("limbs", limbs, 0.6, 1.6);
