@@ -267,9 +267,9 @@ TEST(BodyShape, ShapesAreNotTheFitModel) {
   BodyShape tall = BodyShape::preset("average");
   tall.height = 2.3;
   EXPECT_THROW(BodyRig(motion(), tall), std::invalid_argument);
-  BodyShape model = BodyShape::preset("model");
-  model.girth = 1.2;  // the fit model's capsules cannot be reshaped
-  EXPECT_THROW(model.validate(), std::invalid_argument);
+  BodyShape fit = BodyShape::preset("model");
+  fit.girth = 1.2;  // the fit model's capsules cannot be reshaped
+  EXPECT_THROW(fit.validate(), std::invalid_argument);
 }
 
 TEST(Scene, TiltedSensorSeesALevelFloorAndTheTruthMoves) {
