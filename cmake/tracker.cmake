@@ -43,6 +43,7 @@ include_directories(include ${catkin_INCLUDE_DIRS} ${OPENNI2_INCLUDE_DIR})
 add_library(hri_sync_tracker_core STATIC
   src/tracker/body.cpp
   src/tracker/render.cpp
+  src/tracker/scene.cpp
   src/tracker/depth_tracker.cpp
   src/tracker/pose_fit.cpp
   src/tracker/clock_map.cpp)
@@ -103,6 +104,14 @@ if(CATKIN_ENABLE_TESTING)
   target_compile_definitions(tracker_gtest PRIVATE HRI_SYNC_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
   set_target_properties(tracker_gtest PROPERTIES
     RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/${CATKIN_PACKAGE_BIN_DESTINATION})
+  # The realistic virtual Kinect: noise model, scenes, and the driver through OpenNI2
+  # (RUNPATH to the private folder so the driver loads). Run by test/rostest/virtual_kinect_gtest.test.
+  catkin_add_gtest(virtual_kinect_gtest test/unit/virtual_kinect_gtest.cpp)
+  target_link_libraries(virtual_kinect_gtest hri_sync_tracker_core ${OPENNI2_LIBRARY} Threads::Threads)
+  target_compile_definitions(virtual_kinect_gtest PRIVATE HRI_SYNC_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+  set_target_properties(virtual_kinect_gtest PROPERTIES
+    BUILD_RPATH ${HRI_SYNC_OPENNI2_DEVEL}
+    RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/${CATKIN_PACKAGE_BIN_DESTINATION})
   add_custom_target(hri_sync_tracker_tests ALL)
-  add_dependencies(hri_sync_tracker_tests tracker_gtest)
+  add_dependencies(hri_sync_tracker_tests tracker_gtest virtual_kinect_gtest VirtualKinect)
 endif()
