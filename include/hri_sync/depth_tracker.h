@@ -45,6 +45,17 @@ struct Segmentation {
 /// standing person (or lies nearest prev_centroid when given).
 Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* prev_centroid);
 
+/// Why the user is only partly in view ("" when the whole body is): a body cut
+/// by the image's bottom edge (legs out of view) or top edge (head out of view)
+/// over more than a hand's width. A hand or foot crossing an edge does not count,
+/// nor does a bottom cut within a shin's height of the floor (the feet leave
+/// the view first; zeroOutOfView marks them).
+std::string partialView(const PointGrid& g, const Segmentation& seg, const Plane& floor);
+
+/// Confidence 0 for every joint the camera cannot see (outside the image or
+/// behind the sensor): such a joint is never measured, only inferred.
+void zeroOutOfView(const Camera& cam, const Joints& j, std::array<float, NUM_JOINTS>* conf);
+
 /// Geodesic distances over the user's surface (8-neighbour grid graph).
 struct Geodesic {
   std::vector<float> dist;       ///< from the source; inf off the body

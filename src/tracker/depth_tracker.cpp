@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <limits>
 #include <queue>
@@ -256,6 +257,38 @@ Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* pre
   seg.height = u.hi;
   seg.found = true;
   return seg;
+}
+
+std::string partialView(const PointGrid& g, const Segmentation& seg, const Plane& floor) {
+  constexpr double kCutWidth = 0.20;  // wider than a hand or a foot (m)
+  constexpr double kShin = 0.35;      // a bottom cut lower than this above the floor leaves the legs in view
+  double nearest = 1e9;
+  for (int i : seg.cells) nearest = std::min(nearest, g.points[i].z);
+  for (int row : {g.height - 1, 0}) {
+    double lo = 1e9, hi = -1e9, cut_height = 1e9;
+    for (int i : seg.cells) {
+      if (i / g.width != row) continue;
+      lo = std::min(lo, g.points[i].x);
+      hi = std::max(hi, g.points[i].x);
+      if (floor.found) cut_height = std::min(cut_height, floor.height(g.points[i]));
+    }
+    if (row != 0 && floor.found && cut_height < kShin) continue;
+    if (hi - lo > kCutWidth) {
+      char why[160];
+      std::snprintf(why, sizeof why, "the body is cut by the image's %s edge over %.2f m (nearest point %.2f m): %s out of view",
+                    row == 0 ? "top" : "bottom", hi - lo, nearest, row == 0 ? "head" : "legs");
+      return why;
+    }
+  }
+  return "";
+}
+
+void zeroOutOfView(const Camera& cam, const Joints& j, std::array<float, NUM_JOINTS>* conf) {
+  for (int k = 0; k < NUM_JOINTS; ++k) {
+    double u = -1, v = -1;
+    if (j[k].z > 0.05) cam.project(j[k], &u, &v);
+    if (!(u >= -0.5 && v >= -0.5 && u < cam.width - 0.5 && v < cam.height - 0.5)) (*conf)[k] = 0.f;
+  }
 }
 
 Geodesic geodesicExtremities(const PointGrid& g, const Segmentation& seg, int max_extremities,
@@ -707,6 +740,12 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
     return out;
   }
   out.user_cells = static_cast<int>(seg.cells.size());
+  const std::string partial = partialView(g, seg, floor_);
+  if (!partial.empty()) {  // no skeleton made up for the unseen part; calibration waits
+    have_prev_ = have_fit_ = false;
+    out.state = "too close / partial view: " + partial;
+    return out;
+  }
   Geodesic geo = geodesicExtremities(g, seg, 8, 0.5);
   out.extremities = static_cast<int>(geo.extremities.size());
   const Vec3 up = floor_.found ? floor_.n : Vec3(0, 1, 0);
@@ -740,6 +779,7 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
   have_prev_ = true;
   prev_centroid_ = seg.centroid;
   out.confidence = pose.confidence;
+  zeroOutOfView(cam_, out.joints, &out.confidence);
   out.tracked = model_.calibrated && found >= 2;
   out.state = model_.calibrated ? (out.tracked ? "tracking" : "tracking (few extremities)") : "calibrating";
   if (!out.tracked) out.confidence.fill(0.f);
