@@ -71,7 +71,7 @@ hri_sync_openni2_program(record_oni src/virtual_kinect/record_oni.cpp)
 hri_sync_openni2_program(oni_info src/virtual_kinect/oni_info.cpp)
 hri_sync_openni2_program(tracker_eval src/tracker/tracker_eval.cpp)
 target_link_libraries(tracker_eval hri_sync_tracker_core)
-# Bench only (not installed): the segmentation stages' CPU cost per frame.
+# Bench: the segmentation stages' CPU cost per frame (installed as tracker_eval is).
 add_executable(tracker_stage_cost bench/tracker_stage_cost.cpp)
 target_link_libraries(tracker_stage_cost hri_sync_tracker_core)
 set_target_properties(tracker_stage_cost PROPERTIES
@@ -86,7 +86,7 @@ add_dependencies(skeleton_tracker ${${PROJECT_NAME}_EXPORTED_TARGETS} ${catkin_E
 
 # catkin_lint does not follow the add_executable in hri_sync_openni2_program.
 #catkin_lint: ignore_once undefined_target
-install(TARGETS skeleton_tracker record_oni oni_info tracker_eval
+install(TARGETS skeleton_tracker record_oni oni_info tracker_eval tracker_stage_cost
   RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 install(TARGETS VirtualKinect
   LIBRARY DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION}/openni2/OpenNI2/Drivers)
