@@ -23,10 +23,10 @@ import sys
 import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(ROOT, 'src'))
+sys.path[:0] = [os.path.join(ROOT, 'src'), os.path.join(ROOT, 'support')]
 
 from hri_sync.dance_off import verify  # noqa: E402
-from hri_sync.tools.harness import free_port  # noqa: E402
+from hri_sync_support.harness import free_port  # noqa: E402
 
 
 def main():

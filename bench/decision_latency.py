@@ -37,7 +37,6 @@ import json
 import math
 import os
 import signal
-import socket
 import struct
 import subprocess
 import sys
@@ -45,6 +44,10 @@ import tempfile
 import threading
 import time
 from xmlrpc.client import ServerProxy
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(
+    os.path.abspath(__file__))), 'support'))
+from hri_sync_support.harness import free_port  # noqa: E402
 
 SETUP_TIME = 40.0         # s for the master, chronyd and the first sync
 SETUP_PER_CLIENT = 4.0    # s more per client
@@ -54,11 +57,6 @@ def log(fmt, *args):
     print('decision_latency: ' + (fmt % args if args else fmt),
           file=sys.stderr, flush=True)
 
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
 
 
 def launch_text(args, ntp_port, bag):

@@ -18,12 +18,15 @@ import json
 import math
 import os
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
 import threading
 import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(
+    os.path.abspath(__file__))), 'support'))
+from hri_sync_support.harness import free_port  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -66,11 +69,6 @@ SKEWED = """<node pkg="hri_sync" type="skewed_client" name="{name}_clock"
               ntp_port:=$(arg ntp_port) start_spin:={spin}
               realtime_priority:={rt}"/>"""
 
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
 
 
 def part(name, clock, robot, music, opts):

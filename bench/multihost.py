@@ -5,7 +5,7 @@
     sudo /usr/bin/python3 bench/multihost.py --clients 2 --rounds 10
 
 The multi-host variant of ``bench/sync_skew.py`` (both are
-``hri_sync.ros.skew_bench`` with their own command wrappers):
+``hri_sync_support.skew_bench`` with their own command wrappers):
 every "host" is a Linux network namespace of its own, with its own
 loopback and one veth link to a bridge in a switch namespace, addresses in
 ``--net`` (default 10.77.0.0/24; nothing leaves the namespaces it creates):
@@ -51,9 +51,11 @@ import sys
 import tempfile
 import time
 
-from hri_sync.ros import skew_bench
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(
+    os.path.abspath(__file__))), 'support'))
+from hri_sync_support import skew_bench  # noqa: E402
 from hri_sync.timing.skew import percentiles
-from hri_sync.tools import harness
+from hri_sync_support import harness  # noqa: E402
 
 CLONE_NEWNET = 0x40000000
 MASTER_PORT = 11311     # each namespace has its own ports

@@ -15,8 +15,8 @@ stamping samples at arrival (or by the sensor's device stamp with
 ``rounds:=R``).  The bench itself is a ROS node on the true clock: it
 records every round and, from the samples each client kept (global stamp
 vs the true time written into the sample), each client's clock error and
-sample delivery delay, and the start skew (``hri_sync.ros.skew_bench``,
-``hri_sync.tools.skew_figures``).
+sample delivery delay, and the start skew (``hri_sync_support.skew_bench``,
+``hri_sync_support.skew_figures``).
 
 Progress goes to stderr; the last stdout line is one JSON object.  Every
 process it started (and their descendants, each in its own process group)
@@ -32,8 +32,10 @@ import sys
 import tempfile
 import time
 
-from hri_sync.ros import skew_bench
-from hri_sync.tools import harness
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(
+    os.path.abspath(__file__))), 'support'))
+from hri_sync_support import skew_bench  # noqa: E402
+from hri_sync_support import harness  # noqa: E402
 
 
 def log(fmt, *args):

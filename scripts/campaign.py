@@ -27,25 +27,21 @@ import glob
 import json
 import os
 import random
-import socket
 import subprocess
 import sys
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(ROOT, 'src'))
+sys.path[:0] = [os.path.join(ROOT, 'src'), os.path.join(ROOT, 'support')]
 from hri_sync.timing.skew import percentiles  # noqa: E402
+from hri_sync_support.harness import free_port  # noqa: E402
+
 KINDS = [('dancer', 'still'), ('small', 'still'), ('dancer', 'small'),
          ('still', 'still'), ('dancer', 'dancer'), ('small', 'still'),
          ('dancer', 'still')]
 RANK = {'still': 0, 'small': 1, 'dancer': 2}
 CLOCKS = ('+1.2s x1.0002', '-0.8s x0.9998')
 
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
 
 
 def participant(side, kind, clip, rng):

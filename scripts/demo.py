@@ -15,10 +15,13 @@ Options pass on to the launch file as name:=value.
 """
 import os
 import re
-import socket
 import subprocess
 import sys
 import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(
+    os.path.abspath(__file__))), 'support'))
+from hri_sync_support.harness import free_port  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 # The round reports of round_monitor and dj_rob_monitor (a header, then
@@ -30,11 +33,6 @@ DECISION = re.compile(r'.*round (\d+) decision: .*; on (.+), ([-\d.]+) ms '
                       r'after the window end; timing uncertainty '
                       r'([\d.na]+) ms')
 
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
 
 
 def main():

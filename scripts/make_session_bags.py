@@ -22,11 +22,13 @@ of each is in OUT/<name>.log (removed on success).
 """
 import argparse
 import os
-import socket
 import subprocess
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, 'support'))
+from hri_sync_support.harness import free_port  # noqa: E402
+
 COMMON = ['dur:=3', 'bag_options:=--bz2']
 SESSIONS = {
     'session_robot': ['rounds:=2', 'right_hold:=0', 'left_seed:=1',
@@ -38,11 +40,6 @@ SESSIONS = {
 # Shipped recordings of older message definitions, kept on purpose.
 KEPT = ('session_robot',)
 
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
 
 
 def record(name, args, out):

@@ -54,34 +54,52 @@ def make_bag(path, name, kwargs, seed, dur, rate, noise, store):
     source = SkeletonSource(motion, noise=noise, seed=seed, **kwargs)
     phase = rng.uniform(0, 1.0 / rate)
     frames = source.frames(tick_times(0.0, phase, rate, 0.0, dur), 0.0)
+    write_bag(path, frames.stamps, frames.positions, frames.confidence,
+              store, frames.orientations)
+    return len(frames.stamps)
+
+
+def ros_time(store, stamp):
+    """A builtin Time of ``stamp`` s."""
+    sec = int(np.floor(stamp))
+    return store.types['builtin_interfaces/msg/Time'](
+        sec=sec, nanosec=min(999999999, int(round((stamp - sec) * 1e9))))
+
+
+def write_bag(path, stamps, positions, confidence, store, orientations=None,
+              topic='/skeleton', frame_id='sensor'):
+    """A bz2 bag of hri_sync/Skeleton frames on ``topic``: header.stamp =
+    device_stamp = ``stamps`` (s), ``positions`` (N, 15, 3),
+    ``confidence`` (N, 15), ``orientations`` (N, 15, 4; default
+    identity)."""
     t = store.types
     Skeleton = t['hri_sync/msg/Skeleton']
     Header = t['std_msgs/msg/Header']
-    Time = t['builtin_interfaces/msg/Time']
     Point = t['geometry_msgs/msg/Point']
     Quaternion = t['geometry_msgs/msg/Quaternion']
+    if orientations is None:
+        orientations = np.zeros(positions.shape[:2] + (4,))
+        orientations[..., 3] = 1.0
     if os.path.exists(path):
         os.remove(path)
     writer = Writer(path)
     writer.set_compression(Writer.CompressionFormat.BZ2)
     with writer:
-        conn = writer.add_connection('/skeleton', 'hri_sync/msg/Skeleton',
+        conn = writer.add_connection(topic, 'hri_sync/msg/Skeleton',
                                      typestore=store)
-        for k, stamp in enumerate(frames.stamps):
-            sec = int(np.floor(stamp))
-            when = Time(sec=sec, nanosec=int(round((stamp - sec) * 1e9)))
+        for k, stamp in enumerate(stamps):
+            when = ros_time(store, stamp)
             msg = Skeleton(
-                header=Header(seq=k, stamp=when, frame_id='sensor'),
+                header=Header(seq=k, stamp=when, frame_id=frame_id),
                 client_id='', user_id=1, device_stamp=when,
                 positions=[Point(x=float(p[0]), y=float(p[1]), z=float(p[2]))
-                           for p in frames.positions[k]],
+                           for p in positions[k]],
                 orientations=[Quaternion(x=float(q[0]), y=float(q[1]),
                                          z=float(q[2]), w=float(q[3]))
-                              for q in frames.orientations[k]],
-                confidence=frames.confidence[k].astype(np.float32))
-            writer.write(conn, sec * 10**9 + when.nanosec,
+                              for q in orientations[k]],
+                confidence=np.asarray(confidence[k], dtype=np.float32))
+            writer.write(conn, when.sec * 10**9 + when.nanosec,
                          store.serialize_ros1(msg, 'hri_sync/msg/Skeleton'))
-    return len(frames.stamps)
 
 
 def main():

@@ -1,24 +1,38 @@
 #!/usr/bin/python3
-"""Run every rostest in a folder, one after another, and summarise.
+"""Run every rostest in a folder, several at once, and summarise.
 
-    run_rostests.py TEST_DIR [NAME_SUBSTRING ...]
+    run_rostests.py [-j N] TEST_DIR [NAME_SUBSTRING ...]
 
-Runs TEST_DIR/rostest/*.test with rostest, then the script-driven tests,
+Runs TEST_DIR/rostest/*.test with rostest, and the script-driven tests,
 TEST_DIR/system/test_*.py, with pytest: those need what rostest cannot
-give (e.g. a master they restart) and start their own processes.  Each
-test's full output goes to .ws/test_logs/<name>.log; a failing test's
-tail is printed.  The last line is 'rostest: N passed, N failed'; the exit
-status is non-zero when any test failed or none ran.
+give (e.g. a master they restart) and start their own processes.
+
+Up to N tests run at once.  Run as root, each test gets a network
+namespace of its own (loopback only), so the tests' masters, NTP servers
+and node ports never meet, whatever ports they hard-code; the namespace
+and every process left in it are removed when the test ends.  Not root,
+the tests run one after another on this host's network (-j is ignored).
+The longest tests (by the durations of the last run, kept in
+.ws/test_logs/durations.json) start first.
+
+Each test's full output goes to .ws/test_logs/<name>.log; a failing
+test's tail is printed.  The last line is 'rostest: N passed, N failed';
+the exit status is non-zero when any test failed or none ran.
 """
+import argparse
+import concurrent.futures
 import glob
+import json
 import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 import xml.etree.ElementTree as ET
 
 TIMEOUT = 600  # s per test file
+NETNS_PREFIX = 'hrit'
 
 
 def junit_counts(path):
@@ -45,54 +59,169 @@ def restore_signals():
         signal.signal(signal.SIGQUIT, signal.SIG_DFL)
 
 
-def main():
-    restore_signals()
-    test_dir = os.path.abspath(sys.argv[1])
-    wanted = sys.argv[2:]
-    root = os.path.dirname(test_dir)
-    logs = os.path.join(root, '.ws', 'test_logs')
-    results = os.path.join(root, '.ws', 'test_results')
-    os.makedirs(logs, exist_ok=True)
-    files = sorted(glob.glob(os.path.join(test_dir, 'rostest', '*.test'))) + \
-        sorted(glob.glob(os.path.join(test_dir, 'system', 'test_*.py')))
-    files = [f for f in files if not wanted or any(w in f for w in wanted)]
-    passed, failed = [], []
-    for f in files:
-        name = os.path.splitext(os.path.basename(f))[0]
-        log = os.path.join(logs, name + '.log')
+def can_isolate():
+    """True when this process may make network namespaces."""
+    return os.geteuid() == 0 and subprocess.run(
+        ['ip', 'netns', 'list'], stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL).returncode == 0
+
+
+def netns_pids(ns):
+    out = subprocess.run(['ip', 'netns', 'pids', ns], capture_output=True,
+                         text=True).stdout
+    return [int(p) for p in out.split()]
+
+
+def remove_netns(ns):
+    """Kill what still runs in namespace ns, then delete it."""
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        pids = netns_pids(ns)
+        for pid in pids:
+            try:
+                os.kill(pid, sig)
+            except ProcessLookupError:
+                pass
+        deadline = time.monotonic() + 5
+        while pids and netns_pids(ns) and time.monotonic() < deadline:
+            time.sleep(0.1)
+    subprocess.run(['ip', 'netns', 'del', ns], stderr=subprocess.DEVNULL)
+
+
+def remove_stale_netns():
+    """Namespaces of an earlier run of this script that was killed."""
+    out = subprocess.run(['ip', 'netns', 'list'], capture_output=True,
+                         text=True).stdout
+    for line in out.splitlines():
+        ns = line.split()[0] if line.split() else ''
+        parts = ns.split('_')
+        if len(parts) == 3 and parts[0] == NETNS_PREFIX \
+                and parts[1].isdigit() \
+                and not os.path.exists('/proc/%s' % parts[1]):
+            remove_netns(ns)
+
+
+class Runner:
+    """Runs test files, each alone in a namespace when isolate is set."""
+
+    def __init__(self, root, isolate):
+        self.logs = os.path.join(root, '.ws', 'test_logs')
+        self.results = os.path.join(root, '.ws', 'test_results')
+        self.isolate = isolate
+        self.lock = threading.Lock()
+        self.count = 0
+        os.makedirs(self.logs, exist_ok=True)
+
+    def command(self, path, name):
+        """(its summary XML, the command) of one test.  Each test writes
+        its results in a folder of its own: tests that include one launch
+        file name their checkers alike, and would overwrite each other's
+        result files when run at once."""
+        results = os.path.join(self.results, name)
         xml = os.path.join(results, 'hri_sync', 'rostest-%s.xml' % name)
-        if f.endswith('.py'):
-            command = [sys.executable, '-m', 'pytest', '-q', '-p',
-                       'no:cacheprovider', '--junitxml', xml, f]
-        else:
-            command = ['rostest', '--results-base-dir', results,
-                       '--results-filename', '%s.xml' % name,
-                       'hri_sync', os.path.basename(f)]
+        if path.endswith('.py'):
+            return xml, [sys.executable, '-m', 'pytest', '-q', '-p',
+                         'no:cacheprovider', '--junitxml', xml, path]
+        return xml, ['rostest', '--results-base-dir', results,
+                     '--results-filename', '%s.xml' % name,
+                     'hri_sync', os.path.basename(path)]
+
+    def run(self, path):
+        """(name, ok, seconds, summary line) of one test file."""
+        name = os.path.splitext(os.path.basename(path))[0]
+        log = os.path.join(self.logs, name + '.log')
+        xml, command = self.command(path, name)
         if os.path.exists(xml):
             os.remove(xml)
+        ns = None
+        env = dict(os.environ)
+        if self.isolate:
+            with self.lock:
+                self.count += 1
+                ns = '%s_%d_%d' % (NETNS_PREFIX, os.getpid(), self.count)
+            subprocess.run(['ip', 'netns', 'add', ns], check=True)
+            subprocess.run(['ip', 'netns', 'exec', ns, 'ip', 'link', 'set',
+                            'lo', 'up'], check=True)
+            command = ['ip', 'netns', 'exec', ns] + command
+            env.update(ROS_HOSTNAME='localhost',
+                       ROS_MASTER_URI='http://localhost:11311')
+            env.pop('ROS_IP', None)
         t0 = time.monotonic()
-        with open(log, 'w') as out:
-            try:
-                code = subprocess.run(
-                    command, stdout=out, stderr=subprocess.STDOUT,
-                    timeout=TIMEOUT).returncode
-            except subprocess.TimeoutExpired:
-                code = 'timeout after %d s' % TIMEOUT
+        try:
+            with open(log, 'w') as out:
+                proc = subprocess.Popen(command, stdout=out,
+                                        stderr=subprocess.STDOUT, env=env,
+                                        start_new_session=True)
+                try:
+                    code = proc.wait(timeout=TIMEOUT)
+                except subprocess.TimeoutExpired:
+                    os.killpg(proc.pid, signal.SIGKILL)
+                    proc.wait()
+                    code = 'timeout after %d s' % TIMEOUT
+        finally:
+            if ns:
+                remove_netns(ns)
+        seconds = time.monotonic() - t0
         counts = junit_counts(xml)
         ok = code == 0 and counts is not None and counts[0] > 0 \
             and counts[1] == 0
-        print('%-4s %-40s %6.1f s  (exit %s, %s)' % (
-            'PASS' if ok else 'FAIL', name, time.monotonic() - t0, code,
-            '%d tests, %d failed' % counts if counts else 'no result file'),
-            flush=True)
+        line = '%-4s %-40s %6.1f s  (exit %s, %s)' % (
+            'PASS' if ok else 'FAIL', name, seconds, code,
+            '%d tests, %d failed' % counts if counts else 'no result file')
         if not ok:
             with open(log) as lf:
                 tail = lf.readlines()[-40:]
-            print('  --- tail of %s ---' % log)
-            sys.stdout.write(''.join('  ' + line for line in tail))
-            failed.append(name)
-        else:
-            passed.append(name)
+            line += '\n  --- tail of %s ---\n%s' % (
+                log, ''.join('  ' + t for t in tail))
+        return name, ok, seconds, line
+
+
+def main():
+    restore_signals()
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('-j', '--jobs', type=int,
+                        default=int(os.environ.get('ROSTEST_JOBS', 4)),
+                        help='tests at once (default $ROSTEST_JOBS or 4)')
+    parser.add_argument('test_dir')
+    parser.add_argument('wanted', nargs='*', help='name substrings')
+    args = parser.parse_args()
+    test_dir = os.path.abspath(args.test_dir)
+    root = os.path.dirname(test_dir)
+    files = sorted(glob.glob(os.path.join(test_dir, 'rostest', '*.test'))) \
+        + sorted(glob.glob(os.path.join(test_dir, 'system', 'test_*.py')))
+    files = [f for f in files
+             if not args.wanted or any(w in f for w in args.wanted)]
+    isolate = can_isolate()
+    jobs = max(1, args.jobs) if isolate else 1
+    if isolate:
+        remove_stale_netns()
+    runner = Runner(root, isolate)
+    durations_file = os.path.join(runner.logs, 'durations.json')
+    try:
+        with open(durations_file) as f:
+            durations = json.load(f)
+    except (OSError, ValueError):
+        durations = {}
+    files.sort(key=lambda f: -durations.get(
+        os.path.splitext(os.path.basename(f))[0], 60.0))
+    print('rostest: %d files, %d at once%s' % (
+        len(files), jobs, ', one network namespace each' if isolate else
+        ' (not root: no network namespaces, one at a time)'), flush=True)
+    passed, failed = [], []
+    t0 = time.monotonic()
+    with concurrent.futures.ThreadPoolExecutor(jobs) as pool:
+        for future in concurrent.futures.as_completed(
+                [pool.submit(runner.run, f) for f in files]):
+            name, ok, seconds, line = future.result()
+            durations[name] = round(seconds, 1)
+            (passed if ok else failed).append(name)
+            print(line, flush=True)
+    with open(durations_file, 'w') as f:
+        json.dump(durations, f, indent=1, sort_keys=True)
+    print('rostest: wall %.1f s, sum of test times %.1f s' % (
+        time.monotonic() - t0, sum(durations.get(
+            os.path.splitext(os.path.basename(f))[0], 0) for f in files)))
+    if failed:
+        print('rostest: failed: %s' % ' '.join(sorted(failed)))
     print('rostest: %d passed, %d failed' % (len(passed), len(failed)))
     sys.exit(1 if failed or not passed else 0)
 

@@ -86,6 +86,60 @@ struct FitFrame {
   Joints init;
 };
 
+/// The extremities the labelling stage names (head, hands, feet).
+enum ExtremityLabel { LB_HEAD, LB_LHAND, LB_RHAND, LB_LFOOT, LB_RFOOT, NUM_LABELS };
+using LabelAssignment = std::array<int, NUM_LABELS>;  ///< candidate per label, -1: unseen
+
+/// The trunk as the body model places it: the body within a short geodesic
+/// radius of the centroid, the torso behind its surface, neck and hip centre
+/// along up.
+struct TrunkFrame {
+  Vec3 up{0, 1, 0}, trunk, torso, neck, hipc;
+};
+TrunkFrame trunkFrame(const PointGrid& g, const Segmentation& seg, const Geodesic& geo, const Vec3& up,
+                      const BodyModel& model, double torso_bias);
+
+/// Stage "extremities": the geodesic extrema, plus the tips of parts held out
+/// in front of the trunk towards the sensor (a hand reaching forward), which
+/// are no geodesic extrema. Cells and their points, at most 10.
+struct Extremities {
+  std::vector<int> cells;
+  std::vector<Vec3> points;
+};
+Extremities findExtremities(const PointGrid& g, const Segmentation& seg, const Geodesic& geo, const Vec3& trunk);
+
+/// What the labelling remembers between frames.
+struct LabelMemory {
+  bool have_prev = false;
+  std::array<Vec3, NUM_LABELS> tips;
+  std::array<int, NUM_LABELS> age{};
+  int hold_frames = 10;       ///< how long a lost extremity's last position gates it
+  Vec3 lateral{1, 0, 0};      ///< right to left
+};
+
+/// Stage "labelling": the cheapest assignment of candidates to head, hands and
+/// feet that obeys the body's shape (extra extrema, knees and elbows, stay
+/// unlabelled); the cost adds the distance to a label's recent last position.
+LabelAssignment labelExtremities(const PointGrid& g, const Geodesic& geo, const Extremities& ex,
+                                 const TrunkFrame& tf, const Plane& floor, const BodyModel& model,
+                                 const LabelMemory& memory);
+
+/// The horizontal direction the knees bend to (the body's front) from the
+/// candidates that look like feet, or a zero vector when too few bend.
+Vec3 kneeBend(const PointGrid& g, const Geodesic& geo, const Extremities& ex, const TrunkFrame& tf,
+              const Plane& floor, const BodyModel& model);
+
+/// Stage "body model": every joint placed from the trunk and the geodesic
+/// paths (tip first) of the labelled extremities, with a confidence each.
+struct BodyPose {
+  Joints joints;
+  std::array<float, NUM_JOINTS> confidence{};
+  double torso_shift = 0;     ///< the head path's torso minus the trunk's, along up
+};
+BodyPose placeJoints(TrunkFrame tf, const std::array<std::vector<Vec3>, NUM_LABELS>& paths,
+                     const std::array<Vec3, NUM_LABELS>& tips, const LabelAssignment& assign,
+                     const BodyModel& model, const Vec3& lateral, const Joints* prev_mid);
+
 class ModelSearch;
 
 struct TrackerParams {
@@ -122,7 +176,15 @@ class DepthTracker {
     double x = 0, dx = 0, t = 0;
     double filter(double v, double t, double min_cutoff, double beta);
   };
-  enum Label { LB_HEAD, LB_LHAND, LB_RHAND, LB_LFOOT, LB_RFOOT, NUM_LABELS };
+  /// Stage "segmentation": the floor (refitted every 30 frames) and the user.
+  Segmentation segment(const PointGrid& g);
+  /// The bone lengths: calibrated on the first frames, then refined by the search.
+  void calibrate(const PointGrid& g, const Segmentation& seg, const Joints& j, const LabelAssignment& assign);
+  /// Stage "fit": the model fit refines this frame's estimate and last frame's
+  /// pose; the one explaining the depth better wins.
+  void fit(const PointGrid& g, const Segmentation& seg, Joints* j, std::array<float, NUM_JOINTS>* conf);
+  Joints smooth(const Joints& j, double t);
+  LabelMemory memory() const;
 
   Camera cam_;
   TrackerParams params_;

@@ -173,6 +173,8 @@ Plane fitFloor(const PointGrid& g, uint32_t seed) {
   return best;
 }
 
+// Over 80 lines: one flood fill of the points off the floor into connected
+// bodies and the choice among them, which share the per-body statistics.
 Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* prev_centroid) {
   Segmentation seg;
   const int n = g.width * g.height;
@@ -395,207 +397,195 @@ void DepthTracker::reset() {
   for (auto& f : filters_) f = {};
 }
 
-SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
-  SkeletonEstimate out;
-  PointGrid g = makeGrid(depth_mm, cam_, params_.grid_step);
-  if (!floor_.found || frames_ % 30 == 0) {
-    Plane f = fitFloor(g, 7 + frames_);
-    if (f.found) floor_ = f;
-  }
-  ++frames_;
-  Segmentation seg = segmentUser(g, floor_, have_prev_ ? &prev_centroid_ : nullptr);
-  if (!seg.found) {
-    have_prev_ = have_fit_ = false;
-    out.state = "searching: " + seg.reason;
-    return out;
-  }
-  out.user_cells = static_cast<int>(seg.cells.size());
-  Geodesic geo = geodesicExtremities(g, seg, 8, 0.5);
-  out.extremities = static_cast<int>(geo.extremities.size());
-  const Vec3 up = floor_.found ? floor_.n : Vec3(0, 1, 0);
-  if (!model_.calibrated && calib_.empty()) model_ = BodyModel::fromHeight(std::clamp(seg.height + 0.03, 1.2, 2.2));
-
-  // Trunk: the body within a short geodesic radius of the centroid.
-  Vec3 trunk;
+TrunkFrame trunkFrame(const PointGrid& g, const Segmentation& seg, const Geodesic& geo, const Vec3& up,
+                      const BodyModel& model, double torso_bias) {
+  TrunkFrame tf;
+  tf.up = up;
   int nt = 0;
-  for (int i : seg.cells) if (geo.dist[i] < 0.22f) { trunk += g.points[i]; ++nt; }
-  trunk = nt ? trunk * (1.0 / nt) : seg.centroid;
+  for (int i : seg.cells) if (geo.dist[i] < 0.22f) { tf.trunk += g.points[i]; ++nt; }
+  tf.trunk = nt ? tf.trunk * (1.0 / nt) : seg.centroid;
   // The centroid sits low (legs are long): a learnt offset along up corrects it.
-  Vec3 torso = behind(trunk, 0.13) + up * torso_bias_;
-  Vec3 neck = torso + up * model_.torso_to_neck;
-  Vec3 hipc = torso - up * model_.torso_to_hips;
+  tf.torso = behind(tf.trunk, 0.13) + up * torso_bias;
+  tf.neck = tf.torso + up * model.torso_to_neck;
+  tf.hipc = tf.torso - up * model.torso_to_hips;
+  return tf;
+}
 
-  // Candidates: the geodesic extrema, plus the tips of parts held out in front of the
-  // trunk towards the sensor (a hand reaching forward), which are no geodesic extrema.
-  std::vector<int> ext_cells = geo.extremities;
-  {
-    const Vec3 view = trunk.normalized();
-    std::vector<uint8_t> front(g.width * g.height, 0);
-    for (int i : seg.cells) front[i] = (trunk - g.points[i]).dot(view) > 0.07;
-    std::vector<int> stack;
-    for (int s0 : seg.cells) {
-      if (front[s0] != 1) continue;
-      int tip = s0, size = 0;
-      double best = -1;
-      front[s0] = 2;
-      stack.assign(1, s0);
-      while (!stack.empty()) {
-        int i = stack.back();
-        stack.pop_back();
-        ++size;
-        double ahead = (trunk - g.points[i]).dot(view);
-        if (ahead > best) { best = ahead; tip = i; }
-        forNeighbours(g, i, [&](int jn) {
-          if (front[jn] != 1 || std::fabs(g.points[jn].z - g.points[i].z) > maxJump(g.points[i].z)) return;
-          front[jn] = 2;
-          stack.push_back(jn);
-        });
-      }
-      bool known = false;
-      for (int c : ext_cells) known |= (g.points[c] - g.points[tip]).norm() < 0.15;
-      if (size >= 3 && !known && ext_cells.size() < 10) ext_cells.push_back(tip);
+Extremities findExtremities(const PointGrid& g, const Segmentation& seg, const Geodesic& geo, const Vec3& trunk) {
+  Extremities ex;
+  ex.cells = geo.extremities;
+  const Vec3 view = trunk.normalized();
+  std::vector<uint8_t> front(g.width * g.height, 0);
+  for (int i : seg.cells) front[i] = (trunk - g.points[i]).dot(view) > 0.07;
+  std::vector<int> stack;
+  for (int s0 : seg.cells) {
+    if (front[s0] != 1) continue;
+    int tip = s0, size = 0;
+    double best = -1;
+    front[s0] = 2;
+    stack.assign(1, s0);
+    while (!stack.empty()) {
+      int i = stack.back();
+      stack.pop_back();
+      ++size;
+      double ahead = (trunk - g.points[i]).dot(view);
+      if (ahead > best) { best = ahead; tip = i; }
+      forNeighbours(g, i, [&](int jn) {
+        if (front[jn] != 1 || std::fabs(g.points[jn].z - g.points[i].z) > maxJump(g.points[i].z)) return;
+        front[jn] = 2;
+        stack.push_back(jn);
+      });
     }
+    bool known = false;
+    for (int c : ex.cells) known |= (g.points[c] - g.points[tip]).norm() < 0.15;
+    if (size >= 3 && !known && ex.cells.size() < 10) ex.cells.push_back(tip);
   }
-  std::vector<Vec3> ext;
-  for (int c : ext_cells) ext.push_back(g.points[c]);
-  out.extremity_points = ext;
-  const int m = static_cast<int>(ext.size());
-  // Label the extremities (head, hands, feet) by the cheapest assignment that obeys
-  // the body's shape; extra extrema (knees, elbows) stay unlabelled. The cost adds
-  // the distance to the label's last position, while it is recent.
-  const double arm = model_.upper_arm + model_.forearm + 0.05;
-  std::vector<Vec3> thigh(ext);  // per candidate: its path's point 0.2 m below the hip centre
+  for (int c : ex.cells) ex.points.push_back(g.points[c]);
+  return ex;
+}
+
+namespace {
+
+double aboveFloor(const Plane& floor, const Vec3& p) { return floor.found ? floor.height(p) : p.y + 1.0; }
+
+// Cost of label l for candidate k (< 0: impossible). thigh: the candidate's
+// path point 0.2 m below the hip centre (where a leg joins the pelvis).
+double labelCost(int l, const Vec3& e, const Vec3& thigh, const TrunkFrame& tf, const Plane& floor,
+                 const BodyModel& model, const LabelMemory& memory) {
+  const double arm = model.upper_arm + model.forearm + 0.05;
+  const double rise = (e - tf.torso).dot(tf.up);
+  const double above_floor = aboveFloor(floor, e);
+  double c = 0;
+  if (l == LB_HEAD) {
+    if (rise < 0.2) return -1;
+    c = horizontal(e - tf.neck, tf.up).norm();
+  } else if (l == LB_LFOOT || l == LB_RFOOT) {
+    if (above_floor > 0.45 || rise > -0.3) return -1;
+    c = 0.5 * above_floor;
+    // Feet cross in a dance step; legs stay on their own side at the pelvis.
+    double side = (thigh - tf.hipc).dot(memory.lateral) * (l == LB_LFOOT ? 1 : -1);
+    c += side < -0.04 ? 0.3 : 0;
+  } else {
+    if ((e - tf.neck).norm() > arm + 0.25 || above_floor < 0.25) return -1;
+    double side = (e - tf.torso).dot(memory.lateral) * (l == LB_LHAND ? 1 : -1);
+    c += side < -0.04 ? 0.3 : 0;
+  }
+  if (memory.have_prev && memory.age[l] <= memory.hold_frames) {
+    double gate = 0.45 + 0.08 * memory.age[l];
+    double d = (e - memory.tips[l]).norm();
+    if (d > gate) return -1;
+    c += d;
+  }
+  return c;
+}
+
+std::vector<Vec3> pathPoints(const PointGrid& g, const Geodesic& geo, int cell) {
+  std::vector<Vec3> path;
+  for (int c : pathToSource(geo, cell)) path.push_back(g.points[c]);
+  return path;
+}
+
+}  // namespace
+
+LabelAssignment labelExtremities(const PointGrid& g, const Geodesic& geo, const Extremities& ex,
+                                 const TrunkFrame& tf, const Plane& floor, const BodyModel& model,
+                                 const LabelMemory& memory) {
+  const int m = static_cast<int>(ex.points.size());
+  std::vector<Vec3> thigh(ex.points);
   for (int k = 0; k < m; ++k) {
     double best = 1e9;
-    for (int c : pathToSource(geo, ext_cells[k])) {
-      double off = std::fabs((g.points[c] - hipc).dot(up) + 0.2);
+    for (int c : pathToSource(geo, ex.cells[k])) {
+      double off = std::fabs((g.points[c] - tf.hipc).dot(tf.up) + 0.2);
       if (off < best) { best = off; thigh[k] = g.points[c]; }
     }
   }
-  auto label_cost = [&](int l, int k) -> double {  // < 0: impossible
-    const Vec3& e = ext[k];
-    const double rise = (e - torso).dot(up);
-    const double above_floor = floor_.found ? floor_.height(e) : e.y + 1.0;
-    double c = 0;
-    if (l == LB_HEAD) {
-      if (rise < 0.2) return -1;
-      c = horizontal(e - neck, up).norm();
-    } else if (l == LB_LFOOT || l == LB_RFOOT) {
-      if (above_floor > 0.45 || rise > -0.3) return -1;
-      c = 0.5 * above_floor;
-      // The leg's side where it joins the pelvis (its path just below the hips):
-      // feet cross in a dance step, legs stay on their own side up there.
-      double side = (thigh[k] - hipc).dot(lateral_) * (l == LB_LFOOT ? 1 : -1);
-      c += side < -0.04 ? 0.3 : 0;
-    } else {
-      if ((e - neck).norm() > arm + 0.25 || above_floor < 0.25) return -1;
-      double side = (e - torso).dot(lateral_) * (l == LB_LHAND ? 1 : -1);
-      c += side < -0.04 ? 0.3 : 0;
-    }
-    if (have_prev_ && tip_age_[l] <= params_.hold_frames) {
-      double gate = 0.45 + 0.08 * tip_age_[l];
-      double d = (e - tips_[l]).norm();
-      if (d > gate) return -1;
-      c += d;
-    }
-    return c;
-  };
-  // Facing: knees bend forward. The lateral axis (right to left) follows it.
-  {
-    Vec3 bend_sum;
-    int legs = 0;
-    for (int k = 0; k < m; ++k) {
-      const double above_floor = floor_.found ? floor_.height(ext[k]) : ext[k].y + 1.0;
-      if (above_floor > 0.45 || (ext[k] - torso).dot(up) > -0.3) continue;
-      std::vector<Vec3> path;
-      for (int c : pathToSource(geo, ext_cells[k])) path.push_back(g.points[c]);
-      Vec3 knee = midJoint(path, hipc, path.front(), model_.thigh, model_.shin, nullptr);
-      Vec3 axis = (path.front() - hipc).normalized();
-      Vec3 off = knee - hipc;
-      bend_sum += horizontal(off - axis * off.dot(axis), up);
-      ++legs;
-    }
-    if (legs > 0 && bend_sum.norm() > 0.04 * legs) {
-      facing_ = facing_ * 0.7 + bend_sum.normalized().cross(up) * 0.3;
-      if (facing_.norm() > 0.2) lateral_ = horizontal(facing_, up).normalized();
-    }
-  }
+  std::vector<std::vector<double>> cost(NUM_LABELS, std::vector<double>(m));
+  for (int l = 0; l < NUM_LABELS; ++l)
+    for (int k = 0; k < m; ++k) cost[l][k] = labelCost(l, ex.points[k], thigh[k], tf, floor, model, memory);
+  // Exhaustive branch and bound: 5 labels over at most 10 candidates.
   const double miss = 0.6, miss_hand = 0.45;
-  std::array<int, NUM_LABELS> assign;
+  LabelAssignment assign, cur;
   assign.fill(-1);
-  {
-    std::vector<std::vector<double>> cost(NUM_LABELS, std::vector<double>(m));
-    for (int l = 0; l < NUM_LABELS; ++l)
-      for (int k = 0; k < m; ++k) cost[l][k] = label_cost(l, k);
-    double best_cost = 1e18;
-    std::array<int, NUM_LABELS> cur;
-    std::vector<uint8_t> used(m, 0);
-    std::function<void(int, double)> search = [&](int l, double c) {
-      if (c >= best_cost) return;
-      if (l == NUM_LABELS) { best_cost = c; assign = cur; return; }
-      for (int k = 0; k < m; ++k) {
-        if (used[k] || cost[l][k] < 0) continue;
-        used[k] = 1;
-        cur[l] = k;
-        search(l + 1, c + cost[l][k]);
-        used[k] = 0;
-      }
-      cur[l] = -1;
-      search(l + 1, c + (l == LB_LHAND || l == LB_RHAND ? miss_hand : miss));
-    };
-    search(0, 0.0);
-  }
+  double best_cost = 1e18;
+  std::vector<uint8_t> used(m, 0);
+  std::function<void(int, double)> search = [&](int l, double c) {
+    if (c >= best_cost) return;
+    if (l == NUM_LABELS) { best_cost = c; assign = cur; return; }
+    for (int k = 0; k < m; ++k) {
+      if (used[k] || cost[l][k] < 0) continue;
+      used[k] = 1;
+      cur[l] = k;
+      search(l + 1, c + cost[l][k]);
+      used[k] = 0;
+    }
+    cur[l] = -1;
+    search(l + 1, c + (l == LB_LHAND || l == LB_RHAND ? miss_hand : miss));
+  };
+  search(0, 0.0);
+  return assign;
+}
 
-  // Limb geometry from the geodesic paths of the labelled extremities.
+Vec3 kneeBend(const PointGrid& g, const Geodesic& geo, const Extremities& ex, const TrunkFrame& tf,
+              const Plane& floor, const BodyModel& model) {
+  Vec3 bend_sum;
+  int legs = 0;
+  for (size_t k = 0; k < ex.points.size(); ++k) {
+    if (aboveFloor(floor, ex.points[k]) > 0.45 || (ex.points[k] - tf.torso).dot(tf.up) > -0.3) continue;
+    std::vector<Vec3> path = pathPoints(g, geo, ex.cells[k]);
+    Vec3 knee = midJoint(path, tf.hipc, path.front(), model.thigh, model.shin, nullptr);
+    Vec3 axis = (path.front() - tf.hipc).normalized();
+    Vec3 off = knee - tf.hipc;
+    bend_sum += horizontal(off - axis * off.dot(axis), tf.up);
+    ++legs;
+  }
+  return legs > 0 && bend_sum.norm() > 0.04 * legs ? bend_sum : Vec3();
+}
+
+BodyPose placeJoints(TrunkFrame tf, const std::array<std::vector<Vec3>, NUM_LABELS>& paths,
+                     const std::array<Vec3, NUM_LABELS>& tips, const LabelAssignment& assign,
+                     const BodyModel& model, const Vec3& lateral, const Joints* prev_mid) {
   auto at_reach = [](const std::vector<Vec3>& path, double reach) -> const Vec3* {
     for (const Vec3& p : path) if ((p - path.front()).norm() >= reach) return &p;
     return nullptr;
   };
-  std::array<std::vector<Vec3>, NUM_LABELS> paths;
-  int found = 0;
-  for (int l = 0; l < NUM_LABELS; ++l) {
-    if (assign[l] < 0) { ++tip_age_[l]; continue; }
-    ++found;
-    tip_age_[l] = 0;
-    tips_[l] = ext[assign[l]];
-    for (int c : pathToSource(geo, ext_cells[assign[l]])) paths[l].push_back(g.points[c]);
-  }
+  BodyPose out;
+  const Vec3& up = tf.up;
   // Torso and neck down the head's path, when the head is seen.
   if (!paths[LB_HEAD].empty()) {
-    const Vec3* pn = at_reach(paths[LB_HEAD], model_.head_top + model_.head_to_neck);
-    const Vec3* pt = at_reach(paths[LB_HEAD], model_.head_top + model_.head_to_neck + model_.torso_to_neck);
+    const Vec3* pn = at_reach(paths[LB_HEAD], model.head_top + model.head_to_neck);
+    const Vec3* pt = at_reach(paths[LB_HEAD], model.head_top + model.head_to_neck + model.torso_to_neck);
     if (pn && pt) {
       Vec3 t_new = behind(*pt, 0.13);
-      torso_bias_ += 0.2 * (t_new - torso).dot(up);
-      torso = t_new;
-      neck = behind(*pn, 0.12);
-      hipc = torso - up * model_.torso_to_hips;
+      out.torso_shift = (t_new - tf.torso).dot(up);
+      tf.torso = t_new;
+      tf.neck = behind(*pn, 0.12);
+      tf.hipc = tf.torso - up * model.torso_to_hips;
     }
   }
-  Joints j;
-  std::array<float, NUM_JOINTS> conf;
+  Joints& j = out.joints;
+  auto& conf = out.confidence;
   conf.fill(0.5f);
-  j[TORSO] = torso;
-  j[NECK] = neck;
+  j[TORSO] = tf.torso;
+  j[NECK] = tf.neck;
   conf[TORSO] = conf[NECK] = 0.8f;
-  j[L_SHOULDER] = neck + lateral_ * (model_.shoulder_width / 2) - up * model_.neck_drop;
-  j[R_SHOULDER] = neck - lateral_ * (model_.shoulder_width / 2) - up * model_.neck_drop;
-  j[L_HIP] = hipc + lateral_ * (model_.hip_width / 2);
-  j[R_HIP] = hipc - lateral_ * (model_.hip_width / 2);
+  j[L_SHOULDER] = tf.neck + lateral * (model.shoulder_width / 2) - up * model.neck_drop;
+  j[R_SHOULDER] = tf.neck - lateral * (model.shoulder_width / 2) - up * model.neck_drop;
+  j[L_HIP] = tf.hipc + lateral * (model.hip_width / 2);
+  j[R_HIP] = tf.hipc - lateral * (model.hip_width / 2);
   if (assign[LB_HEAD] >= 0) {
-    j[HEAD] = tips_[LB_HEAD] - up * model_.head_top;
+    j[HEAD] = tips[LB_HEAD] - up * model.head_top;
     conf[HEAD] = 0.9f;
   } else {
-    j[HEAD] = neck + up * (model_.head_top + 0.05);
+    j[HEAD] = tf.neck + up * (model.head_top + 0.05);
     conf[HEAD] = 0.3f;
   }
   // Arms and legs: tip -> end joint; middle joint on the path where both bones fit.
   struct Limb { int label; Joint root, mid, end; double upper, lower, r_mid, r_end, drop; };
   const Limb limbs[4] = {
-      {LB_LHAND, L_SHOULDER, L_ELBOW, L_HAND, model_.upper_arm, model_.forearm, 0.045, 0.04, 0.0},
-      {LB_RHAND, R_SHOULDER, R_ELBOW, R_HAND, model_.upper_arm, model_.forearm, 0.045, 0.04, 0.0},
-      {LB_LFOOT, L_HIP, L_KNEE, L_FOOT, model_.thigh, model_.shin, 0.06, 0.05, 0.06},
-      {LB_RFOOT, R_HIP, R_KNEE, R_FOOT, model_.thigh, model_.shin, 0.06, 0.05, 0.06}};
+      {LB_LHAND, L_SHOULDER, L_ELBOW, L_HAND, model.upper_arm, model.forearm, 0.045, 0.04, 0.0},
+      {LB_RHAND, R_SHOULDER, R_ELBOW, R_HAND, model.upper_arm, model.forearm, 0.045, 0.04, 0.0},
+      {LB_LFOOT, L_HIP, L_KNEE, L_FOOT, model.thigh, model.shin, 0.06, 0.05, 0.06},
+      {LB_RFOOT, R_HIP, R_KNEE, R_FOOT, model.thigh, model.shin, 0.06, 0.05, 0.06}};
   for (const Limb& lb : limbs) {
     const Vec3 root = j[lb.root];
     const auto& path = paths[lb.label];
@@ -608,8 +598,7 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
       conf[lb.end] = 0.9f;
       conf[lb.mid] = 0.8f;
       if (best > 0.08) {  // the path skips the limb (held towards the sensor): two-bone fit
-        Vec3 pole = have_prev_ ? Vec3(filters_[lb.mid][0].x, filters_[lb.mid][1].x, filters_[lb.mid][2].x) - root
-                               : up * -1.0;
+        Vec3 pole = prev_mid ? (*prev_mid)[lb.mid] - root : up * -1.0;
         mid = twoBone(root, j[lb.end], lb.upper, lb.lower, pole);
         conf[lb.mid] = 0.5f;
       }
@@ -617,9 +606,9 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
     } else if (lb.label == LB_LHAND || lb.label == LB_RHAND) {
       // An unseen hand rests against the trunk (it would be an extremity otherwise).
       const double side = lb.label == LB_LHAND ? 1.0 : -1.0;
-      const Vec3 forward = up.cross(lateral_);
-      j[lb.end] = torso + forward * 0.13 + lateral_ * (0.07 * side);
-      j[lb.mid] = twoBone(root, j[lb.end], lb.upper, lb.lower, lateral_ * (0.5 * side) - up);
+      const Vec3 forward = up.cross(lateral);
+      j[lb.end] = tf.torso + forward * 0.13 + lateral * (0.07 * side);
+      j[lb.mid] = twoBone(root, j[lb.end], lb.upper, lb.lower, lateral * (0.5 * side) - up);
       conf[lb.end] = conf[lb.mid] = 0.3f;
     } else {  // hanging limb of the model
       j[lb.mid] = root - up * lb.upper;
@@ -627,11 +616,33 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
       conf[lb.end] = conf[lb.mid] = 0.1f;
     }
   }
+  return out;
+}
 
-  // Calibration of the bone lengths on the first frames.
+Segmentation DepthTracker::segment(const PointGrid& g) {
+  if (!floor_.found || frames_ % 30 == 0) {
+    Plane f = fitFloor(g, 7 + frames_);
+    if (f.found) floor_ = f;
+  }
+  ++frames_;
+  return segmentUser(g, floor_, have_prev_ ? &prev_centroid_ : nullptr);
+}
+
+LabelMemory DepthTracker::memory() const {
+  LabelMemory m;
+  m.have_prev = have_prev_;
+  m.tips = tips_;
+  m.age = tip_age_;
+  m.hold_frames = params_.hold_frames;
+  m.lateral = lateral_;
+  return m;
+}
+
+void DepthTracker::calibrate(const PointGrid& g, const Segmentation& seg, const Joints& j,
+                             const LabelAssignment& assign) {
   if (!model_.calibrated) {
     CalibrationSample s;
-    if (assign[LB_HEAD] >= 0) s.head_top_height = floor_.found ? floor_.height(tips_[LB_HEAD]) : tips_[LB_HEAD].y + 1.0;
+    if (assign[LB_HEAD] >= 0) s.head_top_height = aboveFloor(floor_, tips_[LB_HEAD]);
     for (int l : {LB_LHAND, LB_RHAND})
       if (assign[l] >= 0) s.arm_reach.push_back((tips_[l] - j[l == LB_LHAND ? L_SHOULDER : R_SHOULDER]).norm());
     for (int l : {LB_LFOOT, LB_RFOOT})
@@ -645,44 +656,90 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
       calib_frames_.clear();
     }
   }
-
   // The bone lengths are refined on the kept frames, a few fits per frame.
   if (search_) {
     const bool over = search_->advance(kSearchFitsPerFrame);
     model_ = search_->best();
     if (over) search_.reset();
   }
-  // The model fit refines both this frame's estimate and last frame's pose; the
-  // one that explains the depth better wins.
-  if (model_.calibrated) {
-    PoseFitter fitter(cam_, g, seg, floor_, model_);
-    PoseFit best = fitter.fit(j);
-    if (have_fit_) {
-      PoseFit cont = fitter.fit(prev_fit_);
-      if (cont.energy < best.energy) best = cont;
-      Joints swapped = best.joints;  // left and right arms exchanged
-      for (auto [a, b] : {std::pair<int, int>{L_ELBOW, R_ELBOW}, {L_HAND, R_HAND}}) {
-        swapped[a] = best.joints[b] - best.joints[R_SHOULDER] + best.joints[L_SHOULDER];
-        swapped[b] = best.joints[a] - best.joints[L_SHOULDER] + best.joints[R_SHOULDER];
-      }
-      best = fitter.fitMixed(best.joints, {&j, &prev_fit_, &swapped});
+}
+
+void DepthTracker::fit(const PointGrid& g, const Segmentation& seg, Joints* j,
+                       std::array<float, NUM_JOINTS>* conf) {
+  PoseFitter fitter(cam_, g, seg, floor_, model_);
+  PoseFit best = fitter.fit(*j);
+  if (have_fit_) {
+    PoseFit cont = fitter.fit(prev_fit_);
+    if (cont.energy < best.energy) best = cont;
+    Joints swapped = best.joints;  // left and right arms exchanged
+    for (auto [a, b] : {std::pair<int, int>{L_ELBOW, R_ELBOW}, {L_HAND, R_HAND}}) {
+      swapped[a] = best.joints[b] - best.joints[R_SHOULDER] + best.joints[L_SHOULDER];
+      swapped[b] = best.joints[a] - best.joints[L_SHOULDER] + best.joints[R_SHOULDER];
     }
-    j = best.joints;
-    prev_fit_ = j;
-    have_fit_ = true;
-    // A joint whose capsules explain depth points is measured; one explaining
-    // none is hidden and only inferred.
-    for (int k : {HEAD, L_ELBOW, R_ELBOW, L_HAND, R_HAND, L_KNEE, R_KNEE, L_FOOT, R_FOOT})
-      conf[k] = best.support[k] >= kSeenPoints ? std::max(conf[k], 0.6f) : std::min(conf[k], 0.3f);
+    best = fitter.fitMixed(best.joints, {j, &prev_fit_, &swapped});
   }
+  *j = best.joints;
+  prev_fit_ = *j;
+  have_fit_ = true;
+  // A joint whose capsules explain depth points is measured; one explaining
+  // none is hidden and only inferred.
+  for (int k : {HEAD, L_ELBOW, R_ELBOW, L_HAND, R_HAND, L_KNEE, R_KNEE, L_FOOT, R_FOOT})
+    (*conf)[k] = best.support[k] >= kSeenPoints ? std::max((*conf)[k], 0.6f) : std::min((*conf)[k], 0.3f);
+}
+
+Joints DepthTracker::smooth(const Joints& j, double t) {
+  Joints out;
   for (int k = 0; k < NUM_JOINTS; ++k) {
-    out.joints[k] = Vec3(filters_[k][0].filter(j[k].x, t, params_.filter_min_cutoff, params_.filter_beta),
-                         filters_[k][1].filter(j[k].y, t, params_.filter_min_cutoff, params_.filter_beta),
-                         filters_[k][2].filter(j[k].z, t, params_.filter_min_cutoff, params_.filter_beta));
+    out[k] = Vec3(filters_[k][0].filter(j[k].x, t, params_.filter_min_cutoff, params_.filter_beta),
+                  filters_[k][1].filter(j[k].y, t, params_.filter_min_cutoff, params_.filter_beta),
+                  filters_[k][2].filter(j[k].z, t, params_.filter_min_cutoff, params_.filter_beta));
   }
+  return out;
+}
+
+SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
+  SkeletonEstimate out;
+  PointGrid g = makeGrid(depth_mm, cam_, params_.grid_step);
+  Segmentation seg = segment(g);
+  if (!seg.found) {
+    have_prev_ = have_fit_ = false;
+    out.state = "searching: " + seg.reason;
+    return out;
+  }
+  out.user_cells = static_cast<int>(seg.cells.size());
+  Geodesic geo = geodesicExtremities(g, seg, 8, 0.5);
+  out.extremities = static_cast<int>(geo.extremities.size());
+  const Vec3 up = floor_.found ? floor_.n : Vec3(0, 1, 0);
+  if (!model_.calibrated && calib_.empty()) model_ = BodyModel::fromHeight(std::clamp(seg.height + 0.03, 1.2, 2.2));
+  const TrunkFrame tf = trunkFrame(g, seg, geo, up, model_, torso_bias_);
+  const Extremities ex = findExtremities(g, seg, geo, tf.trunk);
+  out.extremity_points = ex.points;
+  // Facing: knees bend forward. The lateral axis (right to left) follows it.
+  const Vec3 bend = kneeBend(g, geo, ex, tf, floor_, model_);
+  if (bend.norm() > 0) {
+    facing_ = facing_ * 0.7 + bend.normalized().cross(up) * 0.3;
+    if (facing_.norm() > 0.2) lateral_ = horizontal(facing_, up).normalized();
+  }
+  const LabelAssignment assign = labelExtremities(g, geo, ex, tf, floor_, model_, memory());
+  std::array<std::vector<Vec3>, NUM_LABELS> paths;
+  int found = 0;
+  for (int l = 0; l < NUM_LABELS; ++l) {
+    if (assign[l] < 0) { ++tip_age_[l]; continue; }
+    ++found;
+    tip_age_[l] = 0;
+    tips_[l] = ex.points[assign[l]];
+    paths[l] = pathPoints(g, geo, ex.cells[assign[l]]);
+  }
+  Joints prev_mid;  // last frame's smoothed joints: the pole of a two-bone fit
+  for (int k = 0; k < NUM_JOINTS; ++k) prev_mid[k] = Vec3(filters_[k][0].x, filters_[k][1].x, filters_[k][2].x);
+  BodyPose pose = placeJoints(tf, paths, tips_, assign, model_, lateral_, have_prev_ ? &prev_mid : nullptr);
+  torso_bias_ += 0.2 * pose.torso_shift;
+  calibrate(g, seg, pose.joints, assign);
+  if (model_.calibrated) fit(g, seg, &pose.joints, &pose.confidence);
+  out.joints = smooth(pose.joints, t);
   have_prev_ = true;
   prev_centroid_ = seg.centroid;
-  out.confidence = conf;
+  out.confidence = pose.confidence;
   out.tracked = model_.calibrated && found >= 2;
   out.state = model_.calibrated ? (out.tracked ? "tracking" : "tracking (few extremities)") : "calibrating";
   if (!out.tracked) out.confidence.fill(0.f);

@@ -89,6 +89,9 @@ PoseFitter::PoseFitter(const Camera& cam, const PointGrid& g, const Segmentation
   bones_.push_back({R_KNEE, R_FOOT, m.shin, 0.5});
 }
 
+// Over 80 lines: one pass of the fit over every depth point (assign each
+// to its nearest capsule, accumulate the pulls, move the joints), kept in one
+// loop because it is the tracker's hot path.
 double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NUM_JOINTS>* support,
                         bool move) const {
   const Joints& pose = *j;

@@ -77,6 +77,8 @@ void account(Stats* s, const SkeletonEstimate& est, const Joints& truth) {
 
 }  // namespace
 
+// Over 80 lines: a command-line driver (arguments, the frame loop, the JSON
+// report) that reads best top to bottom; its parts are the library's.
 int main(int argc, char** argv) {
   std::string track_path, res = "320x240";
   TrackerParams params;

@@ -17,6 +17,10 @@ streams and, after the round, checks:
   a mover;
 - with ~nan_joints > 0: NaN joints were counted and the score stays finite;
 - with ~drop > 0: each DPM saw gaps (frames_dropped > 0);
+- ~expect_diagnostics ('client:key>value;client:key=value'): a result's
+  field (frames_dropped...) or diagnostic compared with a number;
+- ~expect_status_text ('<status name>=<text>;...'): a /diagnostics status
+  (e.g. 'left/dpm: results') whose message or a value contains the text;
 - with ~verify: records the round with rosbag, then runs verify_decisions
   on the bag, which must exit 0 and recompute the recorded decision.
 """
@@ -32,8 +36,10 @@ import rospkg
 import rospy
 import rostest
 
+from diagnostic_msgs.msg import DiagnosticArray
+
 from hri_sync.msg import ClientResult, Decision, Skeleton
-from hri_sync.tools.harness import stop_group
+from hri_sync.tools.procs import stop_group
 
 CLIENTS = ('left', 'right')
 MARGIN = 0.005       # s: device clock map error and rounding at the edges
@@ -64,6 +70,9 @@ class DanceOffRound(unittest.TestCase):
         cls.nan_joints = rospy.get_param('~nan_joints', 0.0)
         cls.drop = rospy.get_param('~drop', 0.0)
         cls.verify = rospy.get_param('~verify', False)
+        cls.expect_diagnostics = [
+            e.strip() for e in rospy.get_param(
+                '~expect_diagnostics', '').split(';') if e.strip()]
         cls.timeout = rospy.get_param('~timeout', 60.0)
         cls.statuses = {c: rospy.get_param('~expect_status_' + c, 'ok')
                         for c in CLIENTS}
@@ -80,6 +89,13 @@ class DanceOffRound(unittest.TestCase):
                 start_new_session=True)
         rospy.Subscriber('/client_result', ClientResult, cls.on_result)
         rospy.Subscriber('/decision', Decision, cls.on_decision)
+        cls.expect_status = [
+            e.strip().split('=', 1) for e in rospy.get_param(
+                '~expect_status_text', '').split(';') if e.strip()]
+        cls.statuses_seen = {}
+        if cls.expect_status:
+            rospy.Subscriber('/diagnostics', DiagnosticArray,
+                             cls.on_diagnostics)
         for c in CLIENTS:
             rospy.Subscriber('/%s/captured' % c, Skeleton, cls.on_captured,
                              c, queue_size=10000)
@@ -134,6 +150,13 @@ class DanceOffRound(unittest.TestCase):
     def on_captured(cls, msg, client):
         with cls.lock:
             cls.captured.setdefault(client, []).append(msg)
+
+    @classmethod
+    def on_diagnostics(cls, msg):
+        with cls.lock:
+            for s in msg.status:
+                cls.statuses_seen.setdefault(s.name, set()).update(
+                    [s.message] + [kv.value for kv in s.values])
 
     @classmethod
     def on_decision(cls, msg):
@@ -214,6 +237,32 @@ class DanceOffRound(unittest.TestCase):
                 self.assertGreater(int(diag(r, 'nonfinite_joints')), 0, c)
             if self.drop > 0:
                 self.assertGreater(r.frames_dropped, 0, c)
+        for expect in self.expect_diagnostics:
+            client, _, rule = expect.partition(':')
+            op = '>' if '>' in rule else '='
+            key, _, value = rule.partition(op)
+            r = self.results[client]
+            got = getattr(r, key) if hasattr(r, key) else diag(r, key)
+            self.assertIsNotNone(got, '%s: no %s' % (client, key))
+            if op == '>':
+                self.assertGreater(float(got), float(value), expect)
+            else:
+                self.assertEqual(str(got), value, expect)
+
+    def test_status_text(self):
+        if not self.expect_status:
+            self.skipTest('no ~expect_status_text')
+        self.decision()
+        for name, text in self.expect_status:
+            end = time.time() + 10.0
+            while time.time() < end:
+                with self.lock:
+                    seen = set(self.statuses_seen.get(name, ()))
+                if any(text in v for v in seen):
+                    break
+                time.sleep(0.2)
+            self.assertTrue(any(text in v for v in seen),
+                            '%s: no %r in %s' % (name, text, sorted(seen)))
 
     def test_verify_decisions(self):
         if not self.verify:

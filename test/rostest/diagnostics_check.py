@@ -25,6 +25,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from std_msgs.msg import Header
 
 from hri_sync.msg import Decision, SyncTime
+from hri_sync.ros.params import wait_for
 
 SYNCED = ('left', 'dj_rob', 'music')
 CPM_NODES = {'left': 'left/cpm', 'right': 'right/cpm', 'dj_rob': 'dj_rob',
@@ -58,13 +59,6 @@ class Seen:
             return sorted(self.by_name)
 
 
-def wait(predicate, timeout):
-    deadline = time.monotonic() + timeout
-    while not predicate() and time.monotonic() < deadline:
-        time.sleep(0.1)
-    return predicate()
-
-
 class DiagnosticsCheck(unittest.TestCase):
     """The statuses of every node during a round with an unsynced client."""
 
@@ -77,23 +71,23 @@ class DiagnosticsCheck(unittest.TestCase):
         cls.agg = Seen('/diagnostics_agg')
         cls.decisions = []
         rospy.Subscriber('/decision', Decision, cls.decisions.append)
-        ok = wait(lambda: any(d.round == 1 for d in cls.decisions), 90.0)
+        ok = wait_for(lambda: any(d.round == 1 for d in cls.decisions), 90.0)
         assert ok, 'no decision of round 1 within 90 s'
         # The statuses published on the decision and the next periodic
         # ones (every 1 s).
-        wait(lambda: any(s[2].get('last_outcome') == 'decided' for s in
+        wait_for(lambda: any(s[2].get('last_outcome') == 'decided' for s in
                          cls.diag.history('control_module: rounds')), 10.0)
         # A forged sync_time (not from the CM): every CPM's inbox rejects
         # it and counts it on /diagnostics.
         forger = rospy.Publisher('/sync_time', SyncTime, queue_size=10)
-        wait(lambda: forger.get_num_connections() >= len(CPM_NODES), 10.0)
+        wait_for(lambda: forger.get_num_connections() >= len(CPM_NODES), 10.0)
         for _ in range(3):
             forger.publish(SyncTime(header=Header(stamp=rospy.Time(1)),
                                     round=7))
             time.sleep(0.2)
         # Every CPM's next periodic input status (1 s; later on a loaded
         # machine) counts it: wait for them, then one more period.
-        wait(lambda: all(any(int(v.get('/sync_time wrong_sender', 0)) >= 1
+        wait_for(lambda: all(any(int(v.get('/sync_time wrong_sender', 0)) >= 1
                              for _, _, v, _ in cls.diag.history(
                                  node + ': input'))
                          for node in CPM_NODES.values()), 20.0)

@@ -27,7 +27,7 @@ import rostest
 from std_srvs.srv import Trigger
 
 from hri_sync.msg import Decision
-from hri_sync.tools.harness import stop_group
+from hri_sync.tools.procs import stop_group
 
 NODES = ('control_module', 'decision_module', 'left/cpm', 'left/dpm',
          'right/cpm', 'right/dpm')

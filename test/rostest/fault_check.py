@@ -54,7 +54,7 @@ from hri_sync.ros.params import wait_for
 from hri_sync.ros.round_log import RoundLog
 from hri_sync.ros.unique import node_pid
 from hri_sync.timing.protocol import Capture
-from hri_sync.tools.harness import alive
+from hri_sync.tools.procs import alive
 
 # Alive at the end (the CM and round monitor exit after their rounds).
 NODES = ['/decision_module', '/left/cpm', '/left/dpm', '/right/cpm',

@@ -38,6 +38,7 @@ import rostest
 from std_srvs.srv import Trigger
 
 from hri_sync.msg import ClientResult, ClockState, Decision
+from hri_sync.ros.params import wait_for
 from hri_sync.timing.decision import decide
 
 CLIENTS = ('left', 'right', 'dj_rob', 'music')
@@ -141,14 +142,6 @@ class FuzzDanceOff(unittest.TestCase):
         if msg.ok and callerid(msg) != '/fuzz_publisher':
             self.synced.add(client)
 
-    def wait(self, predicate, timeout):
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline and not rospy.is_shutdown():
-            if predicate():
-                return True
-            time.sleep(0.1)
-        return predicate()
-
     def start_round(self):
         """Call ~start_round in a thread; returns (thread, reply list)."""
         reply = []
@@ -171,7 +164,7 @@ class FuzzDanceOff(unittest.TestCase):
         def mine(items, senders):
             with self.lock:
                 return [m for t, c, m in items if t >= t0 and c in senders]
-        self.wait(lambda: mine(self.decisions, {'/decision_module'}), 10.0)
+        wait_for(lambda: mine(self.decisions, {'/decision_module'}), 10.0)
         decisions = mine(self.decisions, {'/decision_module'})
         self.assertTrue(decisions, '%s round: no decision from the DM'
                         % name)
@@ -184,7 +177,7 @@ class FuzzDanceOff(unittest.TestCase):
             rospy.get_name(), '/rosout', '/fuzz_publisher'}
 
     def test_fuzzed_dance_off(self):
-        self.assertTrue(self.wait(lambda: self.synced >= set(CLIENTS), 60.0),
+        self.assertTrue(wait_for(lambda: self.synced >= set(CLIENTS), 60.0),
                         'clients never synced: %s' % sorted(self.synced))
         rospy.wait_for_service('/control_module/start_round', 30.0)
         decision, _ = self.clean_round('first clean')

@@ -22,7 +22,7 @@ import rosnode
 import rospy
 import rostest
 
-from hri_sync.tools import harness
+from hri_sync.tools import procs
 
 NODES = ('/control_module', '/decision_module', '/time_server',
          '/left/cpm', '/left/dpm', '/right/cpm',
@@ -31,7 +31,7 @@ NODES = ('/control_module', '/decision_module', '/time_server',
 
 
 def cmdline(pid):
-    return harness.cmdline(pid, None)
+    return procs.cmdline(pid, None)
 
 
 class Orphans(unittest.TestCase):
@@ -42,7 +42,7 @@ class Orphans(unittest.TestCase):
     def tearDown(self):
         # A failure before the kill: stop the launch as Ctrl-C would.
         if self.launch is not None and self.launch.poll() is None:
-            harness.stop_group(self.launch, timeout=30)
+            procs.stop_group(self.launch, timeout=30)
 
     def start(self):
         """Start the dance-off; returns its bag's path once it records."""
@@ -70,14 +70,14 @@ class Orphans(unittest.TestCase):
     def kill(self, pid):
         """SIGKILL ``pid``; fail if a descendant of it outlives it by
         ~deadline s."""
-        procs = harness.descendants(pid)
+        under = procs.descendants(pid)
         rospy.loginfo('%d processes under %d (%s); SIGKILL to it',
-                      len(procs), pid, cmdline(pid)[:60])
+                      len(under), pid, cmdline(pid)[:60])
         os.kill(pid, signal.SIGKILL)
 
         def alive():
-            table = harness.proc_table()
-            return {p: cmdline(p) for p, info in procs.items()
+            table = procs.proc_table()
+            return {p: cmdline(p) for p, info in under.items()
                     if p in table and table[p].live
                     and table[p].start == info.start}
         limit = rospy.get_param('~deadline', 60.0)
@@ -103,7 +103,7 @@ class Orphans(unittest.TestCase):
 
     def test_killed_skewed_client(self):
         self.start()
-        client = [p for p in harness.descendants(self.launch.pid)
+        client = [p for p in procs.descendants(self.launch.pid)
                   if 'skewed_client' in cmdline(p)]
         self.assertEqual(len(client), 1, 'no skewed_client')
         self.kill(client[0])

@@ -23,7 +23,7 @@ from hri_sync.msg import CaptureData, RoundStatus
 from hri_sync.ros.params import wait_for
 from hri_sync.ros.round_log import RoundLog
 from hri_sync.ros.unique import node_pid
-from hri_sync.tools.harness import alive, descendants
+from hri_sync.tools.procs import alive, descendants
 
 SURVIVORS = ['/control_module', '/decision_module', '/a/cpm', '/a/dpm',
              '/b/cpm', '/b/dpm']
@@ -33,11 +33,6 @@ def children(pid):
     """[(pid, command name)] of the live children of ``pid``."""
     return [(p, info.name) for p, info in descendants(pid).items()
             if info.ppid == pid]
-
-
-def wait(predicate, timeout):
-    """Poll ``predicate`` until true or ``timeout`` s; its last value."""
-    return wait_for(predicate, timeout, poll=0.1)
 
 
 class TimeServerDies(unittest.TestCase):
@@ -64,7 +59,7 @@ class TimeServerDies(unittest.TestCase):
         def decision(n):
             return log.rounds.get(n, {}).get('decision')
 
-        self.assertTrue(wait(lambda: any(c.round == 1 for c in captures),
+        self.assertTrue(wait_for(lambda: any(c.round == 1 for c in captures),
                              60.0), 'no capture_data for round 1 in 60 s')
         ts_pid = node_pid('/time_server')
         self.assertIsNotNone(ts_pid, 'no /time_server node')
@@ -74,15 +69,15 @@ class TimeServerDies(unittest.TestCase):
         os.kill(chronyd[0], signal.SIGKILL)
         rospy.loginfo('killed chronyd (pid %d) serving %s', chronyd[0],
                       server)
-        self.assertTrue(wait(lambda: not alive(ts_pid), 10.0),
+        self.assertTrue(wait_for(lambda: not alive(ts_pid), 10.0),
                         'the time_server node did not notice its chronyd '
                         'died')
 
         # The round in progress still ends in a decision.
-        self.assertTrue(wait(lambda: decision(1), 30.0),
+        self.assertTrue(wait_for(lambda: decision(1), 30.0),
                         'round 1: no decision within 30 s of the kill')
         r1 = log.rounds[1]
-        wait(lambda: len(r1['results']) == 2, 5.0)    # other publishers
+        wait_for(lambda: len(r1['results']) == 2, 5.0)    # other publishers
         self.assertNotEqual(r1['decision'].outcome, 'aborted',
                             r1['decision'].reason)
         for c in ('a', 'b'):         # captured on the models in holdover
@@ -91,12 +86,12 @@ class TimeServerDies(unittest.TestCase):
                           'round 1 result of %s' % c)
 
         # Round 2: a in holdover, b past its ~max_uncertainty.
-        self.assertTrue(wait(lambda: decision(2), 40.0),
+        self.assertTrue(wait_for(lambda: decision(2), 40.0),
                         'round 2: no decision or abort within 40 s')
         for name in SURVIVORS:
             self.assertIsNotNone(node_pid(name), '%s died' % name)
         r2 = log.rounds[2]
-        wait(lambda: len(r2['acks']) == 2 and any(
+        wait_for(lambda: len(r2['acks']) == 2 and any(
             s.round == 2 and s.state == RoundStatus.ABORTED
             for s in statuses), 5.0)
         a, b = r2['acks'].get('a'), r2['acks'].get('b')
@@ -127,13 +122,13 @@ class TimeServerDies(unittest.TestCase):
                  ('round 2: nacked',)),
                 ('control_module: rounds', DiagnosticStatus.WARN,
                  ('round 2: aborted', 'b refused'))):
-            self.assertTrue(wait(lambda: diagnosed(name, level, *parts),
+            self.assertTrue(wait_for(lambda: diagnosed(name, level, *parts),
                                  10.0),
                             '/diagnostics: no %s at level %d saying %s'
                             % (name, level, parts))
 
         # The session goes on: round 3 gets its outcome too.
-        self.assertTrue(wait(lambda: decision(3), 40.0),
+        self.assertTrue(wait_for(lambda: decision(3), 40.0),
                         'round 3: no decision or abort within 40 s')
         self.assertIsNone(node_pid('/time_server'))
 

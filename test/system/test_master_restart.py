@@ -12,15 +12,14 @@ with the workspace sourced.
 """
 import os
 import signal
-import socket
 import subprocess
 import tempfile
-import time
 import xmlrpc.client
 
 import pytest
 import rosbag
 import rosgraph
+from hri_sync_support.harness import free_port, wait_until
 
 NODES = ['/control_module', '/decision_module', '/a/cpm', '/a/dpm',
          '/reference', '/a/tracker', '/recorder']
@@ -29,21 +28,6 @@ DEADLINE = 120.0   # s for nodes to (re)register; a hang, not a speed
 LAUNCH = os.path.join(os.path.dirname(os.path.abspath(__file__)),
                       'master_restart.launch')
 
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
-
-
-def wait(what, predicate, timeout=DEADLINE, poll=0.5):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(poll)
-    pytest.fail('%s: not within %.0f s' % (what, timeout))
 
 
 def stop(proc, sig=signal.SIGINT, timeout=30.0):
@@ -82,8 +66,8 @@ class Session:
         self.master = subprocess.Popen(
             ['rosmaster', '--core', '-p', str(self.port)], env=self.env,
             stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-        return wait('master %d answering' % self.masters, self.master_pid,
-                    timeout=60.0)
+        return wait_until('master %d answering' % self.masters,
+                          self.master_pid, 60.0)
 
     def master_pid(self):
         try:
@@ -158,7 +142,8 @@ def test_nodes_come_back_registered_after_a_master_restart(session):
     s = session
     first_pid = s.start_master()
     s.start_launch()
-    before = wait('every node registered', lambda: registered(s))
+    before = wait_until('every node registered', lambda: registered(s),
+                        DEADLINE)
     reply = s.start_round()
     # No time server answers: the round aborts at once, and counts.
     assert 'round 1 aborted: the server cannot reach its time server' \
@@ -167,8 +152,8 @@ def test_nodes_come_back_registered_after_a_master_restart(session):
     stop(s.master, signal.SIGKILL)
     second_pid = s.start_master()
     assert second_pid != first_pid
-    after = wait('every node registered with the new master',
-                 lambda: registered(s, before))
+    after = wait_until('every node registered with the new master',
+                       lambda: registered(s, before), DEADLINE)
     assert set(after) == set(NODES)
     # The respawned tracker (C++) found its private params on the new master.
     assert 'virtual://' in rosgraph.Master('/test', s.uri).getParam(
@@ -189,8 +174,8 @@ def test_nodes_come_back_registered_after_a_master_restart(session):
 
     # The recorder closed its first bag at the restart and records on into
     # a second one: round 1 is in the first, round 2 (latched) in the second.
-    wait('the new recorder connected to /round_status',
-         lambda: s.connected('/recorder', '/round_status'))
+    wait_until('the new recorder connected to /round_status',
+               lambda: s.connected('/recorder', '/round_status'), DEADLINE)
     stop(s.launch)
     rounds = {}
     for path in (s.bag, s.bag[:-4] + '.restart1.bag'):

@@ -8,10 +8,10 @@ from types import SimpleNamespace as NS
 
 import pytest
 
-from hri_sync.timing.capture import (ArrivalStamps, CaptureWindow,
-                                     DeviceClockMapper, SampleBuffer,
-                                     TimeMapping, window_stats,
-                                     window_status)
+from hri_sync.timing.capture import (CaptureWindow, SampleBuffer,
+                                     window_stats, window_status)
+from hri_sync.timing.mapping import (ArrivalStamps, DeviceClockMapper,
+                                     TimeMapping)
 from hri_sync.timing.processors import CountMean, Processor, ProcessResult
 
 # -- SampleBuffer ------------------------------------------------------------

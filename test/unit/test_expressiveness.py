@@ -164,3 +164,19 @@ def test_running_sum_rejects_a_frame_out_of_stamp_order():
     assert not run.add(0.1, track([9.0])[0], np.ones(1))
     assert (run.out_of_order, run.frames_rejected) == (1, 1)
     assert run.score(1.0).value == pytest.approx(0.2)
+
+
+def test_repeated_frames_are_counted_and_not_paired():
+    """A tracker repeating its last skeleton (Kinect v1): the repeats add
+    nothing and the next new frame pairs over the real time difference."""
+    still = np.zeros((15, 3))
+    moved = still.copy()
+    moved[0, 0] = 0.1
+    stamps = [0.0, 1 / 30, 2 / 30, 3 / 30]
+    res = expressiveness(stamps, [still, still, still, moved], duration=1.0)
+    assert res.value == pytest.approx(0.01 / (3 / 30))
+    assert res.frames_used == 4 and res.frames_rejected == 0
+    run = RunningExpressiveness()
+    for t, p in zip(stamps, [still, still, still, moved]):
+        run.add(t, p, np.ones(15))
+    assert run.repeated == 2

@@ -1,4 +1,4 @@
-"""hri_sync.tools.harness on real processes: the /proc walker, process
+"""hri_sync.tools.procs and hri_sync_support.harness on real processes: the /proc walker, process
 groups and their shutdown, faketime clocks, waits and the bounded run.
 
 ``Processes`` makes this test process a child subreaper (for the rest of
@@ -17,7 +17,8 @@ import time
 
 import pytest
 
-from hri_sync.tools import harness
+from hri_sync.tools import procs
+from hri_sync_support import harness
 
 LIMIT = 30.0    # s: only a broken test waits this long
 
@@ -28,8 +29,8 @@ def eventually(predicate, what):
 
 def live_group(pgid):
     """Live processes of process group ``pgid``."""
-    return [pid for pid, info in harness.proc_table().items()
-            if info.pgid == pgid and info.state not in harness.DEAD_STATES]
+    return [pid for pid, info in procs.proc_table().items()
+            if info.pgid == pgid and info.state not in procs.DEAD_STATES]
 
 
 @pytest.fixture
@@ -48,9 +49,9 @@ def test_descendants_of_a_real_process_tree():
     child = subprocess.Popen(['sh', '-c', 'sleep 60 & sleep 60 & wait'],
                              start_new_session=True)
     try:
-        eventually(lambda: len(harness.descendants()) >= 3,
+        eventually(lambda: len(procs.descendants()) >= 3,
                    'sh and its two sleeps')
-        tree = harness.descendants()
+        tree = procs.descendants()
         assert child.pid in tree
         sleeps = [pid for pid, info in tree.items()
                   if info.ppid == child.pid]
@@ -58,13 +59,13 @@ def test_descendants_of_a_real_process_tree():
         # The grandchildren are in the child's session and process group.
         assert {tree[pid].pgid for pid in sleeps} == {child.pid}
         assert tree[child.pid].pgid == child.pid
-        assert harness.cmdline(child.pid).startswith('sh -c')
-        assert harness.cmdline(child.pid, None) == \
+        assert procs.cmdline(child.pid).startswith('sh -c')
+        assert procs.cmdline(child.pid, None) == \
             'sh -c sleep 60 & sleep 60 & wait'
         assert tree[child.pid].name == 'sh'
         assert {tree[pid].name for pid in sleeps} == {'sleep'}
         # Rooted at the child: only the grandchildren.
-        assert set(harness.descendants(child.pid)) == set(sleeps)
+        assert set(procs.descendants(child.pid)) == set(sleeps)
     finally:
         os.killpg(child.pid, signal.SIGKILL)
         child.wait()
@@ -73,50 +74,50 @@ def test_descendants_of_a_real_process_tree():
 
 def test_descendants_skip_zombies_but_walk_through_them():
     table = {
-        10: harness.ProcInfo(1, 10, 'S', 0),     # the root
-        11: harness.ProcInfo(10, 11, 'Z', 5),    # a zombie child
-        12: harness.ProcInfo(11, 11, 'S', 6),    # its live child
-        13: harness.ProcInfo(10, 13, 'R', 7),
-        20: harness.ProcInfo(1, 20, 'S', 0),     # not ours
+        10: procs.ProcInfo(1, 10, 'S', 0),     # the root
+        11: procs.ProcInfo(10, 11, 'Z', 5),    # a zombie child
+        12: procs.ProcInfo(11, 11, 'S', 6),    # its live child
+        13: procs.ProcInfo(10, 13, 'R', 7),
+        20: procs.ProcInfo(1, 20, 'S', 0),     # not ours
     }
-    assert set(harness.descendants(10, table)) == {12, 13}
+    assert set(procs.descendants(10, table)) == {12, 13}
 
 
 def test_an_unreaped_child_is_not_a_live_descendant():
     child = subprocess.Popen(['true'])
-    eventually(lambda: harness.proc_table().get(
-        child.pid, harness.ProcInfo(0, 0, 'Z', 0)).state == 'Z',
+    eventually(lambda: procs.proc_table().get(
+        child.pid, procs.ProcInfo(0, 0, 'Z', 0)).state == 'Z',
         'the child to be a zombie')
-    assert child.pid not in harness.descendants()
-    assert not harness.alive(child.pid)
+    assert child.pid not in procs.descendants()
+    assert not procs.alive(child.pid)
     child.wait()
-    assert not harness.alive(child.pid)
-    assert harness.alive(os.getpid())
+    assert not procs.alive(child.pid)
+    assert procs.alive(os.getpid())
 
 
 def test_cmdline_of_a_gone_process():
     child = subprocess.Popen(['true'])
     child.wait()
-    assert harness.cmdline(child.pid) == '?'
+    assert procs.cmdline(child.pid) == '?'
 
 
 # ------------------------------------------------- groups and their stop
 
 def test_processes_stop_a_tree_with_an_orphan_and_a_stubborn_one(tmp_path):
-    procs = harness.Processes(str(tmp_path), dict(os.environ))
+    group = harness.Processes(str(tmp_path), dict(os.environ))
     # An orphan in a session of its own (its parent exits at once), found
     # because this process is a subreaper; and one ignoring SIGINT/SIGTERM.
-    procs.start('orphaner', ['sh', '-c', 'setsid sleep 60 & exit 0'])
-    stubborn = procs.start('stubborn',
+    group.start('orphaner', ['sh', '-c', 'setsid sleep 60 & exit 0'])
+    stubborn = group.start('stubborn',
                            ['sh', '-c', 'trap "" INT TERM; sleep 60'])
-    eventually(lambda: any(harness.cmdline(p).startswith('sleep 60')
+    eventually(lambda: any(procs.cmdline(p).startswith('sleep 60')
                            and info.ppid == os.getpid()
-                           for p, info in harness.descendants().items()),
+                           for p, info in procs.descendants().items()),
                'the orphaned sleep re-parented to us')
-    eventually(lambda: len(harness.descendants(stubborn.pid)) == 1,
+    eventually(lambda: len(procs.descendants(stubborn.pid)) == 1,
                'the stubborn sleep')
-    assert procs.stop(grace=0.5) == []
-    assert procs.descendants() == {}
+    assert group.stop(grace=0.5) == []
+    assert group.descendants() == {}
     assert stubborn.returncode == -signal.SIGKILL
     assert os.path.exists(tmp_path / 'orphaner.log')
 
@@ -126,9 +127,9 @@ def test_stop_group_interrupts_the_whole_group():
                              start_new_session=True)
     # Until sh's child has exec'ed sleep, a SIGINT can be swallowed by
     # the forked shell (a loaded machine widens that window).
-    eventually(lambda: any(harness.cmdline(p).startswith('sleep 60')
+    eventually(lambda: any(procs.cmdline(p).startswith('sleep 60')
                            for p in live_group(child.pid)), 'sh and sleep')
-    assert harness.stop_group(child) == -signal.SIGINT
+    assert procs.stop_group(child) == -signal.SIGINT
     eventually(lambda: not live_group(child.pid), 'the sleep to end')
 
 
@@ -136,7 +137,7 @@ def test_stop_group_kills_a_group_that_ignores_sigint():
     child = subprocess.Popen(['sh', '-c', 'trap "" INT; sleep 60'],
                              start_new_session=True)
     eventually(lambda: len(live_group(child.pid)) == 2, 'sh and sleep')
-    assert harness.stop_group(child, timeout=0.2) == -signal.SIGKILL
+    assert procs.stop_group(child, timeout=0.2) == -signal.SIGKILL
     eventually(lambda: not live_group(child.pid), 'the sleep to end')
 
 
@@ -179,7 +180,7 @@ def test_faketime_start_reads_when_the_faketime_process_started():
                              start_new_session=True)
     after = time.time()
     try:
-        eventually(lambda: harness.cmdline(child.pid).startswith(
+        eventually(lambda: procs.cmdline(child.pid).startswith(
             'faketime'), 'faketime to run')
         t0 = harness.faketime_start(os.getpid())
         # /proc counts 10 ms ticks: the start is floored to one.

@@ -1,12 +1,12 @@
-"""hri_sync.tools.skew_figures: a recorded round split into clock error,
+"""hri_sync_support.skew_figures: a recorded round split into clock error,
 delivery delay and start skew, and the run's summary."""
 import math
 from types import SimpleNamespace as NS
 
 import pytest
 
-from hri_sync.tools.harness import FakeClock
-from hri_sync.tools.skew_figures import analyse_round, summarize
+from hri_sync_support.harness import FakeClock
+from hri_sync_support.skew_figures import analyse_round, summarize
 
 START = 1000.0      # the window's start, global = true time, s
 CLOCKS = {'c1': FakeClock(1.5, 1.0002, 900.0),

@@ -161,6 +161,112 @@ TEST(Geodesic, ExtremitiesReachHeadHandsFeet) {
   EXPECT_GE(double(hands) / hands_total, 0.8);
 }
 
+// The tracker's stages one by one (DepthTracker::update runs them in this
+// order: segmentation (above), extremities, labelling, body model, fit (the
+// PoseFit and Calibration tests below)), each on rendered frames of the
+// real motion.
+namespace {
+
+struct Staged {
+  Joints truth;
+  PointGrid grid;
+  Plane floor;
+  Segmentation seg;
+  Geodesic geo;
+  BodyModel model;
+  TrunkFrame trunk;
+  Extremities ex;
+};
+
+Staged staged(const Camera& cam, const Joints& truth) {
+  Staged s;
+  s.truth = truth;
+  std::vector<uint16_t> depth = render(truth, cam, false);
+  s.grid = makeGrid(depth.data(), cam, 2);
+  s.floor = fitFloor(s.grid);
+  s.seg = segmentUser(s.grid, s.floor, nullptr);
+  if (!s.seg.found) return s;
+  s.geo = geodesicExtremities(s.grid, s.seg, 8, 0.5);
+  s.model = BodyModel::fromHeight(std::clamp(s.seg.height + 0.03, 1.2, 2.2));
+  s.trunk = trunkFrame(s.grid, s.seg, s.geo, s.floor.n, s.model, 0.0);
+  s.ex = findExtremities(s.grid, s.seg, s.geo, s.trunk.trunk);
+  return s;
+}
+
+// The true lateral axis (right to left), as the labelling's memory holds it.
+Vec3 trueLateral(const Joints& j) {
+  Vec3 l = j[L_SHOULDER] - j[R_SHOULDER];
+  l.y = 0;
+  return l.normalized();
+}
+
+}  // namespace
+
+TEST(Stages, ExtremitiesAddAHandHeldTowardsTheSensor) {
+  Camera cam;
+  Joints j = motion().at(1.0, false);
+  // The right arm straight out towards the sensor, in front of the chest.
+  const Vec3 toward = j[TORSO].normalized() * -1.0;
+  j[R_ELBOW] = j[R_SHOULDER] + toward * 0.28;
+  j[R_HAND] = j[R_SHOULDER] + toward * 0.55;
+  Staged s = staged(cam, j);
+  ASSERT_TRUE(s.seg.found) << s.seg.reason;
+  ASSERT_EQ(s.ex.cells.size(), s.ex.points.size());
+  EXPECT_LE(s.ex.cells.size(), 10u);
+  for (size_t k = 0; k < s.ex.cells.size(); ++k) EXPECT_EQ((s.ex.points[k] - s.grid.points[s.ex.cells[k]]).norm(), 0.0);
+  double nearest = 1e9;
+  for (const Vec3& p : s.ex.points) nearest = std::min(nearest, (p - j[R_HAND]).norm());
+  EXPECT_LT(nearest, 0.15) << "the hand held forward is a candidate";
+  // Without any geodesic extremum, the tips held in front of the trunk alone
+  // still give the hand (and add nothing twice).
+  Geodesic none = s.geo;
+  none.extremities.clear();
+  Extremities front = findExtremities(s.grid, s.seg, none, s.trunk.trunk);
+  nearest = 1e9;
+  for (const Vec3& p : front.points) nearest = std::min(nearest, (p - j[R_HAND]).norm());
+  EXPECT_LT(nearest, 0.15) << front.points.size() << " front tips";
+  for (size_t a = 0; a < front.points.size(); ++a)
+    for (size_t b = 0; b < a; ++b) EXPECT_GE((front.points[a] - front.points[b]).norm(), 0.15);
+}
+
+TEST(Stages, LabellingAndBodyModelOnRealMotion) {
+  Camera cam;
+  const Track& m = motion();
+  int frames = 0, head = 0, feet = 0, feet_total = 0;
+  double body_error = 0;
+  for (double t = 0.25; t < m.duration(); t += 0.5) {
+    Staged s = staged(cam, m.at(t, false));
+    ASSERT_TRUE(s.seg.found) << "t=" << t;
+    LabelMemory memory;
+    memory.lateral = trueLateral(s.truth);
+    LabelAssignment a = labelExtremities(s.grid, s.geo, s.ex, s.trunk, s.floor, s.model, memory);
+    std::array<std::vector<Vec3>, NUM_LABELS> paths;
+    std::array<Vec3, NUM_LABELS> tips;
+    for (int l = 0; l < NUM_LABELS; ++l) {
+      if (a[l] < 0) continue;
+      // No candidate carries two labels.
+      for (int o = 0; o < l; ++o) EXPECT_NE(a[o], a[l]) << "t=" << t;
+      tips[l] = s.ex.points[a[l]];
+      for (int c : pathToSource(s.geo, s.ex.cells[a[l]])) paths[l].push_back(s.grid.points[c]);
+    }
+    ++frames;
+    head += a[LB_HEAD] >= 0 && (tips[LB_HEAD] - s.truth[HEAD]).norm() < 0.25;
+    for (auto [l, joint] : {std::pair<int, Joint>{LB_LFOOT, L_FOOT}, {LB_RFOOT, R_FOOT}}) {
+      ++feet_total;
+      feet += a[l] >= 0 && (tips[l] - s.truth[joint]).norm() < 0.25;
+    }
+    BodyPose pose = placeJoints(s.trunk, paths, tips, a, s.model, memory.lateral, nullptr);
+    body_error += meanError(pose.joints, s.truth);
+    for (float c : pose.confidence) EXPECT_TRUE(c >= 0.f && c <= 1.f);
+    if (a[LB_HEAD] < 0) EXPECT_LT(pose.confidence[HEAD], 0.5f) << "an unseen head is only inferred";
+  }
+  std::printf("labelling: head %d/%d, feet on their own side %d/%d; body model mean error %.3f m\n", head,
+              frames, feet, feet_total, body_error / frames);
+  EXPECT_GE(double(head) / frames, 0.85);
+  EXPECT_GE(double(feet) / feet_total, 0.8);
+  EXPECT_LT(body_error / frames, 0.18) << "before the fit, from the labelled paths alone";
+}
+
 TEST(Calibration, BoneLengthsFromFirstFrames) {
   Camera cam;
   const Track& m = motion();

@@ -145,6 +145,7 @@ def parse_bvh(text, path='<string>'):
 
 
 def _parse_hierarchy(tokens, path):
+    # Over 80 lines: one token loop of the BVH grammar, each keyword a branch.
     joints = []
     stack = []              # indices of open joints
     pending = None          # joint whose '{' is expected next

@@ -15,7 +15,11 @@ fixed rate r this value is the paper's value times r.
 Joint samples below ``min_confidence`` or with a NaN/infinite coordinate
 are left out (and counted); that joint's next usable sample is then paired
 with its last usable one. A frame with no usable joint, a non-finite stamp
-or the same stamp as an earlier frame is rejected and counted.
+or the same stamp as an earlier frame is rejected and counted. A frame
+whose usable joints are all exactly where they were (a tracker repeating
+its last skeleton, as Kinect v1's SDK does) is no new measurement: it is
+counted (``repeated``) and skipped, so the next new frame is paired with
+the last new one over their real time difference.
 
 The sum is kept as frames arrive (``RunningExpressiveness``): memory does
 not grow with the window, and the score is ready with the window's last
@@ -28,6 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from hri_sync.dance_off.joints import NUM_JOINTS
+from hri_sync.people.participant import (PARTICIPANT, ParticipantSelector,
+                                         Zone)
 from hri_sync.timing.processors import Processor, ProcessResult
 
 DEFAULT_MIN_CONFIDENCE = 0.5
@@ -68,6 +74,7 @@ class RunningExpressiveness:
         self.low_confidence_joints = 0
         self.terms = 0
         self.out_of_order = 0
+        self.repeated = 0
         self.first = self.last = None   # first and last usable stamps
 
     def add(self, stamp, positions, confidence):
@@ -81,7 +88,18 @@ class RunningExpressiveness:
         self._prev = stamp
         finite = np.isfinite(positions).all(axis=1)
         valid = finite & (confidence >= self.min_confidence)  # NaN: False
-        if valid.all():                 # the common case, in fewer steps
+        every = bool(valid.all())
+        if not every:
+            self.nonfinite_joints += int(np.count_nonzero(~finite))
+            self.low_confidence_joints += int(np.count_nonzero(finite
+                                                               & ~valid))
+            if not valid.any():
+                self.frames_rejected += 1
+                return False
+        if (self._all_seen or self._seen[valid].all()) and np.array_equal(
+                positions[valid], self._last_pos[valid]):
+            self.repeated += 1          # no new measurement: not paired
+        elif every:                     # the common case, in fewer steps
             if self._all_seen:
                 d2 = np.sum((positions - self._last_pos) ** 2, axis=1)
                 self.total += float(np.sum(d2 / (stamp - self._last_t)))
@@ -93,12 +111,6 @@ class RunningExpressiveness:
             self._seen[:] = True
             self._all_seen = True
         else:
-            self.nonfinite_joints += int(np.count_nonzero(~finite))
-            self.low_confidence_joints += int(np.count_nonzero(finite
-                                                               & ~valid))
-            if not valid.any():
-                self.frames_rejected += 1
-                return False
             self._pairs(valid, stamp, positions)
             self._last_pos[valid] = positions[valid]
             self._last_t[valid] = stamp
@@ -167,25 +179,58 @@ def _seconds(stamp):
 class SkeletonExpressiveness(Processor):
     """DPM processor: expressiveness of a ``hri_sync/Skeleton`` stream.
 
-    ``~processor_params``: ``min_confidence`` (default 0.5). T is the window
-    (end - start), stamps are the frames' global stamps. A message without
-    15 positions and 15 confidences is rejected as malformed.
-    Incremental: ``add`` updates the running sum, ``result`` reads it.
+    ``~processor_params``: ``min_confidence`` (default 0.5);
+    ``participant_zone`` ([x_min, x_max, z_min, z_max] m in the sensor's
+    Skeleton frame, or empty: the whole view) and ``lost_after`` (s, 0.5):
+    with several people on the topic only the participant's frames are
+    scored (``hri_sync.people.participant``); the others' are rejected
+    and counted (``bystander_frames``). With ``zone_sensor_pose`` ([x, y,
+    z, yaw, pitch] of the sensor in world) the zone is [x_min, x_max,
+    y_min, y_max] in the world frame. T is the window (end - start),
+    stamps are the frames' global stamps. A message without 15 positions
+    and 15 confidences is rejected as malformed. Incremental: ``add``
+    updates the running sum, ``result`` reads it.
     """
 
     msg_type = 'hri_sync/Skeleton'
 
-    def __init__(self, min_confidence=DEFAULT_MIN_CONFIDENCE):
+    def __init__(self, min_confidence=DEFAULT_MIN_CONFIDENCE,
+                 participant_zone=None, lost_after=0.5, zone_sensor_pose=None):
         super().__init__()
         self.min_confidence = float(min_confidence)
+        self.zone = Zone.parse(participant_zone, zone_sensor_pose)
+        self.lost_after = float(lost_after)
         self.begin(0.0, 0.0)
 
     def device_stamp(self, msg):
         return _seconds(msg.device_stamp)
 
+    def zone_params(self):
+        """The participant params as result diagnostics (text), from
+        which ``params_from`` makes the same processor again."""
+        z = self.zone
+        return {'participant_zone': '' if z is None else '%r, %r, %r, %r' % (
+                    z.x_min, z.x_max, z.z_min, z.z_max),
+                'zone_sensor_pose': '' if z is None or z.sensor_pose is None
+                else ', '.join(repr(v) for v in z.sensor_pose),
+                'lost_after': self.lost_after}
+
+    @staticmethod
+    def params_from(diagnostics):
+        """Processor params from a result's diagnostics (a dict of
+        text), defaults where they are not recorded."""
+        d = diagnostics
+        return {'min_confidence': float(d.get('min_confidence',
+                                              DEFAULT_MIN_CONFIDENCE)),
+                'participant_zone': d.get('participant_zone', ''),
+                'zone_sensor_pose': d.get('zone_sensor_pose', ''),
+                'lost_after': float(d.get('lost_after', 0.5))}
+
     def begin(self, start, end):
         self._duration = end - start
         self._run = RunningExpressiveness(NUM_JOINTS, self.min_confidence)
+        self._people = ParticipantSelector(self.zone, self.lost_after,
+                                           start, end)
         self._malformed = 0
 
     def add(self, frame):
@@ -193,23 +238,31 @@ class SkeletonExpressiveness(Processor):
             pos = np.array([(p.x, p.y, p.z) for p in frame.msg.positions],
                            dtype=float)
             conf = np.array(frame.msg.confidence, dtype=float)
+            user = int(getattr(frame.msg, 'user_id', 0))
         except (AttributeError, TypeError, ValueError):
             self._malformed += 1
             return
         if pos.shape != (NUM_JOINTS, 3) or conf.shape != (NUM_JOINTS,):
             self._malformed += 1
             return
-        self._run.add(frame.stamp, pos, conf)
+        if self._people.offer(frame.stamp, user, pos) == PARTICIPANT:
+            self._run.add(frame.stamp, pos, conf)
 
     def result(self):
         res = self._run.score(self._duration)
+        people = self._people.summary()
+        diagnostics = {'nonfinite_joints': res.nonfinite_joints,
+                       'low_confidence_joints': res.low_confidence_joints,
+                       'malformed_frames': self._malformed,
+                       'out_of_order_frames': self._run.out_of_order,
+                       'repeated_frames': self._run.repeated,
+                       'terms': res.terms,
+                       'min_confidence': self.min_confidence,
+                       'T': res.duration}
+        diagnostics.update(self.zone_params())
+        diagnostics.update(people)
         return ProcessResult(
             value=res.value, frames_used=res.frames_used,
-            frames_rejected=res.frames_rejected + self._malformed,
-            diagnostics={'nonfinite_joints': res.nonfinite_joints,
-                         'low_confidence_joints': res.low_confidence_joints,
-                         'malformed_frames': self._malformed,
-                         'out_of_order_frames': self._run.out_of_order,
-                         'terms': res.terms,
-                         'min_confidence': self.min_confidence,
-                         'T': res.duration})
+            frames_rejected=(res.frames_rejected + self._malformed
+                             + people['bystander_frames']),
+            diagnostics=diagnostics)

@@ -3,6 +3,7 @@
 This list is the one place joint names live; ``Skeleton.msg`` carries the
 matching index constants (a unit test checks they agree).
 """
+from hri_sync.timing.vocabulary import NUM_JOINTS  # noqa: F401 (one count)
 
 JOINTS = (
     'head', 'neck', 'torso',
@@ -13,5 +14,4 @@ JOINTS = (
     'left_knee', 'right_knee',
     'left_foot', 'right_foot',
 )
-NUM_JOINTS = len(JOINTS)
 INDEX = {name: i for i, name in enumerate(JOINTS)}

@@ -12,9 +12,8 @@ with the decision module's rule and parameters. Reading a recording is
 import math
 from dataclasses import dataclass, field
 
-from hri_sync.timing.decision import ABORTED, decide
-from hri_sync.dance_off.expressiveness import (DEFAULT_MIN_CONFIDENCE,
-                                               SkeletonExpressiveness)
+from hri_sync.timing.decision import ABORTED, USABLE, decide
+from hri_sync.dance_off.expressiveness import SkeletonExpressiveness
 from hri_sync.timing.processors import Frame
 
 REL_TOL = 1e-6
@@ -66,11 +65,11 @@ def _close(a, b):
     return math.isclose(a, b, rel_tol=REL_TOL, abs_tol=ABS_TOL)
 
 
-def _min_confidence(result):
-    for kv in result.diagnostics:
-        if kv.key == 'min_confidence':
-            return float(kv.value)
-    return DEFAULT_MIN_CONFIDENCE
+def _processor(result):
+    """The result's processor again, with the params its diagnostics
+    recorded (min_confidence, the participant zone)."""
+    return SkeletonExpressiveness(**SkeletonExpressiveness.params_from(
+        {kv.key: kv.value for kv in result.diagnostics}))
 
 
 def check_client(result, captured):
@@ -81,13 +80,13 @@ def check_client(result, captured):
     frames = [Frame(s, m) for s, m in captured if start <= s < end]
     if not frames and result.frames:
         check.problems.append('no captured frames recorded for the window')
-    res = SkeletonExpressiveness(_min_confidence(result)).process(
+    res = _processor(result).process(
         frames, start, end)
     check.frames_recomputed = res.frames_used
     if frames:
         check.first_frame_offset = frames[0].stamp - start
     check.value_recomputed = res.value if frames else math.nan
-    if result.status in ('ok', 'partial'):
+    if result.status in USABLE:
         if res.frames_used != result.frames:
             check.problems.append('frames %d recorded, %d recomputed'
                                   % (result.frames, res.frames_used))
@@ -115,13 +114,13 @@ def check_round(decision, results, captured, config, aborted_reason=None):
             continue
         c = check_client(result, captured.get(client, []))
         check.clients.append(c)
-        value = c.value_recomputed if result.status in ('ok', 'partial') \
+        value = c.value_recomputed if result.status in USABLE \
             else math.nan
         recomputed[client] = (result.status, value)
     for client, score in zip(participants, decision.scores):
         result = results.get(client)
         recorded = result.value if result is not None and \
-            result.status in ('ok', 'partial') else math.nan
+            result.status in USABLE else math.nan
         if not _close(score, recorded):
             check.problems.append('decision score of %s %.9g differs from its '
                                   'result %.9g' % (client, score, recorded))

@@ -141,6 +141,7 @@ def dance(duration, bearings=(math.radians(30.0), math.radians(-30.0)),
     heading 0 (between the participants), at rest, by ``duration``; a
     window too short for a move is danced standing still (head only).
     """
+    # Over 80 lines: the choreography's steps in the order they are danced.
     if not math.isfinite(heading):
         raise ValueError('dance: start heading is not finite')
     if not (math.isfinite(duration) and duration >= 0.0):

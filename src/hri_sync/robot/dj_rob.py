@@ -33,10 +33,9 @@ from typing import NamedTuple, Optional, Tuple
 from hri_sync.robot import choreography as ch
 from hri_sync.robot.geometry import relative_pose, wrap_angle
 from hri_sync.robot.kobuki import LED_BLACK, ZERO, Limits, Twist
+from hri_sync.timing.vocabulary import Outcome
 
-# hri_sync/Decision outcomes.
-WINNER, NO_WINNER, TIE, ABORTED = 'winner', 'no_winner', 'tie', 'aborted'
-OUTCOMES = (WINNER, NO_WINNER, TIE, ABORTED)
+WINNER, NO_WINNER, TIE, ABORTED = OUTCOMES = Outcome.ALL
 DANCE, GESTURE = 'dance', 'gesture'
 JOIN_SLACK = 0.05       # s: a dance this close before a beat skips it
 

@@ -7,8 +7,7 @@ server and publishes its ``ClockState`` (``clock_state``: the one
 ClockState <-> ClockModel conversion), ``client_process`` is the CPM on
 ROS, ``round_log`` records what each round put on the wire,
 ``master_watch`` (started by ``params.run_node`` for every node) ends a
-node for respawn when the ROS master restarted, ``skew_bench`` is the
-start-skew benches' stack and recording node, ``diagnostics``
+node for respawn when the ROS master restarted, ``diagnostics``
 publishes the core's health checks on /diagnostics, ``names`` resolves
 the protocol and client topics in the system namespace (a client's node
 lives in NS/<client_id>/), and ``unique`` (run by ``params.run_node``)

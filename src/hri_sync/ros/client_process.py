@@ -17,6 +17,7 @@ from hri_sync.timing.health import client_tally
 from hri_sync.timing.liveness import Beat, Liveness
 from hri_sync.timing.protocol import Capture, ClientSchedule, Late
 from hri_sync.timing.validate import Context
+from hri_sync.timing.vocabulary import MAX_UNCERTAINTY, ResultStatus
 
 
 class ClientProcess:
@@ -45,7 +46,7 @@ class ClientProcess:
         self.on_capture = on_capture
         self.on_late = on_late
         self.schedule = ClientSchedule(
-            client_id, param('max_uncertainty', 0.005, float, positive,
+            client_id, param('max_uncertainty', MAX_UNCERTAINTY, float, positive,
                              '> 0 s'))
         self.synced_clock = SyncedClock(client_id)
         self.clock = self.synced_clock.clock
@@ -147,7 +148,7 @@ class ClientProcess:
                 dict(self.schedule.ignored))
             return
         if isinstance(order, Late):
-            self.tally.record(order.round, 'late', order.reason)
+            self.tally.record(order.round, ResultStatus.LATE, order.reason)
             rospy.logerr('%s: %s', self.client_id, order.reason)
             if self.on_late:
                 self.on_late(order)

@@ -8,9 +8,10 @@ clock.  A model maps local to global time and bounds its own error.
 import math
 from dataclasses import dataclass
 
+from hri_sync.timing.vocabulary import DRIFT_BOUND
+
 MAX_DRIFT = 0.01       # |d offset / d local| of any usable model (1 %)
 TIME_LIMIT = 2.0 ** 32  # s: the last time a ROS message can carry
-DRIFT_BOUND = 15e-6    # default error growth without measurements, s/s
 
 
 @dataclass(frozen=True)

@@ -18,9 +18,11 @@ from collections import Counter
 from dataclasses import dataclass
 
 from hri_sync.timing.protocol import Abort, Ack, ControlRound, ProtocolError
+from hri_sync.timing.vocabulary import RoundState
 
-IDLE, SYNCING, CAPTURING = 'idle', 'syncing', 'capturing'
-ABORTED = 'aborted'   # a RoundStatus state and a RoundEnd outcome
+IDLE = 'idle'
+SYNCING, CAPTURING = RoundState.SYNCING, RoundState.CAPTURING
+ABORTED = RoundState.ABORTED   # a RoundStatus state and a RoundEnd outcome
 DECIDED, NO_DECISION, SHUTDOWN = 'decided', 'no_decision', 'shutdown'
 
 

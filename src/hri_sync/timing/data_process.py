@@ -13,11 +13,12 @@ import math
 from collections import Counter, deque
 from dataclasses import dataclass, field
 
-from hri_sync.timing.capture import (ERROR, ArrivalStamps, CaptureWindow,
-                                     DeviceClockMapper, SampleBuffer,
+from hri_sync.timing.capture import (ERROR, CaptureWindow, SampleBuffer,
                                      window_stats)
 from hri_sync.timing.clock import ClockModel
+from hri_sync.timing.mapping import ArrivalStamps, DeviceClockMapper
 from hri_sync.timing.processors import Processor
+from hri_sync.timing.vocabulary import DRIFT_BOUND, MIN_COVERAGE
 
 STAMP_SOURCES = ('auto', 'arrival', 'device')
 
@@ -81,8 +82,8 @@ class DataProcess:
     expected past its end.
     """
 
-    def __init__(self, make_processor, stamp_source='auto', min_coverage=0.9,
-                 history=2.0, margin=0.03, reorder=0.2, drift_bound=15e-6,
+    def __init__(self, make_processor, stamp_source='auto', min_coverage=MIN_COVERAGE,
+                 history=2.0, margin=0.03, reorder=0.2, drift_bound=DRIFT_BOUND,
                  jump=0.1, refit=0.05):
         if stamp_source not in STAMP_SOURCES:
             raise ValueError('stamp_source must be one of %s, got %r'

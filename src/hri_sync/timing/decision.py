@@ -8,8 +8,10 @@ import math
 from collections import Counter
 from dataclasses import dataclass
 
-WINNER, NO_WINNER, TIE, ABORTED = 'winner', 'no_winner', 'tie', 'aborted'
-USABLE = ('ok', 'partial')   # ClientResult statuses that carry a score
+from hri_sync.timing.vocabulary import ON_MISSING, Outcome, ResultStatus
+
+WINNER, NO_WINNER, TIE, ABORTED = Outcome.ALL
+USABLE = ResultStatus.USABLE
 
 
 @dataclass
@@ -33,7 +35,7 @@ def decide(participants, results, min_value=0.0, tie_margin=0.0,
     ``no_winner`` when every score is below ``min_value``; ``tie`` when the
     best two are within ``tie_margin``.
     """
-    if on_missing not in ('partial', 'abort'):
+    if on_missing not in ON_MISSING:
         raise ValueError("~on_missing must be 'partial' or 'abort', got %r"
                          % (on_missing,))
     scores, problems = [], []
@@ -41,7 +43,7 @@ def decide(participants, results, min_value=0.0, tie_margin=0.0,
         status, value = results.get(c, ('missing', math.nan))
         if status in USABLE and math.isfinite(value):
             scores.append(float(value))
-            if status != 'ok':
+            if status != ResultStatus.OK:
                 problems.append('%s result is %s' % (c, status))
         else:
             scores.append(math.nan)

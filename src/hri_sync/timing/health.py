@@ -25,6 +25,9 @@ import threading
 from collections import Counter, deque
 from dataclasses import dataclass
 
+from hri_sync.timing.control import DECIDED, NO_DECISION, SHUTDOWN
+from hri_sync.timing.vocabulary import Outcome, ResultStatus, RoundState
+
 OK, WARN, ERROR = 0, 1, 2      # diagnostic_msgs/DiagnosticStatus levels
 LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR'}
 
@@ -253,8 +256,8 @@ def client_tally():
     A NACK or a late capture order leaves the status at WARN until the
     next round (the clock's own status says ERROR while it cannot sync).
     """
-    return RoundTally(('acked', 'nacked', 'scheduled', 'late'),
-                      {'nacked': WARN, 'late': WARN})
+    return RoundTally(('acked', 'nacked', 'scheduled', ResultStatus.LATE),
+                      {'nacked': WARN, ResultStatus.LATE: WARN})
 
 
 class ServerTally(RoundTally):
@@ -269,9 +272,9 @@ class ServerTally(RoundTally):
 
     def __init__(self, clients=()):
         super().__init__(
-            ('syncing', 'capturing', 'decided', 'aborted', 'no_decision',
-             'shutdown'),
-            {'aborted': WARN, 'no_decision': ERROR, 'shutdown': WARN},
+            (RoundState.SYNCING, RoundState.CAPTURING, DECIDED,
+             RoundState.ABORTED, NO_DECISION, SHUTDOWN),
+            {RoundState.ABORTED: WARN, NO_DECISION: ERROR, SHUTDOWN: WARN},
             client_outcomes=('refused', 'missing'), clients=clients)
 
     def on_status(self, round_id, state, reason, refused, missing):
@@ -279,7 +282,7 @@ class ServerTally(RoundTally):
         on /round_status); once the ACKs are in, count who refused or is
         missing."""
         self.record(round_id, state, reason)
-        if state != 'syncing':
+        if state != RoundState.SYNCING:
             self.count('refused', refused)
             self.count('missing', missing)
 
@@ -288,20 +291,18 @@ class ServerTally(RoundTally):
         'shutdown' (an abort its status update announced is not counted
         twice)."""
         last = self.last
-        if outcome == 'aborted' and last and last[:2] == (round_id,
-                                                          'aborted'):
+        if outcome == RoundState.ABORTED and last and last[:2] == (
+                round_id, RoundState.ABORTED):
             return
         self.record(round_id, outcome, message)
-
-
-RESULT_STATUSES = ('ok', 'partial', 'no_data', 'late', 'error')
 
 
 def result_tally():
     """A DPM's results by ClientResult status: partial and no_data are
     WARN, error ERROR, while they are the last round's."""
-    return RoundTally(RESULT_STATUSES, {'partial': WARN, 'no_data': WARN,
-                                        'late': WARN, 'error': ERROR})
+    return RoundTally(ResultStatus.ALL, {
+        ResultStatus.PARTIAL: WARN, ResultStatus.NO_DATA: WARN,
+        ResultStatus.LATE: WARN, ResultStatus.ERROR: ERROR})
 
 
 class DecisionTally(RoundTally):
@@ -311,9 +312,8 @@ class DecisionTally(RoundTally):
     as 'error'."""
 
     def __init__(self, participants):
-        super().__init__(('winner', 'no_winner', 'tie', 'aborted'),
-                         {'aborted': WARN},
-                         client_outcomes=RESULT_STATUSES + ('missing',),
+        super().__init__(Outcome.ALL, {Outcome.ABORTED: WARN},
+                         client_outcomes=ResultStatus.ALL + ('missing',),
                          clients=participants)
         self._reported = {}     # open round -> clients with a result
 
@@ -321,7 +321,8 @@ class DecisionTally(RoundTally):
         """A result the DM took into round ``round_id``."""
         with self._lock:
             self._reported.setdefault(round_id, set()).add(client_id)
-        self.count(status if status in RESULT_STATUSES else 'error',
+        self.count(status if status in ResultStatus.ALL
+                   else ResultStatus.ERROR,
                    [client_id])
 
     def on_decision(self, round_id, outcome, reason, count_missing=True):

@@ -25,12 +25,11 @@ import math
 import re
 from dataclasses import dataclass, field
 
+from hri_sync.timing.vocabulary import (NUM_JOINTS, Outcome, ResultStatus,
+                                        RoundState)
+
 TIME_LIMIT = 2.0 ** 32      # rospy times hold uint32 seconds
-NUM_JOINTS = 15
 NAME_RE = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
-RESULT_STATUSES = ('ok', 'partial', 'no_data', 'late', 'error')
-OUTCOMES = ('winner', 'no_winner', 'tie', 'aborted')
-ROUND_STATES = ('syncing', 'capturing', 'aborted')
 
 
 class Rejected(ValueError):
@@ -378,7 +377,7 @@ def round_status(*, header, round, state, reason, acked, refused, missing,
     change's global time, 0 when the server's clock is not synced)."""
     header_time(header, ctx, optional=True)
     round_number(round, ctx)
-    choice(state, 'state', ROUND_STATES)
+    choice(state, 'state', RoundState.ALL)
     text(reason, 'reason', ctx)
     for what, items in (('acked', acked), ('refused', refused),
                         ('missing', missing)):
@@ -425,7 +424,7 @@ def client_result(*, header, round, client_id, status, capture_start,
     header_time(header, ctx, optional=True)
     round_number(round, ctx)
     client_name(client_id, 'client_id', ctx)
-    choice(status, 'status', RESULT_STATUSES)
+    choice(status, 'status', ResultStatus.ALL)
     time_near(capture_start, 'capture_start', ctx, ahead=lim.max_str_aft,
               behind=lim.max_dur)
     time_value(capture_end, 'capture_end')
@@ -435,7 +434,7 @@ def client_result(*, header, round, client_id, status, capture_start,
                     ('frames_dropped', frames_dropped)):
         count(n, what, lim.max_frames)
     number(coverage, 'coverage', 0.0, 1.0)
-    usable = status in ('ok', 'partial')
+    usable = status in ResultStatus.USABLE
     number(value, 'value', nan=not usable)
     number(first_frame_offset, 'first_frame_offset', -lim.max_dur,
            lim.max_dur, nan=True)
@@ -462,7 +461,7 @@ def decision(*, header, round, outcome, winner, clients, scores, reason,
     the server's clock is not synced)."""
     header_time(header, ctx, optional=True)
     round_number(round, ctx)
-    choice(outcome, 'outcome', OUTCOMES)
+    choice(outcome, 'outcome', Outcome.ALL)
     names(clients, 'clients', ctx)
     scores = list(scores)
     if len(scores) != len(clients):
@@ -470,7 +469,7 @@ def decision(*, header, round, outcome, winner, clients, scores, reason,
                        % (len(scores), len(clients)), 'scores')
     for s in scores:
         number(s, 'scores', nan=True)
-    if outcome == 'winner':
+    if outcome == Outcome.WINNER:
         count(winner, 'winner', len(clients))
         if winner < 1:
             raise Rejected('inconsistent', 'outcome winner without a '

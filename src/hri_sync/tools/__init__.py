@@ -1,9 +1,9 @@
-"""Offline tools over recorded rounds: summaries, reports, the test harness.
+"""Offline tools over recorded rounds: summaries, reports; the process tree.
 
 Contract: reads what rounds put on the wire (live ``RoundLog`` records or
 bags) and computes figures from it with ``hri_sync.timing``,
 ``hri_sync.dance_off`` and ``hri_sync.robot``; imports no rospy.
-``harness`` is what benches and test checkers share to run the stack
-(processes, faketime clients, the true-clock reference), ``skew_figures``
-the start-skew benches' figures.
+``procs`` walks, signals and reaps a process tree (``skewed_client``, the
+benches and the checkers).  The benches' and checkers' harness is not
+here: it is ``support/hri_sync_support`` (not installed).
 """

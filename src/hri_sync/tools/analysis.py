@@ -281,6 +281,7 @@ def _starts(rnd):
 def summarize_round(session, rnd, clock, pose_list, rule, truth_clients,
                     tolerance):
     """The figures of one round (see the module docstring)."""
+    # Over 80 lines: one dict of the round's figures, field by field.
     d = rnd.decision.msg if rnd.decision is not None else None
     row = {'round': rnd.n, 'cut_off': d is None,
            'duplicates': list(rnd.duplicates)}

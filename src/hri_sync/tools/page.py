@@ -112,6 +112,7 @@ def _rounds_table(rounds):
 
 
 def _round_section(r, images, rule):
+    # Over 80 lines: the HTML of one round's section, in page order.
     out = ['<h3 id="%s">Round %d</h3>' % (_e(r['anchor']), r['round'])]
     out.append('<p class="verdict">%s</p>' % _mark(r['ok'], r['verdict']))
     if r.get('start') is not None:

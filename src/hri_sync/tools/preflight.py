@@ -13,12 +13,14 @@ naming every reason.
 import math
 from dataclasses import dataclass, field
 
+from hri_sync.timing.vocabulary import MAX_UNCERTAINTY
+
 
 @dataclass
 class Limits:
     """What a site must meet to be go."""
 
-    max_uncertainty: float = 0.005     # s, a client's clock (its CPM's)
+    max_uncertainty: float = MAX_UNCERTAINTY  # s, a client's clock (its CPM's)
     max_drift: float = 1e-3            # dimensionless: 1000 ppm
     min_sensor_rate: float = 5.0       # Hz
     min_odom_rate: float = 1.0         # Hz

@@ -15,8 +15,9 @@ from dataclasses import dataclass, field
 from hri_sync.robot.choreography import target_heading
 from hri_sync.robot.geometry import (relative_pose, wrap_angle,
                                      wrap_degrees, yaw_of)
+from hri_sync.timing.vocabulary import Outcome
 
-WINNER = 'winner'
+WINNER = Outcome.WINNER
 STILL_LINEAR = 0.01         # m: more is motion
 STILL_ANGULAR = math.radians(1.0)
 CMD_EPS = 1e-3              # m/s, rad/s: a command above this moves

@@ -13,7 +13,9 @@ from dataclasses import dataclass, field
 
 import yaml
 
-ROUND_ABORTED = 'aborted'           # RoundStatus.ABORTED
+from hri_sync.timing.vocabulary import RoundState
+
+ROUND_ABORTED = RoundState.ABORTED
 
 
 def secs(t):

@@ -20,11 +20,12 @@ from collections import Counter
 from hri_sync.timing.clock import ClockModel
 from hri_sync.timing.protocol import Capture
 from hri_sync.timing.skew import client_timing, percentiles, start_skew
+from hri_sync.timing.vocabulary import Outcome, ResultStatus
 
 from .harness import ms
 
-ABORTED = 'aborted'     # RoundStatus.ABORTED, Decision.ABORTED
-OK = 'ok'               # ClientResult.OK
+ABORTED = Outcome.ABORTED
+OK = ResultStatus.OK
 
 
 def fail(failures, kind, fmt, *args):

@@ -27,8 +27,8 @@ import rospy
 from hri_sync.msg import ClockState, Decision, RoundStatus, SyncAck, SyncTime
 from hri_sync.ros.round_log import RoundLog
 from hri_sync.timing import ntp
-from hri_sync.tools import harness
-from hri_sync.tools.skew_figures import analyse_round, fail, summarize
+from hri_sync_support import harness
+from hri_sync_support.skew_figures import analyse_round, fail, summarize
 
 SETUP_TIME = 30.0        # s for roscore, chronyd and the sensors
 SETUP_PER_CLIENT = 6.0   # s more per client

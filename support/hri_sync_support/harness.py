@@ -1,16 +1,16 @@
-"""The test harness the benches, test checkers and ``skewed_client`` share.
+"""The harness the benches and test checkers share (not installed).
 
 Contract: no rospy.  Process groups and their clean shutdown (``Processes``:
 children each in a session of their own, the caller a child subreaper, every
-live descendant found by walking /proc and stopped SIGINT -> SIGTERM ->
-SIGKILL); faketime clients (``FakeClock``: the injected offset and drift of a
-libfaketime clock, its spec, its start read from /proc); the true-clock
-reference (the command line of a ``synthetic_sensor`` whose samples carry
-their true send time); and what every bench needs around them: free ports,
-polled waits that name what they waited for, and a run under a time bound
-that always cleans up (``run_bounded``).
+live descendant found by walking /proc (``hri_sync.tools.procs``) and
+stopped SIGINT -> SIGTERM -> SIGKILL); faketime clients (``FakeClock``: the
+injected offset and drift of a libfaketime clock, its spec, its start read
+from /proc); the true-clock reference (the command line of a
+``synthetic_sensor`` whose samples carry their true send time); and what
+every bench needs around them: free ports, polled waits that name what
+they waited for, and a run under a time bound that always cleans up
+(``run_bounded``).
 """
-import ctypes
 import math
 import os
 import signal
@@ -19,127 +19,8 @@ import subprocess
 import time
 from dataclasses import dataclass, replace
 
-PR_SET_CHILD_SUBREAPER = 36
-DEAD_STATES = ('Z', 'X')    # zombie, dead: in /proc but no longer running
-
-
-# --------------------------------------------------------------- processes
-
-@dataclass(frozen=True)
-class ProcInfo:
-    """One process as /proc/PID/stat shows it."""
-
-    ppid: int
-    pgid: int
-    state: str      # R, S, D, Z, ...
-    start: int      # start time, clock ticks after boot
-    name: str = ''  # the command name (comm), e.g. 'chronyd'
-
-    @property
-    def live(self):
-        """Running, not a zombie."""
-        return self.state not in DEAD_STATES
-
-
-def proc_table():
-    """{pid: ProcInfo} of every process in /proc."""
-    table = {}
-    for name in os.listdir('/proc'):
-        if not name.isdigit():
-            continue
-        try:
-            with open('/proc/%s/stat' % name) as f:
-                stat = f.read()
-        except OSError:
-            continue    # ended while we listed
-        fields = stat[stat.rfind(')') + 2:].split()
-        table[int(name)] = ProcInfo(int(fields[1]), int(fields[2]), fields[0],
-                                    int(fields[19]),
-                                    stat[stat.find('(') + 1:stat.rfind(')')])
-    return table
-
-
-def alive(pid):
-    """Whether process ``pid`` exists and is not a zombie."""
-    info = proc_table().get(pid)
-    return info is not None and info.live
-
-
-def descendants(root=None, table=None):
-    """{pid: ProcInfo} of the live (not zombie) descendants of ``root``
-    (default: this process), from ``table`` (default: /proc now)."""
-    table = proc_table() if table is None else table
-    root = os.getpid() if root is None else root
-    kids = {}
-    for pid, info in table.items():
-        kids.setdefault(info.ppid, []).append(pid)
-    out, todo = {}, list(kids.get(root, []))
-    while todo:
-        pid = todo.pop()
-        if table[pid].live:
-            out[pid] = table[pid]
-        todo.extend(kids.get(pid, []))
-    return out
-
-
-def cmdline(pid, words=3):
-    """The first ``words`` words (None: all) of a process's command line,
-    base names, for messages; '?' when it is gone."""
-    try:
-        with open('/proc/%d/cmdline' % pid, 'rb') as f:
-            argv = f.read().rstrip(b'\0').split(b'\0')
-    except OSError:
-        return '?'
-    return ' '.join(os.path.basename(a.decode(errors='replace'))
-                    for a in argv[:words])
-
-
-def become_subreaper():
-    """Make this process a child subreaper: descendants whose parent died
-    are re-parented to it instead of init, so they stay in its tree.
-    Returns whether the kernel accepted it."""
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        return libc.prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0) == 0
-    except (OSError, AttributeError):
-        return False
-
-
-def reap():
-    """Collect every child of this process that has ended (non-blocking)."""
-    while True:
-        try:
-            pid, _ = os.waitpid(-1, os.WNOHANG)
-        except ChildProcessError:
-            return
-        if pid == 0:
-            return
-
-
-def signal_each(pids, sig):
-    """Send ``sig`` to each pid that still exists."""
-    for pid in pids:
-        try:
-            os.kill(pid, sig)
-        except (ProcessLookupError, PermissionError):
-            pass
-
-
-def stop_group(proc, timeout=15.0):
-    """SIGINT the process group of ``proc`` (a Popen started with
-    ``start_new_session``), wait up to ``timeout`` s for it to exit, else
-    SIGKILL the group.  Returns its exit status (None if SIGKILL was not
-    enough to see it exit within 5 s)."""
-    for sig, wait in ((signal.SIGINT, timeout), (signal.SIGKILL, 5.0)):
-        try:
-            os.killpg(proc.pid, sig)
-        except ProcessLookupError:
-            pass
-        try:
-            return proc.wait(timeout=wait)
-        except subprocess.TimeoutExpired:
-            continue
-    return None
+from hri_sync.tools.procs import (become_subreaper, cmdline, descendants,
+                                  proc_table, reap, signal_each)
 
 
 def _log_nowhere(fmt, *args):
@@ -332,13 +213,14 @@ def free_port(kind=socket.SOCK_STREAM, host='127.0.0.1'):
 
 
 def wait_until(what, predicate, timeout, procs=(), poll=0.1):
-    """Poll until ``predicate()``; RuntimeError naming ``what`` when
-    ``timeout`` s pass, or when one of ``procs`` ((name, Popen)) exits
-    first."""
+    """Poll until ``predicate()`` is true and return its value;
+    RuntimeError naming ``what`` when ``timeout`` s pass, or when one of
+    ``procs`` ((name, Popen)) exits first."""
     end = time.monotonic() + timeout
     while True:
-        if predicate():
-            return
+        value = predicate()
+        if value:
+            return value
         for name, p in procs:
             if p.poll() is not None:
                 raise RuntimeError('%s exited with status %s while waiting '

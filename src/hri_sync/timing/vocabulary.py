@@ -1,0 +1,50 @@
+"""The protocol's words and defaults, defined once.
+
+No ROS: the core may not import the generated messages, so the message
+constants are mirrored here, and ``test/unit/test_vocabulary.py`` checks
+each against its ``msg/*.msg`` definition (and that no module spells one
+out as a bare string).  The defaults the nodes, the core and the launch
+files share are here too; the same test checks the launch files' values.
+"""
+
+NUM_JOINTS = 15             # Skeleton.NUM_JOINTS
+
+
+class ResultStatus:
+    """``ClientResult.status``."""
+
+    OK = 'ok'
+    PARTIAL = 'partial'
+    NO_DATA = 'no_data'
+    LATE = 'late'
+    ERROR = 'error'
+    ALL = (OK, PARTIAL, NO_DATA, LATE, ERROR)
+    USABLE = (OK, PARTIAL)          # statuses whose value is a score
+
+
+class Outcome:
+    """``Decision.outcome``."""
+
+    WINNER = 'winner'
+    NO_WINNER = 'no_winner'
+    TIE = 'tie'
+    ABORTED = 'aborted'
+    ALL = (WINNER, NO_WINNER, TIE, ABORTED)
+
+
+class RoundState:
+    """``RoundStatus.state``."""
+
+    SYNCING = 'syncing'
+    CAPTURING = 'capturing'
+    ABORTED = 'aborted'
+    ALL = (SYNCING, CAPTURING, ABORTED)
+
+
+# The DM's ~on_missing: decide over the results present, or abort.
+ON_MISSING = ('partial', 'abort')
+
+# Defaults (launch files pass the same values; the test checks them).
+DRIFT_BOUND = 15e-6         # s/s, the clock error growth without a sync
+MIN_COVERAGE = 0.9          # share of a window below which a result is partial
+MAX_UNCERTAINTY = 0.005     # s, a CPM NACKs a round with a less certain clock
