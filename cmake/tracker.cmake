@@ -71,6 +71,11 @@ hri_sync_openni2_program(record_oni src/virtual_kinect/record_oni.cpp)
 hri_sync_openni2_program(oni_info src/virtual_kinect/oni_info.cpp)
 hri_sync_openni2_program(tracker_eval src/tracker/tracker_eval.cpp)
 target_link_libraries(tracker_eval hri_sync_tracker_core)
+# Bench only (not installed): the segmentation stages' CPU cost per frame.
+add_executable(tracker_stage_cost bench/tracker_stage_cost.cpp)
+target_link_libraries(tracker_stage_cost hri_sync_tracker_core)
+set_target_properties(tracker_stage_cost PROPERTIES
+  RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/${CATKIN_PACKAGE_BIN_DESTINATION})
 
 # The ROS node.
 hri_sync_openni2_program(skeleton_tracker
