@@ -360,69 +360,75 @@ double intersectCapsule(const Vec3& o, const Vec3& rd, const Capsule& cap) {
 
 namespace {
 
-// Ray casting of the surfaces from view origin o (sensor frame, same axes):
-// per pixel the depth along z (inf: nothing), and optionally the label and the
-// returned light (albedo x cos incidence).
-template <typename S>
-void castView(const S& s, const Camera& cam, const Vec3& o, double tilt_rad, double sensor_h,
-              std::vector<float>* z, std::vector<uint8_t>* label, std::vector<float>* shade) {
-  const int W = cam.width, H = cam.height;
-  const size_t N = static_cast<size_t>(W) * H;
-  z->assign(N, std::numeric_limits<float>::infinity());
-  if (label) label->assign(N, LABEL_NONE);
-  if (shade) shade->assign(N, 0.f);
-  const double ca = std::cos(tilt_rad), sa = std::sin(tilt_rad);
-  auto toRoom = [&](const Vec3& v) {  // sensor-frame vector -> room-frame vector
-    return Vec3(v.x, ca * v.y - sa * v.z, sa * v.y + ca * v.z);
-  };
-  const Vec3 o_room = toRoom(o) + Vec3(0, sensor_h, 0);
-  auto hit = [&](size_t i, double zz, uint8_t lab, double cosi, double alb) {
+// One view of the scene (the camera, or the projector beside it): origin o in
+// the sensor frame, same axes. Per pixel: the depth along z (inf: nothing) and
+// optionally the label and the returned light (albedo x cos incidence).
+struct View {
+  const Camera& cam;
+  Vec3 o;
+  double ca, sa, sensor_h;
+  std::vector<float>* z;
+  std::vector<uint8_t>* label;
+  std::vector<float>* shade;
+
+  Vec3 toRoom(const Vec3& v) const { return Vec3(v.x, ca * v.y - sa * v.z, sa * v.y + ca * v.z); }
+  Vec3 toView(const Vec3& r) const {
+    Vec3 q = r - Vec3(0, sensor_h, 0);
+    return Vec3(q.x, ca * q.y + sa * q.z, -sa * q.y + ca * q.z) - o;
+  }
+  void hit(size_t i, double zz, uint8_t lab, double cosi, double alb) const {
     if (zz > 0.01 && zz < (*z)[i]) {
       (*z)[i] = static_cast<float>(zz);
       if (label) (*label)[i] = lab;
       if (shade) (*shade)[i] = static_cast<float>(alb * std::fabs(cosi));
     }
-  };
-  for (int v = 0; v < H; ++v) {
-    for (int u = 0; u < W; ++u) {
-      const size_t i = static_cast<size_t>(v) * W + u;
+  }
+};
+
+template <typename Planes>
+void castPlanes(const Planes& planes, const View& view) {
+  const Camera& cam = view.cam;
+  for (int v = 0; v < cam.height; ++v) {
+    for (int u = 0; u < cam.width; ++u) {
       Vec3 d = cam.ray(u, v);
       const double dn = d.norm();
-      for (const auto& p : s.planes) {
+      for (const auto& p : planes) {
         double den = p.n.dot(d);
         if (std::fabs(den) < 1e-9) continue;
-        hit(i, (p.h - p.n.dot(o)) / den, p.label, den / dn, p.albedo);
+        view.hit(static_cast<size_t>(v) * cam.width + u, (p.h - p.n.dot(view.o)) / den, p.label, den / dn, p.albedo);
       }
     }
   }
-  // Boxes (room frame), each over its projected bounding box (the whole image
-  // when a corner is behind the view).
-  auto toView = [&](const Vec3& r) {  // room point -> this view's frame
-    Vec3 q = r - Vec3(0, sensor_h, 0);
-    return Vec3(q.x, ca * q.y + sa * q.z, -sa * q.y + ca * q.z) - o;
-  };
-  for (const auto& bx : s.boxes) {
-    int u0 = 0, u1 = W - 1, v0 = 0, v1 = H - 1;
-    double umin = 1e9, umax = -1e9, vmin = 1e9, vmax = -1e9;
-    bool behind = false;
-    for (int k = 0; k < 8; ++k) {
-      Vec3 w = toView(Vec3((k & 1) ? bx.b.hi.x : bx.b.lo.x, (k & 2) ? bx.b.hi.y : bx.b.lo.y,
-                           (k & 4) ? bx.b.hi.z : bx.b.lo.z));
-      if (w.z < 0.05) { behind = true; break; }
-      double pu, pv;
-      cam.project(w, &pu, &pv);
-      umin = std::min(umin, pu); umax = std::max(umax, pu);
-      vmin = std::min(vmin, pv); vmax = std::max(vmax, pv);
-    }
-    if (!behind) {
-      u0 = std::max(0, static_cast<int>(std::floor(umin))); u1 = std::min(W - 1, static_cast<int>(std::ceil(umax)));
-      v0 = std::max(0, static_cast<int>(std::floor(vmin))); v1 = std::min(H - 1, static_cast<int>(std::ceil(vmax)));
-    }
-    const double ov[3] = {o_room.x, o_room.y, o_room.z};
+}
+
+// The pixel box a room-frame box covers in the view (the whole image when a corner is behind it).
+void boxPixels(const Vec3& lo, const Vec3& hi, const View& view, int* u0, int* u1, int* v0, int* v1) {
+  const Camera& cam = view.cam;
+  *u0 = 0; *u1 = cam.width - 1; *v0 = 0; *v1 = cam.height - 1;
+  double umin = 1e9, umax = -1e9, vmin = 1e9, vmax = -1e9;
+  for (int k = 0; k < 8; ++k) {
+    Vec3 w = view.toView(Vec3((k & 1) ? hi.x : lo.x, (k & 2) ? hi.y : lo.y, (k & 4) ? hi.z : lo.z));
+    if (w.z < 0.05) return;
+    double pu, pv;
+    cam.project(w, &pu, &pv);
+    umin = std::min(umin, pu); umax = std::max(umax, pu);
+    vmin = std::min(vmin, pv); vmax = std::max(vmax, pv);
+  }
+  *u0 = std::max(0, static_cast<int>(std::floor(umin))); *u1 = std::min(cam.width - 1, static_cast<int>(std::ceil(umax)));
+  *v0 = std::max(0, static_cast<int>(std::floor(vmin))); *v1 = std::min(cam.height - 1, static_cast<int>(std::ceil(vmax)));
+}
+
+template <typename Boxes>
+void castBoxes(const Boxes& boxes, const View& view) {
+  const Vec3 o_room = view.toRoom(view.o) + Vec3(0, view.sensor_h, 0);
+  const double ov[3] = {o_room.x, o_room.y, o_room.z};
+  for (const auto& bx : boxes) {
+    int u0, u1, v0, v1;
+    boxPixels(bx.b.lo, bx.b.hi, view, &u0, &u1, &v0, &v1);
     const double lo[3] = {bx.b.lo.x, bx.b.lo.y, bx.b.lo.z}, hi[3] = {bx.b.hi.x, bx.b.hi.y, bx.b.hi.z};
     for (int v = v0; v <= v1; ++v) {
-      for (int u = u0; u <= u1; ++u) {
-        Vec3 d = cam.ray(u, v), dr = toRoom(d);
+      for (int u = u0; u <= u1; ++u) {  // slab test in the room frame
+        Vec3 d = view.cam.ray(u, v), dr = view.toRoom(d);
         const double dv[3] = {dr.x, dr.y, dr.z};
         double t0 = -1e30, t1 = 1e30;
         int axis = 0;
@@ -435,15 +441,19 @@ void castView(const S& s, const Camera& cam, const Vec3& o, double tilt_rad, dou
           t1 = std::min(t1, b);
           miss = t0 > t1;
         }
-        if (!miss && t0 > 0) hit(static_cast<size_t>(v) * W + u, t0, bx.label, dv[axis] / d.norm(), bx.albedo);
+        if (!miss && t0 > 0) view.hit(static_cast<size_t>(v) * view.cam.width + u, t0, bx.label, dv[axis] / d.norm(), bx.albedo);
       }
     }
   }
-  // Capsules, each over its projected bounding box.
+}
+
+template <typename S>
+void castCapsules(const S& s, const View& view) {
+  const Camera& cam = view.cam;
   for (size_t c = 0; c < s.caps.size(); ++c) {
     const Capsule& cap = s.caps[c];
     int u0, u1, v0, v1;
-    if (!capsulePixelBox(cap, o, cam, &u0, &u1, &v0, &v1)) continue;
+    if (!capsulePixelBox(cap, view.o, cam, &u0, &u1, &v0, &v1)) continue;
     Vec3 axis = cap.b - cap.a;
     const double axis2 = axis.dot(axis);
     for (int v = v0; v <= v1; ++v) {
@@ -451,21 +461,35 @@ void castView(const S& s, const Camera& cam, const Vec3& o, double tilt_rad, dou
         Vec3 d = cam.ray(u, v);
         double n = d.norm();
         Vec3 rd = d * (1.0 / n);
-        double t = intersectCapsule(o, rd, cap);
+        double t = intersectCapsule(view.o, rd, cap);
         if (t <= 0) continue;
-        const size_t i = static_cast<size_t>(v) * W + u;
+        const size_t i = static_cast<size_t>(v) * cam.width + u;
         double zz = t / n;
-        if (!(zz < (*z)[i])) continue;
+        if (!(zz < (*view.z)[i])) continue;
         double cosi = 1.0;
-        if (shade) {
-          Vec3 p = o + rd * t;
+        if (view.shade) {  // the surface normal: from the axis to the hit point
+          Vec3 p = view.o + rd * t;
           double w = axis2 > 1e-12 ? std::clamp((p - cap.a).dot(axis) / axis2, 0.0, 1.0) : 0.0;
           cosi = (p - (cap.a + axis * w)).normalized().dot(rd);
         }
-        hit(i, zz, s.cap_label[c], cosi, s.cap_albedo[c]);
+        view.hit(i, zz, s.cap_label[c], cosi, s.cap_albedo[c]);
       }
     }
   }
+}
+
+// Ray casting of all the surfaces from view origin o.
+template <typename S>
+void castView(const S& s, const Camera& cam, const Vec3& o, double tilt_rad, double sensor_h,
+              std::vector<float>* z, std::vector<uint8_t>* label, std::vector<float>* shade) {
+  const size_t N = static_cast<size_t>(cam.width) * cam.height;
+  z->assign(N, std::numeric_limits<float>::infinity());
+  if (label) label->assign(N, LABEL_NONE);
+  if (shade) shade->assign(N, 0.f);
+  const View view{cam, o, std::cos(tilt_rad), std::sin(tilt_rad), sensor_h, z, label, shade};
+  castPlanes(s.planes, view);
+  castBoxes(s.boxes, view);
+  castCapsules(s, view);
 }
 
 }  // namespace
