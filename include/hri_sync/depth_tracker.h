@@ -60,9 +60,9 @@ Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* pre
 
 /// Why the user is only partly in view ("" when the whole body is): a body cut
 /// by the image's bottom edge (legs out of view) or top edge (head out of view)
-/// over more than a hand's width. A hand or foot crossing an edge does not count,
-/// nor does a bottom cut in the lower half of a body standing on a floor in
-/// view (the legs are partly seen; zeroOutOfView marks the joints out of view).
+/// over more than a hand's width. A hand or foot crossing an edge does not count;
+/// with the floor in view, neither does a top cut nor a bottom cut in the lower
+/// half of the body (most of it is seen; zeroOutOfView marks the joints out of view).
 std::string partialView(const PointGrid& g, const Segmentation& seg, const Plane& floor);
 
 /// Confidence 0 for every joint the camera cannot see (outside the image or

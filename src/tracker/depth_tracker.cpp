@@ -328,7 +328,10 @@ std::string partialView(const PointGrid& g, const Segmentation& seg, const Plane
       hi = std::max(hi, g.points[i].x);
       if (floor.found) cut_height = std::min(cut_height, floor.height(g.points[i]));
     }
-    if (row != 0 && floor.found && cut_height < 0.5 * seg.height) continue;
+    // With the floor in view the body's height is known: a head cut by the top
+    // edge or legs cut below mid-height leave most of it seen (zeroOutOfView
+    // marks what is outside).
+    if (floor.found && (row == 0 || cut_height < 0.5 * seg.height)) continue;
     if (hi - lo > kCutWidth) {
       char why[160];
       std::snprintf(why, sizeof why, "the body is cut by the image's %s edge over %.2f m (nearest point %.2f m): %s out of view",
