@@ -43,6 +43,7 @@ include_directories(include ${catkin_INCLUDE_DIRS} ${OPENNI2_INCLUDE_DIR})
 add_library(hri_sync_tracker_core STATIC
   src/tracker/body.cpp
   src/tracker/render.cpp
+  src/tracker/scene.cpp
   src/tracker/depth_tracker.cpp
   src/tracker/pose_fit.cpp
   src/tracker/clock_map.cpp)
@@ -70,6 +71,11 @@ hri_sync_openni2_program(record_oni src/virtual_kinect/record_oni.cpp)
 hri_sync_openni2_program(oni_info src/virtual_kinect/oni_info.cpp)
 hri_sync_openni2_program(tracker_eval src/tracker/tracker_eval.cpp)
 target_link_libraries(tracker_eval hri_sync_tracker_core)
+# Bench: the segmentation stages' CPU cost per frame (installed as tracker_eval is).
+add_executable(tracker_stage_cost bench/tracker_stage_cost.cpp)
+target_link_libraries(tracker_stage_cost hri_sync_tracker_core)
+set_target_properties(tracker_stage_cost PROPERTIES
+  RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/${CATKIN_PACKAGE_BIN_DESTINATION})
 
 # The ROS node.
 hri_sync_openni2_program(skeleton_tracker
@@ -80,7 +86,7 @@ add_dependencies(skeleton_tracker ${${PROJECT_NAME}_EXPORTED_TARGETS} ${catkin_E
 
 # catkin_lint does not follow the add_executable in hri_sync_openni2_program.
 #catkin_lint: ignore_once undefined_target
-install(TARGETS skeleton_tracker record_oni oni_info tracker_eval
+install(TARGETS skeleton_tracker record_oni oni_info tracker_eval tracker_stage_cost
   RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 install(TARGETS VirtualKinect
   LIBRARY DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION}/openni2/OpenNI2/Drivers)
@@ -103,6 +109,14 @@ if(CATKIN_ENABLE_TESTING)
   target_compile_definitions(tracker_gtest PRIVATE HRI_SYNC_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
   set_target_properties(tracker_gtest PROPERTIES
     RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/${CATKIN_PACKAGE_BIN_DESTINATION})
+  # The realistic virtual Kinect: noise model, scenes, and the driver through OpenNI2
+  # (RUNPATH to the private folder so the driver loads). Run by test/rostest/virtual_kinect_gtest.test.
+  catkin_add_gtest(virtual_kinect_gtest test/unit/virtual_kinect_gtest.cpp)
+  target_link_libraries(virtual_kinect_gtest hri_sync_tracker_core ${OPENNI2_LIBRARY} Threads::Threads)
+  target_compile_definitions(virtual_kinect_gtest PRIVATE HRI_SYNC_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+  set_target_properties(virtual_kinect_gtest PROPERTIES
+    BUILD_RPATH ${HRI_SYNC_OPENNI2_DEVEL}
+    RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/${CATKIN_PACKAGE_BIN_DESTINATION})
   add_custom_target(hri_sync_tracker_tests ALL)
-  add_dependencies(hri_sync_tracker_tests tracker_gtest)
+  add_dependencies(hri_sync_tracker_tests tracker_gtest virtual_kinect_gtest VirtualKinect)
 endif()

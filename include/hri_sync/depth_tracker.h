@@ -33,6 +33,17 @@ struct Plane {
 /// RANSAC fit of the floor (a plane whose normal is within 30 degrees of +y).
 Plane fitFloor(const PointGrid& g, uint32_t seed = 7);
 
+/// Sequential RANSAC (Fischler and Bolles 1981) for the large vertical planes
+/// behind a person (walls, a door, a cupboard front): up to max_planes planes
+/// whose normal is within 30 degrees of horizontal (across the floor's normal),
+/// each holding more than 1.5 m^2 of surface and spanning more than 1 m both
+/// across and up, which no person does. Points within planeMargin of one are
+/// background.
+std::vector<Plane> fitWalls(const PointGrid& g, const Plane& floor, uint32_t seed = 11, int max_planes = 3);
+/// How far (m) a point at depth z may lie off a plane it belongs to: 3 cm plus
+/// the Kinect v1 depth step and noise (~1.25 steps of 2.85e-3 z^2).
+double planeMargin(double z);
+
 struct Segmentation {
   std::vector<int> cells;        ///< grid indices of the user
   std::vector<uint8_t> mask;     ///< per grid cell: 1 = user
@@ -43,7 +54,20 @@ struct Segmentation {
 };
 /// The user: the connected body of points off the floor that looks most like a
 /// standing person (or lies nearest prev_centroid when given).
-Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* prev_centroid);
+/// walls: background planes (fitWalls) whose points are removed first.
+Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* prev_centroid,
+                         const std::vector<Plane>& walls = {});
+
+/// Why the user is only partly in view ("" when the whole body is): a body cut
+/// by the image's bottom edge (legs out of view) or top edge (head out of view)
+/// over more than a hand's width. A hand or foot crossing an edge does not count;
+/// with the floor in view, neither does a top cut nor a bottom cut in the lower
+/// half of the body (most of it is seen; zeroOutOfView marks the joints out of view).
+std::string partialView(const PointGrid& g, const Segmentation& seg, const Plane& floor);
+
+/// Confidence 0 for every joint the camera cannot see (outside the image or
+/// behind the sensor): such a joint is never measured, only inferred.
+void zeroOutOfView(const Camera& cam, const Joints& j, std::array<float, NUM_JOINTS>* conf);
 
 /// Geodesic distances over the user's surface (8-neighbour grid graph).
 struct Geodesic {
@@ -168,6 +192,7 @@ class DepthTracker {
   SkeletonEstimate update(const uint16_t* depth_mm, double t);
   const BodyModel& model() const { return model_; }
   const Plane& floor() const { return floor_; }
+  const std::vector<Plane>& walls() const { return walls_; }
   void reset();
 
  private:
@@ -176,7 +201,7 @@ class DepthTracker {
     double x = 0, dx = 0, t = 0;
     double filter(double v, double t, double min_cutoff, double beta);
   };
-  /// Stage "segmentation": the floor (refitted every 30 frames) and the user.
+  /// Stage "segmentation": the floor and the walls (refitted every 30 frames) and the user.
   Segmentation segment(const PointGrid& g);
   /// The bone lengths: calibrated on the first frames, then refined by the search.
   void calibrate(const PointGrid& g, const Segmentation& seg, const Joints& j, const LabelAssignment& assign);
@@ -189,6 +214,7 @@ class DepthTracker {
   Camera cam_;
   TrackerParams params_;
   Plane floor_;
+  std::vector<Plane> walls_;
   int frames_ = 0;
   BodyModel model_;
   std::vector<CalibrationSample> calib_;

@@ -65,6 +65,13 @@ inline constexpr std::array<BodyPart, 19> kBodyParts = {{
 /// above the head joint, then kBodyParts.
 std::vector<Capsule> bodyCapsules(const Joints& j);
 
+/// Ray-capsule distance from origin o along the unit direction rd, or -1.
+double intersectCapsule(const Vec3& o, const Vec3& rd, const Capsule& cap);
+
+/// The pixel box (inclusive) a capsule covers seen from o; false when it is
+/// off-screen or reaches behind the camera.
+bool capsulePixelBox(const Capsule& cap, const Vec3& o, const Camera& cam, int* u0, int* u1, int* v0, int* v1);
+
 /// Renders depth in millimetres (0 = no return), row-major, cam.width x cam.height.
 void renderDepth(const Joints& j, const Camera& cam, const RenderOptions& opt,
                  std::vector<uint16_t>* depth_mm);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <limits>
 #include <queue>
@@ -120,6 +121,18 @@ Vec3 twoBone(const Vec3& root, const Vec3& end, double upper, double lower, cons
   return root + u * along + side.normalized() * h;
 }
 
+// The unit normal n of the plane through three random candidate points, one of
+// them a (RANSAC's sample); false when they are on a line.
+bool randomPlane(const PointGrid& g, const std::vector<int>& cand, std::mt19937* rng, Vec3* n, Vec3* a) {
+  std::uniform_int_distribution<size_t> pick(0, cand.size() - 1);
+  const Vec3 &p = g.points[cand[pick(*rng)]], &q = g.points[cand[pick(*rng)]], &r = g.points[cand[pick(*rng)]];
+  const Vec3 m = (q - p).cross(r - p);
+  if (m.norm() < 1e-9) return false;
+  *n = m.normalized();
+  *a = p;
+  return true;
+}
+
 }  // namespace
 
 PointGrid makeGrid(const uint16_t* depth_mm, const Camera& cam, int step) {
@@ -150,13 +163,10 @@ Plane fitFloor(const PointGrid& g, uint32_t seed) {
   Plane best;
   if (cand.size() < 50) return best;
   std::mt19937 rng(seed);
-  std::uniform_int_distribution<size_t> pick(0, cand.size() - 1);
   size_t best_inliers = 0;
   for (int it = 0; it < 150; ++it) {
-    const Vec3 &a = g.points[cand[pick(rng)]], &b = g.points[cand[pick(rng)]], &c = g.points[cand[pick(rng)]];
-    Vec3 n = (b - a).cross(c - a);
-    if (n.norm() < 1e-9) continue;
-    n = n.normalized();
+    Vec3 n, a;
+    if (!randomPlane(g, cand, &rng, &n, &a)) continue;
     if (n.y < 0) n = n * -1.0;
     if (n.y < 0.866) continue;  // within 30 degrees of vertical
     double d = -n.dot(a);
@@ -173,9 +183,54 @@ Plane fitFloor(const PointGrid& g, uint32_t seed) {
   return best;
 }
 
+double planeMargin(double z) { return 0.03 + 3.6e-3 * z * z; }
+
+std::vector<Plane> fitWalls(const PointGrid& g, const Plane& floor, uint32_t seed, int max_planes) {
+  const Vec3 up = floor.found ? floor.n : Vec3(0, 1, 0);
+  std::vector<int> cand;
+  for (int i = 0; i < g.width * g.height; ++i)
+    if (g.ok(i) && !(floor.found && floor.height(g.points[i]) < 0.05)) cand.push_back(i);
+  const double cell = g.step * Camera().xzFactor() / (g.width * g.step);  // cell size at 1 m, per m of depth
+  std::vector<Plane> walls;
+  std::mt19937 rng(seed);
+  for (int k = 0; k < max_planes && cand.size() >= 100; ++k) {
+    Plane best;
+    double best_area = 0;
+    for (int it = 0; it < 120; ++it) {
+      Vec3 n, a;
+      if (!randomPlane(g, cand, &rng, &n, &a)) continue;
+      if (std::fabs(n.dot(up)) > 0.5) continue;  // within 30 degrees of vertical
+      if (n.dot(a) > 0) n = n * -1.0;            // facing the sensor
+      const double d = -n.dot(a);
+      double area = 0;
+      for (size_t s = 0; s < cand.size(); s += 4) {
+        const Vec3& p = g.points[cand[s]];
+        if (std::fabs(n.dot(p) + d) < planeMargin(p.z)) area += 4 * (p.z * cell) * (p.z * cell);
+      }
+      if (area > best_area) { best_area = area; best.n = n; best.d = d; }
+    }
+    if (best_area < 1.5) break;
+    double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;
+    const Vec3 across = up.cross(best.n).normalized();
+    std::vector<int> rest;
+    for (int i : cand) {
+      const Vec3& p = g.points[i];
+      if (std::fabs(best.height(p)) >= planeMargin(p.z)) { rest.push_back(i); continue; }
+      x0 = std::min(x0, p.dot(across)); x1 = std::max(x1, p.dot(across));
+      y0 = std::min(y0, p.dot(up)); y1 = std::max(y1, p.dot(up));
+    }
+    if (x1 - x0 < 1.0 || y1 - y0 < 1.0) break;  // a large plane no person could be
+    best.found = true;
+    walls.push_back(best);
+    cand.swap(rest);
+  }
+  return walls;
+}
+
 // Over 80 lines: one flood fill of the points off the floor into connected
 // bodies and the choice among them, which share the per-body statistics.
-Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* prev_centroid) {
+Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* prev_centroid,
+                         const std::vector<Plane>& walls) {
   Segmentation seg;
   const int n = g.width * g.height;
   std::vector<int> comp(n, -1);
@@ -183,6 +238,9 @@ Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* pre
   for (int i = 0; i < n; ++i) {
     if (!g.ok(i)) continue;
     if (floor.found && floor.height(g.points[i]) < 0.05) continue;
+    bool wall = false;
+    for (const Plane& w : walls) wall |= std::fabs(w.height(g.points[i])) < planeMargin(g.points[i].z);
+    if (wall) continue;
     cand[i] = 1;
   }
   struct Part {
@@ -256,6 +314,40 @@ Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* pre
   seg.height = u.hi;
   seg.found = true;
   return seg;
+}
+
+std::string partialView(const PointGrid& g, const Segmentation& seg, const Plane& floor) {
+  constexpr double kCutWidth = 0.20;  // wider than a hand or a foot (m)
+  double nearest = 1e9;
+  for (int i : seg.cells) nearest = std::min(nearest, g.points[i].z);
+  for (int row : {g.height - 1, 0}) {
+    double lo = 1e9, hi = -1e9, cut_height = 1e9;
+    for (int i : seg.cells) {
+      if (i / g.width != row) continue;
+      lo = std::min(lo, g.points[i].x);
+      hi = std::max(hi, g.points[i].x);
+      if (floor.found) cut_height = std::min(cut_height, floor.height(g.points[i]));
+    }
+    // With the floor in view the body's height is known: a head cut by the top
+    // edge or legs cut below mid-height leave most of it seen (zeroOutOfView
+    // marks what is outside).
+    if (floor.found && (row == 0 || cut_height < 0.5 * seg.height)) continue;
+    if (hi - lo > kCutWidth) {
+      char why[160];
+      std::snprintf(why, sizeof why, "the body is cut by the image's %s edge over %.2f m (nearest point %.2f m): %s out of view",
+                    row == 0 ? "top" : "bottom", hi - lo, nearest, row == 0 ? "head" : "legs");
+      return why;
+    }
+  }
+  return "";
+}
+
+void zeroOutOfView(const Camera& cam, const Joints& j, std::array<float, NUM_JOINTS>* conf) {
+  for (int k = 0; k < NUM_JOINTS; ++k) {
+    double u = -1, v = -1;
+    if (j[k].z > 0.05) cam.project(j[k], &u, &v);
+    if (!(u >= -0.5 && v >= -0.5 && u < cam.width - 0.5 && v < cam.height - 0.5)) (*conf)[k] = 0.f;
+  }
 }
 
 Geodesic geodesicExtremities(const PointGrid& g, const Segmentation& seg, int max_extremities,
@@ -383,6 +475,7 @@ DepthTracker::~DepthTracker() = default;
 
 void DepthTracker::reset() {
   floor_ = Plane();
+  walls_.clear();
   frames_ = 0;
   model_ = BodyModel();
   calib_.clear();
@@ -624,8 +717,9 @@ Segmentation DepthTracker::segment(const PointGrid& g) {
     Plane f = fitFloor(g, 7 + frames_);
     if (f.found) floor_ = f;
   }
+  if (frames_ % 30 == 0) walls_ = fitWalls(g, floor_, 11 + frames_);
   ++frames_;
-  return segmentUser(g, floor_, have_prev_ ? &prev_centroid_ : nullptr);
+  return segmentUser(g, floor_, have_prev_ ? &prev_centroid_ : nullptr, walls_);
 }
 
 LabelMemory DepthTracker::memory() const {
@@ -707,6 +801,12 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
     return out;
   }
   out.user_cells = static_cast<int>(seg.cells.size());
+  const std::string partial = partialView(g, seg, floor_);
+  if (!partial.empty()) {  // no skeleton made up for the unseen part; calibration waits
+    have_prev_ = have_fit_ = false;
+    out.state = "too close / partial view: " + partial;
+    return out;
+  }
   Geodesic geo = geodesicExtremities(g, seg, 8, 0.5);
   out.extremities = static_cast<int>(geo.extremities.size());
   const Vec3 up = floor_.found ? floor_.n : Vec3(0, 1, 0);
@@ -740,6 +840,7 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
   have_prev_ = true;
   prev_centroid_ = seg.centroid;
   out.confidence = pose.confidence;
+  zeroOutOfView(cam_, out.joints, &out.confidence);
   out.tracked = model_.calibrated && found >= 2;
   out.state = model_.calibrated ? (out.tracked ? "tracking" : "tracking (few extremities)") : "calibrating";
   if (!out.tracked) out.confidence.fill(0.f);

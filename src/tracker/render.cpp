@@ -14,35 +14,26 @@ std::vector<Capsule> bodyCapsules(const Joints& j) {
   return c;
 }
 
-namespace {
-
-// Distance along the unit ray rd (from the origin) to the capsule, or -1.
-double intersectCapsule(const Vec3& rd, const Capsule& cap) {
-  Vec3 ba = cap.b - cap.a, oa = cap.a * -1.0;
-  double r = cap.radius;
-  double baba = ba.dot(ba), bard = ba.dot(rd), baoa = ba.dot(oa);
-  double rdoa = rd.dot(oa), oaoa = oa.dot(oa);
-  if (baba < 1e-12) {  // sphere
-    double b = rdoa, c = oaoa - r * r, h = b * b - c;
-    return h > 0 ? -b - std::sqrt(h) : -1.0;
+bool capsulePixelBox(const Capsule& cap, const Vec3& o, const Camera& cam, int* u0, int* u1, int* v0, int* v1) {
+  if (!cap.a.finite() || !cap.b.finite()) return false;
+  double umin = 1e9, umax = -1e9, vmin = 1e9, vmax = -1e9;
+  for (const Vec3& end : {cap.a - o, cap.b - o}) {
+    for (int k = 0; k < 8; ++k) {
+      double r = cap.radius;
+      Vec3 w = end + Vec3((k & 1) ? r : -r, (k & 2) ? r : -r, (k & 4) ? r : -r);
+      if (w.z < 0.05) return false;
+      double u, v;
+      cam.project(w, &u, &v);
+      umin = std::min(umin, u); umax = std::max(umax, u);
+      vmin = std::min(vmin, v); vmax = std::max(vmax, v);
+    }
   }
-  double a = baba - bard * bard;
-  double b = baba * rdoa - baoa * bard;
-  double c = baba * oaoa - baoa * baoa - r * r * baba;
-  double h = b * b - a * c;
-  if (h < 0) return -1.0;
-  double y = baoa;  // axial coordinate (times baba) of the hit; 0 when the ray runs along the axis
-  if (a > 1e-12) {
-    double t = (-b - std::sqrt(h)) / a;
-    y = baoa + t * bard;
-    if (y > 0 && y < baba) return t;
-  }
-  Vec3 oc = (y <= 0) ? oa : cap.b * -1.0;  // origin minus the nearer end cap centre
-  double b2 = rd.dot(oc), c2 = oc.dot(oc) - r * r, h2 = b2 * b2 - c2;
-  return h2 > 0 ? -b2 - std::sqrt(h2) : -1.0;
+  *u0 = std::max(0, static_cast<int>(std::floor(umin)));
+  *u1 = std::min(cam.width - 1, static_cast<int>(std::ceil(umax)));
+  *v0 = std::max(0, static_cast<int>(std::floor(vmin)));
+  *v1 = std::min(cam.height - 1, static_cast<int>(std::ceil(vmax)));
+  return *u0 <= *u1 && *v0 <= *v1;
 }
-
-}  // namespace
 
 void renderDepth(const Joints& j, const Camera& cam, const RenderOptions& opt,
                  std::vector<uint16_t>* depth_mm) {
@@ -64,28 +55,13 @@ void renderDepth(const Joints& j, const Camera& cam, const RenderOptions& opt,
   }
   // Body capsules, each over its projected bounding box.
   for (const Capsule& cap : bodyCapsules(j)) {
-    if (!cap.a.finite() || !cap.b.finite()) continue;
-    double umin = 1e9, umax = -1e9, vmin = 1e9, vmax = -1e9;
-    bool behind = false;
-    for (const Vec3& end : {cap.a, cap.b}) {
-      for (int k = 0; k < 8; ++k) {
-        double r = cap.radius;
-        Vec3 w = end + Vec3((k & 1) ? r : -r, (k & 2) ? r : -r, (k & 4) ? r : -r);
-        if (w.z < 0.05) { behind = true; continue; }
-        double u, v;
-        cam.project(w, &u, &v);
-        umin = std::min(umin, u); umax = std::max(umax, u);
-        vmin = std::min(vmin, v); vmax = std::max(vmax, v);
-      }
-    }
-    if (behind) continue;
-    int u0 = std::max(0, static_cast<int>(std::floor(umin))), u1 = std::min(W - 1, static_cast<int>(std::ceil(umax)));
-    int v0 = std::max(0, static_cast<int>(std::floor(vmin))), v1 = std::min(H - 1, static_cast<int>(std::ceil(vmax)));
+    int u0, u1, v0, v1;
+    if (!capsulePixelBox(cap, Vec3(), cam, &u0, &u1, &v0, &v1)) continue;
     for (int v = v0; v <= v1; ++v) {
       for (int u = u0; u <= u1; ++u) {
         Vec3 d = cam.ray(u, v);
         double n = d.norm();
-        double t = intersectCapsule(d * (1.0 / n), cap);
+        double t = intersectCapsule(Vec3(), d * (1.0 / n), cap);
         if (t > 0) {
           float zz = static_cast<float>(t / n);
           float& dst = z[v * W + u];

@@ -2,7 +2,12 @@
 // runs the depth tracker on every frame and prints one JSON object with the
 // error against the motion's true joints, the tracked share and the speed.
 //   tracker_eval --track FILE.track [--res 320x240] [--seconds S] [--background 0|1]
-//                [--noise SIGMA] [--direct] [--step N] [--dump FILE]
+//                [--noise SIGMA] [--scene KEY=V&KEY=V...] [--direct] [--step N] [--dump FILE]
+//                [--snapshot N]
+// --scene: the virtual Kinect's scene keys (body, wall, bystander, noise=kinect1, ...;
+// docs/tracker.md); the truth is then the rendered (reshaped) body's joints.
+// --snapshot N writes frame N's depth (uint16 mm) and pixel labels (uint8) to
+// /tmp/tracker_snapshot.raw and /tmp/tracker_snapshot.label (direct mode).
 // --step: depth pixels per tracker grid cell (default width / 160).
 // --dump writes per frame: index, tracked, 15 estimated and 15 true joints, 15 confidences,
 // the extremity count and the extremities.
@@ -11,6 +16,8 @@
 
 #include <algorithm>
 #include <ctime>
+#include <memory>
+#include <stdexcept>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -19,6 +26,7 @@
 #include "hri_sync/body.h"
 #include "hri_sync/depth_tracker.h"
 #include "hri_sync/render.h"
+#include "hri_sync/scene.h"
 
 using namespace hri_sync;
 
@@ -35,6 +43,7 @@ struct Stats {
   std::vector<std::vector<double>> err = std::vector<std::vector<double>>(NUM_JOINTS);
   std::vector<double> hands_seen;  ///< hand errors where the tracker's confidence is >= 0.5
   int frames = 0, tracked = 0, dropped = 0;
+  int first_tracked = -1;  ///< frame index of the first tracked frame (calibration done)
   double cpu = 0;
 };
 
@@ -59,6 +68,7 @@ void account(Stats* s, const SkeletonEstimate& est, const Joints& truth) {
   }
   ++s->frames;
   if (!est.tracked) return;
+  if (s->first_tracked < 0) s->first_tracked = s->frames - 1;
   ++s->tracked;
   for (int k = 0; k < NUM_JOINTS; ++k) s->err[k].push_back((est.joints[k] - truth[k]).norm());
   for (int k : {L_HAND, R_HAND})
@@ -73,6 +83,7 @@ int main(int argc, char** argv) {
   std::string track_path, res = "320x240";
   TrackerParams params;
   double seconds = 0, noise = 0.0015;
+  std::string scene_query;
   bool direct = false, background = false;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
@@ -85,6 +96,7 @@ int main(int argc, char** argv) {
     else if (a == "--seconds") seconds = std::stod(next());
     else if (a == "--noise") noise = std::stod(next());
     else if (a == "--background") background = next() != "0";
+    else if (a == "--scene") scene_query = next();
     else if (a == "--direct") direct = true;
     else if (a == "--step") params.grid_step = std::stoi(next());
     else if (a == "--snapshot") g_snapshot = std::stoi(next());
@@ -100,6 +112,40 @@ int main(int argc, char** argv) {
     return 1;
   }
   if (seconds <= 0) seconds = track.duration();
+  // The scene (when asked for): parsed as the driver parses it, so the truth is the rendered body's.
+  SceneSpec spec;
+  std::unique_ptr<Scene> scene;
+  Track walk;
+  try {
+    size_t pos = 0;
+    while (pos < scene_query.size()) {
+      size_t amp = scene_query.find('&', pos);
+      std::string item = scene_query.substr(pos, amp == std::string::npos ? std::string::npos : amp - pos);
+      pos = amp == std::string::npos ? scene_query.size() : amp + 1;
+      if (item.empty()) continue;
+      size_t eq = item.find('=');
+      if (eq == std::string::npos || !applySceneKey(item.substr(0, eq), item.substr(eq + 1), &spec)) {
+        throw std::invalid_argument("'" + item + "' is not a scene key=value (" + sceneKeys() + ")");
+      }
+    }
+    if (spec.used) {
+      spec.scene.legacy_background = background;
+      if (spec.scene.bystander != "none") {
+        std::string wpath = spec.bystander_track;
+        if (wpath.empty()) {
+          size_t slash = track_path.rfind('/');
+          wpath = (slash == std::string::npos ? std::string(".") : track_path.substr(0, slash)) + "/cmu_131_01_walk.track";
+        }
+        walk = Track::load(wpath);
+      }
+      scene = std::make_unique<Scene>(track, spec.body, spec.scene, spec.noise,
+                                      spec.scene.bystander != "none" ? &walk : nullptr, spec.seed);
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tracker_eval: --scene: %s\n", e.what());
+    return 2;
+  }
+  auto truthAt = [&](double t) { return scene ? scene->truth(t) : track.at(t); };
   Camera cam;
   cam.width = res == "640x480" ? 640 : 320;
   cam.height = res == "640x480" ? 480 : 240;
@@ -113,15 +159,28 @@ int main(int argc, char** argv) {
     RenderOptions ro;
     ro.background = background;
     ro.noise = noise;
+    SceneFrame frame;
     for (int n = 0; n < total; ++n) {
       double t = static_cast<double>(n) / fps;
-      Joints truth = track.at(t);
-      ro.seed = n + 1;
-      renderDepth(truth, cam, ro, &depth);
+      Joints truth;
+      if (scene) {
+        scene->render(t, n + 1, cam, &frame);
+        depth.swap(frame.depth_mm);
+        truth = frame.truth;
+      } else {
+        truth = track.at(t);
+        ro.seed = n + 1;
+        renderDepth(truth, cam, ro, &depth);
+      }
       if (n == g_snapshot) {
         FILE* f = std::fopen("/tmp/tracker_snapshot.raw", "wb");
         std::fwrite(depth.data(), 2, depth.size(), f);
         std::fclose(f);
+        if (scene) {
+          f = std::fopen("/tmp/tracker_snapshot.label", "wb");
+          std::fwrite(frame.label.data(), 1, frame.label.size(), f);
+          std::fclose(f);
+        }
       }
       double c0 = threadCpu();
       SkeletonEstimate est = tracker.update(depth.data(), t);
@@ -135,8 +194,13 @@ int main(int argc, char** argv) {
     }
     {
       char uri[4096];
-      std::snprintf(uri, sizeof(uri), "virtual://%s?res=%s&noise=%g&background=%d", track_path.c_str(),
-                    res.c_str(), noise, background ? 1 : 0);
+      if (scene) {
+        std::snprintf(uri, sizeof(uri), "virtual://%s?res=%s&background=%d&%s", track_path.c_str(), res.c_str(),
+                      background ? 1 : 0, scene_query.c_str());
+      } else {
+        std::snprintf(uri, sizeof(uri), "virtual://%s?res=%s&noise=%g&background=%d", track_path.c_str(),
+                      res.c_str(), noise, background ? 1 : 0);
+      }
       openni::Device dev;
       openni::VideoStream depth;
       if (dev.open(uri) != openni::STATUS_OK || depth.create(dev, openni::SENSOR_DEPTH) != openni::STATUS_OK ||
@@ -162,7 +226,7 @@ int main(int argc, char** argv) {
         double c0 = threadCpu();
         SkeletonEstimate est = tracker.update(static_cast<const uint16_t*>(f.getData()), f.getTimestamp() * 1e-6);
         st.cpu += threadCpu() - c0;
-        account(&st, est, track.at(t));
+        account(&st, est, truthAt(t));
       }
       depth.stop();
       depth.destroy();
@@ -190,11 +254,14 @@ int main(int argc, char** argv) {
   mean = all.empty() ? -1 : mean / all.size();
   std::printf("{\"mean_error_m\": %.4f, \"joints\": {%s}, \"hands_p95_error_m\": %.4f, "
               "\"seen_hands_p95_error_m\": %.4f, \"seen_hands_share\": %.4f, \"tracked_share\": %.4f, "
+              "\"tracked_share_after_calibration\": %.4f, \"first_tracked_frame\": %d, "
               "\"fps\": %.1f, \"frames\": %d, \"dropped_frames\": %d, \"resolution\": \"%dx%d\", "
-              "\"height_m\": %.3f}\n",
+              "\"height_m\": %.3f, \"body\": \"%s\", \"body_height_m\": %.3f, \"scene\": \"%s\"}\n",
               mean, joints.c_str(), pct(hands, 0.95), pct(st.hands_seen, 0.95),
               hands.empty() ? 0.0 : double(st.hands_seen.size()) / hands.size(), st.frames ? double(st.tracked) / st.frames : 0.0,
+              st.first_tracked >= 0 ? double(st.tracked) / (st.frames - st.first_tracked) : 0.0, st.first_tracked,
               st.cpu > 0 ? st.frames / st.cpu : 0.0, st.frames, st.dropped, cam.width, cam.height,
-              tracker.model().height);
+              tracker.model().height, scene ? spec.body.name.c_str() : "model",
+              scene ? spec.body.height : 0.0, scene_query.c_str());
   return st.frames > 0 ? 0 : 1;
 }

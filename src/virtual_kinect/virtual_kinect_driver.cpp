@@ -9,6 +9,13 @@
 //   lose_after=0 (s; > 0: the sensor is unplugged then: no more frames, a disconnect
 //   event, and the device is announced again at once (replugged), so a reader that
 //   reopens it gets a new device clock and the motion from its start).
+// Scene keys (docs/tracker.md, "Virtual Kinect scenes"): body=average|short_broad|tall_slim|
+//   loose_clothes|dark_clothes|model, height, girth, limbs, arms, legs, clothing, clothes_albedo,
+//   wall=GAP_M|none, furniture=none|table|chair, furniture_x, bystander=none|walk|stand,
+//   bystander_offset, bystander_body, bystander_track=PATH, sensor_height, tilt (deg),
+//   noise=kinect1, shadow, holes, baseline, projector=+x|-x, min_range, max_range, seed.
+//   Any of them renders the scene (hri_sync::Scene) instead of the capsule body;
+//   noise=SIGMA (Gaussian) is the capsule renderer's only and cannot be mixed with them.
 // Setting HRI_SYNC_VIRTUAL_KINECT=URI also announces that device at start-up, so
 // tools that open "any device" find it.
 #define XN_NEW(type, ...) new type(__VA_ARGS__)
@@ -31,6 +38,7 @@
 
 #include "hri_sync/body.h"
 #include "hri_sync/render.h"
+#include "hri_sync/scene.h"
 
 namespace {
 
@@ -46,6 +54,8 @@ struct VirtualConfig {
   bool loop = true;
   double start = 0.0, lose_after = 0.0, drift_ppm = 0.0;
   double offset_us = 1e6;
+  hri_sync::SceneSpec scene;    ///< scene.used: render a Scene
+  bool sigma_given = false;
 };
 
 double toNumber(const std::string& key, const std::string& value) {
@@ -79,6 +89,11 @@ VirtualConfig parseUri(const std::string& uri) {
     size_t eq = item.find('=');
     if (eq == std::string::npos) throw std::runtime_error("virtual kinect: '" + item + "' is not key=value");
     std::string k = item.substr(0, eq), v = item.substr(eq + 1);
+    try {
+      if (hri_sync::applySceneKey(k, v, &c.scene)) continue;
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(std::string("virtual kinect: ") + e.what());
+    }
     if (k == "res") {
       if (v == "320x240") { c.width = 320; c.height = 240; }
       else if (v == "640x480") { c.width = 640; c.height = 480; }
@@ -87,14 +102,33 @@ VirtualConfig parseUri(const std::string& uri) {
       c.fps = static_cast<int>(toNumber(k, v));
       if (c.fps != 30 && c.fps != 20 && c.fps != 15) throw std::runtime_error("virtual kinect: fps must be 15, 20 or 30");
     } else if (k == "background") { c.render.background = toNumber(k, v) != 0;
-    } else if (k == "noise") { c.render.noise = toNumber(k, v);
+    } else if (k == "noise") { c.render.noise = toNumber(k, v); c.sigma_given = true;
     } else if (k == "loop") { c.loop = toNumber(k, v) != 0;
     } else if (k == "start") { c.start = toNumber(k, v);
     } else if (k == "offset_us") { c.offset_us = toNumber(k, v);
     } else if (k == "drift_ppm") { c.drift_ppm = toNumber(k, v);
     } else if (k == "lose_after") { c.lose_after = toNumber(k, v);
     } else {
-      throw std::runtime_error("virtual kinect: unknown URI key '" + k + "'");
+      throw std::runtime_error("virtual kinect: unknown URI key '" + k + "' (keys: res, fps, background, noise, "
+                               "loop, start, offset_us, drift_ppm, lose_after, " + hri_sync::sceneKeys() + ")");
+    }
+  }
+  if (c.scene.used) {
+    if (c.sigma_given && c.render.noise > 0) {
+      throw std::runtime_error("virtual kinect: noise=SIGMA is the capsule renderer's; with scene keys use "
+                               "noise=kinect1 or noise=0");
+    }
+    c.scene.scene.legacy_background = c.render.background;
+    try {
+      c.scene.scene.validate();
+      c.scene.body.validate();
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(std::string("virtual kinect: ") + e.what());
+    }
+    if (c.scene.scene.bystander != "none" && c.scene.bystander_track.empty()) {
+      size_t slash = c.path.rfind('/');
+      c.scene.bystander_track = (slash == std::string::npos ? std::string(".") : c.path.substr(0, slash)) +
+                                "/cmu_131_01_walk.track";
     }
   }
   return c;
@@ -105,8 +139,8 @@ class VirtualDriver;
 class DepthStream : public oni::driver::StreamBase {
  public:
   DepthStream(const VirtualConfig& cfg, std::shared_ptr<const Track> track,
-              std::function<void()> on_lost)
-      : cfg_(cfg), track_(std::move(track)), on_lost_(std::move(on_lost)) {
+              std::shared_ptr<const hri_sync::Scene> scene, std::function<void()> on_lost)
+      : cfg_(cfg), track_(std::move(track)), scene_(std::move(scene)), on_lost_(std::move(on_lost)) {
     mode_.pixelFormat = ONI_PIXEL_FORMAT_DEPTH_1_MM;
     mode_.resolutionX = cfg.width;
     mode_.resolutionY = cfg.height;
@@ -195,6 +229,7 @@ class DepthStream : public oni::driver::StreamBase {
     const auto t0 = Clock::now();
     const double period = 1.0 / mode_.fps;
     std::vector<uint16_t> depth;
+    hri_sync::SceneFrame scene_frame;
     for (uint64_t n = 0; running_; ++n) {
       const auto due = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(n * period));
       while (running_ && Clock::now() < due) std::this_thread::sleep_for(std::chrono::milliseconds(2));
@@ -210,9 +245,14 @@ class DepthStream : public oni::driver::StreamBase {
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
         continue;
       }
-      RenderOptions ro = cfg_.render;
-      ro.seed = static_cast<uint32_t>(n + 1);
-      hri_sync::renderDepth(track_->at(t, cfg_.loop), cam, ro, &depth);
+      if (scene_) {
+        scene_->render(t, n + 1, cam, &scene_frame);
+        depth.swap(scene_frame.depth_mm);
+      } else {
+        RenderOptions ro = cfg_.render;
+        ro.seed = static_cast<uint32_t>(n + 1);
+        hri_sync::renderDepth(track_->at(t, cfg_.loop), cam, ro, &depth);
+      }
       OniFrame* frame = getServices().acquireFrame();
       if (frame == nullptr) continue;
       std::memcpy(frame->data, depth.data(), depth.size() * sizeof(uint16_t));
@@ -234,6 +274,7 @@ class DepthStream : public oni::driver::StreamBase {
 
   VirtualConfig cfg_;
   std::shared_ptr<const Track> track_;
+  std::shared_ptr<const hri_sync::Scene> scene_;  ///< null: the capsule renderer
   std::function<void()> on_lost_;
   OniVideoMode mode_;
   std::atomic<bool> running_{false};
@@ -242,8 +283,9 @@ class DepthStream : public oni::driver::StreamBase {
 
 class VirtualDevice : public oni::driver::DeviceBase {
  public:
-  VirtualDevice(VirtualConfig cfg, std::shared_ptr<const Track> track, std::function<void()> on_lost)
-      : cfg_(std::move(cfg)), track_(std::move(track)), on_lost_(std::move(on_lost)) {
+  VirtualDevice(VirtualConfig cfg, std::shared_ptr<const Track> track,
+                std::shared_ptr<const hri_sync::Scene> scene, std::function<void()> on_lost)
+      : cfg_(std::move(cfg)), track_(std::move(track)), scene_(std::move(scene)), on_lost_(std::move(on_lost)) {
     modes_[0] = {ONI_PIXEL_FORMAT_DEPTH_1_MM, 320, 240, cfg_.fps};
     modes_[1] = {ONI_PIXEL_FORMAT_DEPTH_1_MM, 640, 480, cfg_.fps};
     if (cfg_.width == 640) std::swap(modes_[0], modes_[1]);
@@ -259,7 +301,7 @@ class VirtualDevice : public oni::driver::DeviceBase {
   }
   oni::driver::StreamBase* createStream(OniSensorType type) override {
     if (type != ONI_SENSOR_DEPTH) return nullptr;
-    auto s = std::make_unique<DepthStream>(cfg_, track_, on_lost_);
+    auto s = std::make_unique<DepthStream>(cfg_, track_, scene_, on_lost_);
     oni::driver::StreamBase* raw = s.get();
     streams_.push_back(std::move(s));
     return raw;
@@ -273,6 +315,7 @@ class VirtualDevice : public oni::driver::DeviceBase {
  private:
   VirtualConfig cfg_;
   std::shared_ptr<const Track> track_;
+  std::shared_ptr<const hri_sync::Scene> scene_;
   std::function<void()> on_lost_;
   OniVideoMode modes_[2];
   OniSensorInfo sensor_;
@@ -295,7 +338,7 @@ class VirtualDriver : public oni::driver::DriverBase {
   OniStatus tryDevice(const char* uri) override {
     try {
       VirtualConfig cfg = parseUri(uri);
-      load(cfg.path);
+      makeScene(cfg, load(cfg.path));
     } catch (const std::exception& e) {
       if (std::strncmp(uri, "virtual://", 10) == 0) getServices().errorLoggerAppend("%s", e.what());
       return ONI_STATUS_ERROR;
@@ -341,7 +384,7 @@ class VirtualDriver : public oni::driver::DriverBase {
         }
         deviceConnected(fresh);
       };
-      auto dev = std::make_unique<VirtualDevice>(cfg, track, on_lost);
+      auto dev = std::make_unique<VirtualDevice>(cfg, track, makeScene(cfg, track), on_lost);
       oni::driver::DeviceBase* raw = dev.get();
       std::lock_guard<std::mutex> lock(mutex_);
       devices_.push_back(std::move(dev));
@@ -365,6 +408,19 @@ class VirtualDriver : public oni::driver::DriverBase {
   }
 
  private:
+  /// The scene the URI asks for, or null (the capsule renderer). Throws on a bad scene.
+  std::shared_ptr<const hri_sync::Scene> makeScene(const VirtualConfig& cfg, const std::shared_ptr<const Track>& track) {
+    if (!cfg.scene.used) return nullptr;
+    std::shared_ptr<const Track> walk;
+    if (cfg.scene.scene.bystander != "none") walk = load(cfg.scene.bystander_track);
+    try {
+      return std::make_shared<const hri_sync::Scene>(*track, cfg.scene.body, cfg.scene.scene, cfg.scene.noise,
+                                                     walk.get(), cfg.scene.seed);
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(std::string("virtual kinect: ") + e.what());
+    }
+  }
+
   std::shared_ptr<const Track> load(const std::string& path) {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = tracks_.find(path);

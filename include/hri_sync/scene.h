@@ -1,0 +1,161 @@
+// Realistic scenes for the virtual Kinect: body shapes that are not the
+// tracker's fit model, a room (floor, wall, table or chair, a bystander), a
+// tilted sensor at any height, and the Kinect v1 depth noise model.
+// docs/tracker.md ("Virtual Kinect scenes") documents the model and its sources.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "hri_sync/body.h"
+#include "hri_sync/render.h"
+
+namespace hri_sync {
+
+/// A rendered body's shape. Heights and proportions reshape the motion's
+/// joints (feet stay on the floor); girth and clothing widen the surface.
+struct BodyShape {
+  std::string name = "average";
+  double height = 1.75;     ///< standing height, head top to floor (m), 1.5-1.95
+  double girth = 1.0;       ///< torso, hips and thighs radius scale
+  double limbs = 1.0;       ///< arm and shin radius scale
+  double arms = 1.0;        ///< arm length scale (upper arm and forearm)
+  double legs = 1.0;        ///< leg length scale (thigh and shin)
+  double clothing = 0.0;    ///< loose clothing: surface offset on torso, arms, legs (m)
+  double clothes_albedo = 0.6;  ///< infrared reflectance of the clothes (0..1; dark < 0.2)
+
+  /// Named presets: average, short_broad, tall_slim, loose_clothes, dark_clothes.
+  /// Throws std::invalid_argument on an unknown name.
+  static BodyShape preset(const std::string& name);
+  static std::vector<std::string> presetNames();
+  /// Throws std::invalid_argument when a value is out of its documented range.
+  void validate() const;
+};
+
+/// A motion retargeted to a body shape, in the track's frame (level sensor
+/// 1 m above the floor, floor y = -1).
+class BodyRig {
+ public:
+  BodyRig(const Track& track, const BodyShape& shape);
+  /// The reshaped joints at time t (looped). These are the ground truth.
+  Joints pose(double t) const;
+  /// The surface: capsules with their reflectance (0..1).
+  void capsules(const Joints& j, std::vector<Capsule>* caps, std::vector<double>* albedo) const;
+  const BodyShape& shape() const { return shape_; }
+  const Track& track() const { return track_; }
+  /// The motion's own standing height before reshaping (m).
+  double motionHeight() const { return motion_height_; }
+
+ private:
+  Joints proportion(const Joints& j) const;
+  Track track_;
+  BodyShape shape_;
+  double motion_height_ = 1.75;
+  double facing_sign_ = 1.0;
+};
+
+/// Kinect v1 depth noise (structured light, 11-bit disparity). The depth of a
+/// disparity d is z = 1 / (c1 d + c0) (Khoshelham & Elberink 2012; Smisek et
+/// al. 2011), so one disparity step is a depth step of |c1| z^2.
+struct KinectNoise {
+  bool enabled = false;
+  double c1 = -2.85e-3;          ///< 1/m per disparity unit
+  double c0 = 3.11;              ///< 1/m
+  double disparity_sigma = 0.5;  ///< random disparity error (units): sigma_z = 0.5 |c1| z^2
+  bool shadow = true;            ///< projector shadow beside near edges
+  double baseline = 0.075;       ///< projector-camera baseline (m)
+  double projector_x = 1.0;      ///< +1: projector on the sensor's +x side, -1: -x side
+  bool holes = true;             ///< dropouts on dark, far or grazing surfaces
+  double min_range = 0.8;        ///< default mode 0.8 m (near mode 0.4-0.5 m)
+  double max_range = 4.0;        ///< the specified working range; beyond reads 0
+
+  /// The depth (m) a Kinect v1 reports for a true depth z, before random error.
+  double quantize(double z) const;
+  /// The depth step (m) between adjacent disparities at depth z.
+  double depthStep(double z) const;
+};
+
+/// Where things are. The room frame: floor y = 0, z forward (level) from the
+/// sensor's foot; the motion's track frame is the room seen from a level sensor
+/// at 1 m (room = track + (0, 1, 0)).
+struct SceneOptions {
+  double sensor_height = 1.0;   ///< m above the floor (0.5-2)
+  double tilt_deg = 0.0;        ///< sensor pitched down (0-20 deg)
+  double wall_gap = -1.0;       ///< wall behind the person: m behind their back where the
+                                ///< motion goes farthest (0.2-1.5); < 0: no wall
+  bool legacy_background = false;  ///< the old back wall at 4.5 m and a cabinet
+  std::string furniture = "none";  ///< none, table, chair
+  double furniture_x = 0.9;     ///< furniture centre, m right (+x) of the person's mean position
+  std::string bystander = "none";  ///< none, walk (crosses the room), stand (stands beside)
+  double bystander_offset = 0.8;   ///< walk: m behind (+) or in front (-) of the person;
+                                   ///< stand: m to the side (+x right, -x left)
+  BodyShape bystander_shape = BodyShape::preset("short_broad");
+  /// Throws std::invalid_argument when a value is out of its documented range.
+  void validate() const;
+};
+
+/// Pixel labels of a rendered frame: which surface the pixel's ray hits
+/// (whether or not the noise model then drops its depth).
+enum PixelLabel : uint8_t {
+  LABEL_NONE = 0, LABEL_PERSON = 1, LABEL_BYSTANDER = 2, LABEL_FLOOR = 3, LABEL_WALL = 4,
+  LABEL_FURNITURE = 5
+};
+
+/// One rendered frame with its ground truth.
+struct SceneFrame {
+  std::vector<uint16_t> depth_mm;  ///< 0 = no return
+  std::vector<uint8_t> label;      ///< PixelLabel per pixel
+  Joints truth;                    ///< the person's joints, sensor frame (OpenNI axes)
+  bool has_bystander = false;
+  Joints bystander_truth;          ///< the bystander's joints, sensor frame
+};
+
+/// A scene: a person moving as a track, with a body shape, in a room, seen by
+/// a (possibly tilted) Kinect v1. Deterministic for a given seed and frame.
+class Scene {
+ public:
+  Scene(const Track& person, const BodyShape& shape, const SceneOptions& opt,
+        const KinectNoise& noise, const Track* bystander_motion = nullptr, uint32_t seed = 1);
+  /// Renders the frame at time t (s). frame_index seeds the noise.
+  void render(double t, uint64_t frame_index, const Camera& cam, SceneFrame* out) const;
+  /// The person's ground-truth joints at t, sensor frame.
+  Joints truth(double t) const;
+  /// Room -> sensor frame.
+  Vec3 toSensor(const Vec3& room) const;
+  double wallZ() const { return wall_z_; }
+  const SceneOptions& options() const { return opt_; }
+  const KinectNoise& noise() const { return noise_; }
+
+ private:
+  struct Box { Vec3 lo, hi; };
+  struct Surfaces;
+  void collect(double t, Surfaces* s, SceneFrame* out) const;
+
+  BodyRig person_;
+  std::vector<BodyRig> bystander_;  ///< zero or one
+  SceneOptions opt_;
+  KinectNoise noise_;
+  uint32_t seed_;
+  double wall_z_ = 0;
+  Vec3 person_centre_;              ///< mean hip centre over the track, room frame
+  Vec3 walk_centre_;                ///< the walk motion's mean hip centre, track frame
+  std::vector<Box> furniture_;
+};
+
+/// Everything a virtual Kinect URI's scene keys set (docs/tracker.md lists them).
+struct SceneSpec {
+  BodyShape body = BodyShape::preset("average");
+  SceneOptions scene;
+  KinectNoise noise;
+  std::string bystander_track;  ///< "": cmu_131_01_walk.track beside the person's track
+  uint32_t seed = 1;
+  bool used = false;            ///< any scene key given: render with Scene, not renderDepth
+};
+/// Applies one URI key=value. Returns false when key is not a scene key;
+/// throws std::invalid_argument naming the key on a bad value.
+bool applySceneKey(const std::string& key, const std::string& value, SceneSpec* spec);
+/// The scene keys, for error messages and docs.
+const char* sceneKeys();
+
+}  // namespace hri_sync

@@ -1,0 +1,622 @@
+#include "hri_sync/scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <stdexcept>
+
+namespace hri_sync {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kHeadTop = 0.145;   // head top above the head joint (m), before scaling
+constexpr double kTrackFloor = -1.0;  // floor y of the track frame
+
+// Counter-based random numbers: the same (seed, frame, pixel, stream) gives the
+// same number whatever order pixels are visited in.
+uint64_t mix(uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+// A standard normal sample from the top 12 bits of a hash: the quantile of one
+// of 4096 equal-probability bins (a table: per pixel this is the renderer's
+// hot spot; tails cut at 3.5 sigma).
+double gaussian(uint64_t hash) {
+  static const std::vector<double> quantiles = [] {
+    std::vector<double> q(4096);
+    for (size_t i = 0; i < q.size(); ++i) {
+      double p = (i + 0.5) / q.size(), lo = -8, hi = 8;  // solve Phi(x) = p by bisection
+      for (int k = 0; k < 60; ++k) {
+        double mid = 0.5 * (lo + hi);
+        (0.5 * std::erfc(-mid / std::sqrt(2.0)) < p ? lo : hi) = mid;
+      }
+      q[i] = 0.5 * (lo + hi);
+    }
+    return q;
+  }();
+  return quantiles[hash >> 52];
+}
+
+void checkRange(const char* what, double v, double lo, double hi) {
+  if (!(v >= lo && v <= hi)) {
+    char buf[160];
+    std::snprintf(buf, sizeof(buf), "%s must be in [%g, %g], not %g", what, lo, hi, v);
+    throw std::invalid_argument(buf);
+  }
+}
+
+Vec3 lerp(const Vec3& a, const Vec3& b, double w) { return a + (b - a) * w; }
+
+}  // namespace
+
+// ---------------------------------------------------------------- body shapes
+
+BodyShape BodyShape::preset(const std::string& name) {
+  BodyShape s;
+  s.name = name;
+  if (name == "average" || name == "model") {
+    // "model": the tracker's own capsule body (render.h), the circular baseline.
+  } else if (name == "short_broad") {
+    s.height = 1.55; s.girth = 1.3; s.limbs = 1.15; s.arms = 0.95; s.legs = 0.92;
+  } else if (name == "tall_slim") {
+    s.height = 1.93; s.girth = 0.8; s.limbs = 0.85; s.arms = 1.06; s.legs = 1.06;
+  } else if (name == "loose_clothes") {
+    s.height = 1.68; s.girth = 1.05; s.clothing = 0.05;
+  } else if (name == "dark_clothes") {
+    s.height = 1.80; s.girth = 1.1; s.clothing = 0.02; s.clothes_albedo = 0.12;
+  } else {
+    throw std::invalid_argument("unknown body shape '" + name +
+                                "' (average, short_broad, tall_slim, loose_clothes, dark_clothes, model)");
+  }
+  return s;
+}
+
+std::vector<std::string> BodyShape::presetNames() {
+  return {"average", "short_broad", "tall_slim", "loose_clothes", "dark_clothes", "model"};
+}
+
+void BodyShape::validate() const {
+  if (name == "model") {
+    BodyShape plain;
+    if (height != plain.height || girth != plain.girth || limbs != plain.limbs || arms != plain.arms ||
+        legs != plain.legs || clothing != plain.clothing || clothes_albedo != plain.clothes_albedo) {
+      throw std::invalid_argument("body=model is the fit model's own capsules on the motion as it is: "
+                                  "height, girth, limbs, arms, legs, clothing and clothes_albedo do not apply");
+    }
+  }
+  checkRange("height", height, 1.5, 1.95);
+  checkRange("girth", girth, 0.6, 1.6);
+  checkRange("limbs", limbs, 0.6, 1.6);
+  checkRange("arms", arms, 0.8, 1.2);
+  checkRange("legs", legs, 0.8, 1.2);
+  checkRange("clothing", clothing, 0.0, 0.10);
+  checkRange("clothes_albedo", clothes_albedo, 0.02, 1.0);
+}
+
+BodyRig::BodyRig(const Track& track, const BodyShape& shape) : track_(track), shape_(shape) {
+  shape_.validate();
+  // Standing height: the 90th percentile of head top over the floor; the
+  // facing direction's sign: the knees bend forwards.
+  std::vector<double> heights;
+  double knee_votes = 0;
+  for (const Joints& raw : track_.frames()) {
+    Joints j = proportion(raw);
+    heights.push_back(j[HEAD].y + kHeadTop - kTrackFloor);
+    Vec3 up = (j[NECK] - (j[L_HIP] + j[R_HIP]) * 0.5).normalized();
+    Vec3 fwd = (j[L_HIP] - j[R_HIP]).cross(up);
+    for (auto leg : {std::array<int, 3>{L_HIP, L_KNEE, L_FOOT}, std::array<int, 3>{R_HIP, R_KNEE, R_FOOT}}) {
+      knee_votes += fwd.dot(j[leg[1]] - (j[leg[0]] + j[leg[2]]) * 0.5);
+    }
+  }
+  if (!heights.empty()) {
+    std::sort(heights.begin(), heights.end());
+    motion_height_ = heights[static_cast<size_t>(0.9 * (heights.size() - 1))];
+  }
+  facing_sign_ = knee_votes < 0 ? -1.0 : 1.0;
+}
+
+Joints BodyRig::proportion(const Joints& in) const {
+  Joints j = in;
+  const double floor_before = std::min(in[L_FOOT].y, in[R_FOOT].y);
+  for (auto arm : {std::array<int, 3>{L_SHOULDER, L_ELBOW, L_HAND}, std::array<int, 3>{R_SHOULDER, R_ELBOW, R_HAND}}) {
+    j[arm[1]] = in[arm[0]] + (in[arm[1]] - in[arm[0]]) * shape_.arms;
+    j[arm[2]] = j[arm[1]] + (in[arm[2]] - in[arm[1]]) * shape_.arms;
+  }
+  for (auto leg : {std::array<int, 3>{L_HIP, L_KNEE, L_FOOT}, std::array<int, 3>{R_HIP, R_KNEE, R_FOOT}}) {
+    j[leg[1]] = in[leg[0]] + (in[leg[1]] - in[leg[0]]) * shape_.legs;
+    j[leg[2]] = j[leg[1]] + (in[leg[2]] - in[leg[1]]) * shape_.legs;
+  }
+  Vec3 lift(0, floor_before - std::min(j[L_FOOT].y, j[R_FOOT].y), 0);  // feet stay on the floor
+  for (Vec3& p : j) p += lift;
+  return j;
+}
+
+Joints BodyRig::pose(double t) const {
+  Joints j = proportion(track_.at(t));
+  if (shape_.name == "model") return j;
+  const double s = shape_.height / motion_height_;
+  Vec3 hips = (j[L_HIP] + j[R_HIP]) * 0.5;
+  Vec3 anchor(hips.x, kTrackFloor, hips.z);  // scale about the floor under the hips
+  for (Vec3& p : j) p = anchor + (p - anchor) * s;
+  return j;
+}
+
+void BodyRig::capsules(const Joints& j, std::vector<Capsule>* caps, std::vector<double>* albedo) const {
+  if (shape_.name == "model") {
+    for (const Capsule& c : bodyCapsules(j)) { caps->push_back(c); albedo->push_back(0.6); }
+    return;
+  }
+  const double s = shape_.height / 1.75, g = shape_.girth * s, l = shape_.limbs * s, c = shape_.clothing;
+  const double cloth = shape_.clothes_albedo, skin = 0.5, hair = 0.12, shoes = 0.3;
+  Vec3 hips = (j[L_HIP] + j[R_HIP]) * 0.5;
+  Vec3 up = (j[HEAD] - j[NECK]).normalized();
+  Vec3 fwd = ((j[L_HIP] - j[R_HIP]).cross((j[NECK] - hips).normalized()) * facing_sign_).normalized();
+  auto add = [&](const Vec3& a, const Vec3& b, double r, double alb) {
+    caps->push_back({a, b, r});
+    albedo->push_back(alb);
+  };
+  // Head: dark hair on the crown and back, the face in front.
+  add(j[HEAD] + up * (0.05 * s) - fwd * (0.015 * s), j[HEAD] + up * (0.05 * s) - fwd * (0.015 * s), 0.09 * s, hair);
+  add(j[HEAD] + fwd * (0.03 * s) - up * (0.01 * s), j[HEAD] + fwd * (0.03 * s) - up * (0.03 * s), 0.075 * s, skin);
+  add(j[NECK], j[HEAD], 0.055 * s, skin);
+  // Torso: chest, sternum, belly, pelvis and flanks (wider than the fit model's torso).
+  Vec3 chest_l = lerp(j[NECK], j[L_SHOULDER], 0.55) - up * (0.09 * s);
+  Vec3 chest_r = lerp(j[NECK], j[R_SHOULDER], 0.55) - up * (0.09 * s);
+  add(chest_l, chest_r, 0.105 * g + c, cloth);
+  add(j[NECK] - up * (0.03 * s), j[TORSO], 0.10 * g + c, cloth);
+  add(j[TORSO], hips, 0.115 * g + c, cloth);
+  add(j[L_HIP], j[R_HIP], 0.095 * g + c, cloth);
+  add(j[L_SHOULDER] - up * (0.05 * s), j[L_HIP], 0.07 * g + c, cloth);
+  add(j[R_SHOULDER] - up * (0.05 * s), j[R_HIP], 0.07 * g + c, cloth);
+  for (auto arm : {std::array<int, 3>{L_SHOULDER, L_ELBOW, L_HAND}, std::array<int, 3>{R_SHOULDER, R_ELBOW, R_HAND}}) {
+    const Vec3 &sh = j[arm[0]], &el = j[arm[1]], &ha = j[arm[2]];
+    add(sh, el, 0.046 * l + c, cloth);
+    Vec3 mid = lerp(el, ha, 0.5);
+    add(el, mid, 0.038 * l + 0.8 * c, cloth);
+    add(mid, ha, 0.03 * l + 0.3 * c, skin);
+    add(ha, ha + (ha - el).normalized() * (0.09 * s), 0.028 * s, skin);  // the hand past the wrist
+  }
+  for (auto leg : {std::array<int, 3>{L_HIP, L_KNEE, L_FOOT}, std::array<int, 3>{R_HIP, R_KNEE, R_FOOT}}) {
+    const Vec3 &hi = j[leg[0]], &kn = j[leg[1]], &ft = j[leg[2]];
+    Vec3 mid = lerp(hi, kn, 0.5);
+    add(hi, mid, 0.085 * g + c, cloth);
+    add(mid, kn, 0.06 * g + c, cloth);
+    add(kn, ft + up * (0.06 * s), 0.047 * l + 1.3 * c, cloth);  // loose trousers flare
+    add(ft + up * (0.045 * s) - fwd * (0.08 * s), ft + up * (0.04 * s) + fwd * (0.09 * s), 0.042 * s, shoes);
+  }
+}
+
+// ---------------------------------------------------------------- noise
+
+double KinectNoise::quantize(double z) const {
+  double d = std::round((1.0 / z - c0) / c1);
+  return 1.0 / (c1 * d + c0);
+}
+
+double KinectNoise::depthStep(double z) const {
+  double d = std::round((1.0 / z - c0) / c1);
+  return std::fabs(1.0 / (c1 * (d + 1) + c0) - 1.0 / (c1 * d + c0));
+}
+
+// ---------------------------------------------------------------- scenes
+
+void SceneOptions::validate() const {
+  checkRange("sensor_height", sensor_height, 0.5, 2.0);
+  checkRange("tilt", tilt_deg, 0.0, 20.0);
+  if (wall_gap >= 0) checkRange("wall", wall_gap, 0.2, 1.5);
+  if (furniture != "none" && furniture != "table" && furniture != "chair") {
+    throw std::invalid_argument("furniture must be none, table or chair, not '" + furniture + "'");
+  }
+  checkRange("furniture_x", furniture_x, -3.0, 3.0);
+  if (bystander != "none" && bystander != "walk" && bystander != "stand") {
+    throw std::invalid_argument("bystander must be none, walk or stand, not '" + bystander + "'");
+  }
+  checkRange("bystander_offset", bystander_offset, -3.0, 3.0);
+  bystander_shape.validate();
+}
+
+struct Scene::Surfaces {
+  struct Plane { Vec3 n; double h; uint8_t label; double albedo; };  // n.p = h, sensor frame
+  struct BoxS { Box b; uint8_t label; double albedo; };               // room frame
+  std::vector<Capsule> caps;          // sensor frame
+  std::vector<uint8_t> cap_label;
+  std::vector<double> cap_albedo;
+  std::vector<Plane> planes;
+  std::vector<BoxS> boxes;
+};
+
+Scene::Scene(const Track& person, const BodyShape& shape, const SceneOptions& opt, const KinectNoise& noise,
+             const Track* bystander_motion, uint32_t seed)
+    : person_(person, shape), opt_(opt), noise_(noise), seed_(seed) {
+  opt_.validate();
+  if (noise_.min_range <= 0 || noise_.max_range <= noise_.min_range) {
+    throw std::invalid_argument("the sensor's range must satisfy 0 < min_range < max_range");
+  }
+  // The person's mean position and farthest surface over the whole motion.
+  const auto& times = person.times();
+  double far = 0;
+  int n = 0;
+  for (size_t i = 0; i < times.size(); i += 2) {
+    Joints j = person_.pose(times[i]);
+    Vec3 hips = (j[L_HIP] + j[R_HIP]) * 0.5;
+    person_centre_ += hips;
+    ++n;
+    far = std::max(far, hips.z);
+  }
+  person_centre_ = person_centre_ * (1.0 / std::max(n, 1)) + Vec3(0, -kTrackFloor, 0);
+  // The wall: wall_gap behind the person's back (hip centre + 0.15 m x girth + clothing)
+  // where the motion goes farthest from the sensor.
+  wall_z_ = opt_.wall_gap >= 0 ? far + 0.15 * shape.girth + shape.clothing + opt_.wall_gap : 0;
+
+  const double fx = person_centre_.x + opt_.furniture_x, fz = person_centre_.z;
+  auto leg = [&](double x, double z, double h) {
+    furniture_.push_back({{x - 0.025, 0, z - 0.025}, {x + 0.025, h, z + 0.025}});
+  };
+  if (opt_.furniture == "table") {  // 0.8 x 0.6 m top, 0.74 m high
+    furniture_.push_back({{fx - 0.4, 0.70, fz - 0.3}, {fx + 0.4, 0.74, fz + 0.3}});
+    for (double sx : {-0.35, 0.35}) for (double sz : {-0.25, 0.25}) leg(fx + sx, fz + sz, 0.70);
+  } else if (opt_.furniture == "chair") {  // 0.45 m seat facing the sensor, back rest behind
+    furniture_.push_back({{fx - 0.225, 0.42, fz - 0.225}, {fx + 0.225, 0.46, fz + 0.225}});
+    furniture_.push_back({{fx - 0.225, 0.46, fz + 0.19}, {fx + 0.225, 0.92, fz + 0.225}});
+    for (double sx : {-0.2, 0.2}) for (double sz : {-0.2, 0.2}) leg(fx + sx, fz + sz, 0.42);
+  }
+  if (opt_.bystander != "none") {
+    if (bystander_motion == nullptr) throw std::invalid_argument("a bystander needs a motion (a walk track)");
+    bystander_.emplace_back(*bystander_motion, opt_.bystander_shape);
+    Vec3 c;
+    int m = 0;
+    for (const Joints& j : bystander_motion->frames()) { c += (j[L_HIP] + j[R_HIP]) * 0.5; ++m; }
+    walk_centre_ = c * (1.0 / std::max(m, 1));
+  }
+}
+
+Vec3 Scene::toSensor(const Vec3& room) const {
+  const double a = opt_.tilt_deg * kPi / 180.0, ca = std::cos(a), sa = std::sin(a);
+  const double y = room.y - opt_.sensor_height;
+  return {room.x, ca * y + sa * room.z, -sa * y + ca * room.z};
+}
+
+Joints Scene::truth(double t) const {
+  Joints j = person_.pose(t);
+  for (Vec3& p : j) p = toSensor(p + Vec3(0, -kTrackFloor, 0));
+  return j;
+}
+
+void Scene::collect(double t, Surfaces* s, SceneFrame* out) const {
+  auto addBody = [&](const BodyRig& rig, const Joints& room, uint8_t label) {
+    std::vector<Capsule> caps;
+    std::vector<double> alb;
+    rig.capsules(room, &caps, &alb);
+    for (size_t i = 0; i < caps.size(); ++i) {
+      s->caps.push_back({toSensor(caps[i].a), toSensor(caps[i].b), caps[i].radius});
+      s->cap_label.push_back(label);
+      s->cap_albedo.push_back(alb[i]);
+    }
+  };
+  Joints room = person_.pose(t);
+  for (Vec3& p : room) p += Vec3(0, -kTrackFloor, 0);
+  addBody(person_, room, LABEL_PERSON);
+  for (int k = 0; k < NUM_JOINTS; ++k) out->truth[k] = toSensor(room[k]);
+  out->has_bystander = !bystander_.empty();
+  if (!bystander_.empty()) {
+    const BodyRig& rig = bystander_[0];
+    const bool walk = opt_.bystander == "walk";
+    Joints b = rig.pose(walk ? t : 0.0);
+    // The walk's path is centred on its mean hip position; a standing bystander on their own hips.
+    Vec3 centre = walk ? walk_centre_ : (b[L_HIP] + b[R_HIP]) * 0.5;
+    for (Vec3& p : b) {
+      Vec3 r = p - Vec3(centre.x, 0, centre.z);
+      if (walk) {  // the walk (towards the sensor) turned to cross the room along +x
+        r = Vec3(-r.z, r.y, r.x);
+        p = r + Vec3(person_centre_.x, -kTrackFloor, person_centre_.z + opt_.bystander_offset);
+      } else {
+        p = r + Vec3(person_centre_.x + opt_.bystander_offset, -kTrackFloor, person_centre_.z);
+      }
+    }
+    addBody(rig, b, LABEL_BYSTANDER);
+    for (int k = 0; k < NUM_JOINTS; ++k) out->bystander_truth[k] = toSensor(b[k]);
+  }
+  // Planes, as n.p = h in the sensor frame.
+  auto plane = [&](const Vec3& n_room, double h_room, uint8_t label, double albedo) {
+    Vec3 o = toSensor(Vec3()), n = toSensor(n_room) - o;  // rotate the normal
+    s->planes.push_back({n, h_room + n.dot(o), label, albedo});  // n.O = -(n_c.o)
+  };
+  plane({0, 1, 0}, 0.0, LABEL_FLOOR, 0.5);
+  if (opt_.wall_gap >= 0) plane({0, 0, 1}, wall_z_, LABEL_WALL, 0.7);
+  if (opt_.legacy_background) plane({0, 0, 1}, 4.5, LABEL_WALL, 0.7);
+  for (const Box& b : furniture_) s->boxes.push_back({b, LABEL_FURNITURE, 0.45});
+  if (opt_.legacy_background) s->boxes.push_back({{{-2.0, 0, 3.6}, {-1.2, 1.2, 4.0}}, LABEL_FURNITURE, 0.45});
+}
+
+double intersectCapsule(const Vec3& o, const Vec3& rd, const Capsule& cap) {
+  Capsule c{cap.a - o, cap.b - o, cap.radius};
+  Vec3 ba = c.b - c.a, oa = c.a * -1.0;
+  double r = c.radius;
+  double baba = ba.dot(ba), bard = ba.dot(rd), baoa = ba.dot(oa);
+  double rdoa = rd.dot(oa), oaoa = oa.dot(oa);
+  if (baba < 1e-12) {  // sphere
+    double b = rdoa, cc = oaoa - r * r, h = b * b - cc;
+    return h > 0 ? -b - std::sqrt(h) : -1.0;
+  }
+  double a = baba - bard * bard;
+  double b = baba * rdoa - baoa * bard;
+  double cc = baba * oaoa - baoa * baoa - r * r * baba;
+  double h = b * b - a * cc;
+  if (h < 0) return -1.0;
+  double y = baoa;
+  if (a > 1e-12) {
+    double t = (-b - std::sqrt(h)) / a;
+    y = baoa + t * bard;
+    if (y > 0 && y < baba) return t;
+  }
+  Vec3 oc = (y <= 0) ? oa : c.b * -1.0;
+  double b2 = rd.dot(oc), c2 = oc.dot(oc) - r * r, h2 = b2 * b2 - c2;
+  return h2 > 0 ? -b2 - std::sqrt(h2) : -1.0;
+}
+
+namespace {
+
+// One view of the scene (the camera, or the projector beside it): origin o in
+// the sensor frame, same axes. Per pixel: the depth along z (inf: nothing) and
+// optionally the label and the returned light (albedo x cos incidence).
+struct View {
+  const Camera& cam;
+  Vec3 o;
+  double ca, sa, sensor_h;
+  std::vector<float>* z;
+  std::vector<uint8_t>* label;
+  std::vector<float>* shade;
+
+  Vec3 toRoom(const Vec3& v) const { return Vec3(v.x, ca * v.y - sa * v.z, sa * v.y + ca * v.z); }
+  Vec3 toView(const Vec3& r) const {
+    Vec3 q = r - Vec3(0, sensor_h, 0);
+    return Vec3(q.x, ca * q.y + sa * q.z, -sa * q.y + ca * q.z) - o;
+  }
+  void hit(size_t i, double zz, uint8_t lab, double cosi, double alb) const {
+    if (zz > 0.01 && zz < (*z)[i]) {
+      (*z)[i] = static_cast<float>(zz);
+      if (label) (*label)[i] = lab;
+      if (shade) (*shade)[i] = static_cast<float>(alb * std::fabs(cosi));
+    }
+  }
+};
+
+template <typename Planes>
+void castPlanes(const Planes& planes, const View& view) {
+  const Camera& cam = view.cam;
+  for (int v = 0; v < cam.height; ++v) {
+    for (int u = 0; u < cam.width; ++u) {
+      Vec3 d = cam.ray(u, v);
+      const double dn = d.norm();
+      for (const auto& p : planes) {
+        double den = p.n.dot(d);
+        if (std::fabs(den) < 1e-9) continue;
+        view.hit(static_cast<size_t>(v) * cam.width + u, (p.h - p.n.dot(view.o)) / den, p.label, den / dn, p.albedo);
+      }
+    }
+  }
+}
+
+// The pixel box a room-frame box covers in the view (the whole image when a corner is behind it).
+void boxPixels(const Vec3& lo, const Vec3& hi, const View& view, int* u0, int* u1, int* v0, int* v1) {
+  const Camera& cam = view.cam;
+  *u0 = 0; *u1 = cam.width - 1; *v0 = 0; *v1 = cam.height - 1;
+  double umin = 1e9, umax = -1e9, vmin = 1e9, vmax = -1e9;
+  for (int k = 0; k < 8; ++k) {
+    Vec3 w = view.toView(Vec3((k & 1) ? hi.x : lo.x, (k & 2) ? hi.y : lo.y, (k & 4) ? hi.z : lo.z));
+    if (w.z < 0.05) return;
+    double pu, pv;
+    cam.project(w, &pu, &pv);
+    umin = std::min(umin, pu); umax = std::max(umax, pu);
+    vmin = std::min(vmin, pv); vmax = std::max(vmax, pv);
+  }
+  *u0 = std::max(0, static_cast<int>(std::floor(umin))); *u1 = std::min(cam.width - 1, static_cast<int>(std::ceil(umax)));
+  *v0 = std::max(0, static_cast<int>(std::floor(vmin))); *v1 = std::min(cam.height - 1, static_cast<int>(std::ceil(vmax)));
+}
+
+template <typename Boxes>
+void castBoxes(const Boxes& boxes, const View& view) {
+  const Vec3 o_room = view.toRoom(view.o) + Vec3(0, view.sensor_h, 0);
+  const double ov[3] = {o_room.x, o_room.y, o_room.z};
+  for (const auto& bx : boxes) {
+    int u0, u1, v0, v1;
+    boxPixels(bx.b.lo, bx.b.hi, view, &u0, &u1, &v0, &v1);
+    const double lo[3] = {bx.b.lo.x, bx.b.lo.y, bx.b.lo.z}, hi[3] = {bx.b.hi.x, bx.b.hi.y, bx.b.hi.z};
+    for (int v = v0; v <= v1; ++v) {
+      for (int u = u0; u <= u1; ++u) {  // slab test in the room frame
+        Vec3 d = view.cam.ray(u, v), dr = view.toRoom(d);
+        const double dv[3] = {dr.x, dr.y, dr.z};
+        double t0 = -1e30, t1 = 1e30;
+        int axis = 0;
+        bool miss = false;
+        for (int k = 0; k < 3 && !miss; ++k) {
+          if (std::fabs(dv[k]) < 1e-12) { miss = ov[k] < lo[k] || ov[k] > hi[k]; continue; }
+          double a = (lo[k] - ov[k]) / dv[k], b = (hi[k] - ov[k]) / dv[k];
+          if (a > b) std::swap(a, b);
+          if (a > t0) { t0 = a; axis = k; }
+          t1 = std::min(t1, b);
+          miss = t0 > t1;
+        }
+        if (!miss && t0 > 0) view.hit(static_cast<size_t>(v) * view.cam.width + u, t0, bx.label, dv[axis] / d.norm(), bx.albedo);
+      }
+    }
+  }
+}
+
+template <typename S>
+void castCapsules(const S& s, const View& view) {
+  const Camera& cam = view.cam;
+  for (size_t c = 0; c < s.caps.size(); ++c) {
+    const Capsule& cap = s.caps[c];
+    int u0, u1, v0, v1;
+    if (!capsulePixelBox(cap, view.o, cam, &u0, &u1, &v0, &v1)) continue;
+    Vec3 axis = cap.b - cap.a;
+    const double axis2 = axis.dot(axis);
+    for (int v = v0; v <= v1; ++v) {
+      for (int u = u0; u <= u1; ++u) {
+        Vec3 d = cam.ray(u, v);
+        double n = d.norm();
+        Vec3 rd = d * (1.0 / n);
+        double t = intersectCapsule(view.o, rd, cap);
+        if (t <= 0) continue;
+        const size_t i = static_cast<size_t>(v) * cam.width + u;
+        double zz = t / n;
+        if (!(zz < (*view.z)[i])) continue;
+        double cosi = 1.0;
+        if (view.shade) {  // the surface normal: from the axis to the hit point
+          Vec3 p = view.o + rd * t;
+          double w = axis2 > 1e-12 ? std::clamp((p - cap.a).dot(axis) / axis2, 0.0, 1.0) : 0.0;
+          cosi = (p - (cap.a + axis * w)).normalized().dot(rd);
+        }
+        view.hit(i, zz, s.cap_label[c], cosi, s.cap_albedo[c]);
+      }
+    }
+  }
+}
+
+// Ray casting of all the surfaces from view origin o.
+template <typename S>
+void castView(const S& s, const Camera& cam, const Vec3& o, double tilt_rad, double sensor_h,
+              std::vector<float>* z, std::vector<uint8_t>* label, std::vector<float>* shade) {
+  const size_t N = static_cast<size_t>(cam.width) * cam.height;
+  z->assign(N, std::numeric_limits<float>::infinity());
+  if (label) label->assign(N, LABEL_NONE);
+  if (shade) shade->assign(N, 0.f);
+  const View view{cam, o, std::cos(tilt_rad), std::sin(tilt_rad), sensor_h, z, label, shade};
+  castPlanes(s.planes, view);
+  castBoxes(s.boxes, view);
+  castCapsules(s, view);
+}
+
+}  // namespace
+
+void Scene::render(double t, uint64_t frame_index, const Camera& cam, SceneFrame* out) const {
+  Surfaces s;
+  collect(t, &s, out);
+  const double tilt = opt_.tilt_deg * kPi / 180.0;
+  std::vector<float> z, shade, zp;
+  castView(s, cam, Vec3(), tilt, opt_.sensor_height, &z, &out->label, &shade);
+  const bool shadow = noise_.enabled && noise_.shadow && noise_.baseline > 0;
+  const Vec3 proj(noise_.baseline * (noise_.projector_x < 0 ? -1.0 : 1.0), 0, 0);
+  if (shadow) castView(s, cam, proj, tilt, opt_.sensor_height, &zp, nullptr, nullptr);
+  const int W = cam.width, H = cam.height;
+  out->depth_mm.assign(z.size(), 0);
+  const uint64_t key0 = mix((static_cast<uint64_t>(seed_) << 32) ^ frame_index);
+  for (int v = 0; v < H; ++v) {
+    for (int u = 0; u < W; ++u) {
+      const size_t i = static_cast<size_t>(v) * W + u;
+      double zz = z[i];
+      if (!std::isfinite(zz)) { out->label[i] = LABEL_NONE; continue; }
+      if (!noise_.enabled) {
+        if (zz >= 0.4 && zz < 8.0) out->depth_mm[i] = static_cast<uint16_t>(std::lround(zz * 1000.0));
+        continue;
+      }
+      if (zz < noise_.min_range || zz > noise_.max_range) continue;
+      // One hash per pixel: its low 32 bits decide a hole, its top 12 the disparity error.
+      const uint64_t hash = mix(key0 ^ (i * 0x9e3779b97f4a7c15ULL));
+      if (noise_.holes) {
+        // Returned infrared: albedo x cos(incidence) / (z / 2 m)^2; too little and
+        // the dot pattern is lost (dark hair, black clothes, grazing surfaces, far floor).
+        double signal = shade[i] / ((zz / 2.0) * (zz / 2.0));
+        double p_drop = std::clamp((0.045 - signal) / 0.03, 0.0, 1.0);
+        if (p_drop > 0 && (hash & 0xffffffffULL) * (1.0 / 4294967296.0) < p_drop) continue;
+      }
+      if (shadow) {
+        // The point seen here, from the projector: hidden behind something nearer = no
+        // pattern. The projector is shifted along x only, so the point is on the same
+        // row of its image, proj.x W / (z xzFactor) pixels to the side.
+        int iu = static_cast<int>(std::lround(u - proj.x * W / (zz * cam.xzFactor())));
+        if (iu >= 0 && iu < W && zp[static_cast<size_t>(v) * W + iu] < zz - (0.03 + 0.01 * zz)) continue;
+      }
+      double d = (1.0 / zz - noise_.c0) / noise_.c1 + noise_.disparity_sigma * gaussian(hash);
+      d = std::round(d);
+      if (d < 0 || d > 2046) continue;
+      double zq = 1.0 / (noise_.c1 * d + noise_.c0);
+      if (zq < noise_.min_range || zq > noise_.max_range) continue;
+      out->depth_mm[i] = static_cast<uint16_t>(std::lround(zq * 1000.0));
+    }
+  }
+}
+
+}  // namespace hri_sync
+
+namespace hri_sync {
+
+namespace {
+
+double number(const std::string& key, const std::string& value) {
+  try {
+    size_t pos = 0;
+    double v = std::stod(value, &pos);
+    if (pos == value.size() && std::isfinite(v)) return v;
+  } catch (const std::exception&) {
+  }
+  throw std::invalid_argument("bad value '" + value + "' for '" + key + "' (a number)");
+}
+
+bool flag(const std::string& key, const std::string& value) {
+  if (value == "1" || value == "true") return true;
+  if (value == "0" || value == "false") return false;
+  throw std::invalid_argument("bad value '" + value + "' for '" + key + "' (0 or 1)");
+}
+
+}  // namespace
+
+const char* sceneKeys() {
+  return "body, height, girth, limbs, arms, legs, clothing, clothes_albedo, wall, furniture, furniture_x, "
+         "bystander, bystander_offset, bystander_body, bystander_track, sensor_height, tilt, noise=kinect1, "
+         "shadow, holes, baseline, projector, min_range, max_range, seed";
+}
+
+bool applySceneKey(const std::string& key, const std::string& value, SceneSpec* spec) {
+  BodyShape& b = spec->body;
+  SceneOptions& s = spec->scene;
+  KinectNoise& n = spec->noise;
+  if (key == "body") {
+    b = BodyShape::preset(value);  // throws on an unknown name; set body= before height= etc.
+  } else if (key == "height") { b.height = number(key, value);
+  } else if (key == "girth") { b.girth = number(key, value);
+  } else if (key == "limbs") { b.limbs = number(key, value);
+  } else if (key == "arms") { b.arms = number(key, value);
+  } else if (key == "legs") { b.legs = number(key, value);
+  } else if (key == "clothing") { b.clothing = number(key, value);
+  } else if (key == "clothes_albedo") { b.clothes_albedo = number(key, value);
+  } else if (key == "wall") {
+    s.wall_gap = value == "none" ? -1.0 : number(key, value);
+    if (s.wall_gap >= 0) checkRange("wall", s.wall_gap, 0.2, 1.5);
+  } else if (key == "furniture") { s.furniture = value;
+  } else if (key == "furniture_x") { s.furniture_x = number(key, value);
+  } else if (key == "bystander") { s.bystander = value;
+  } else if (key == "bystander_offset") { s.bystander_offset = number(key, value);
+  } else if (key == "bystander_body") { s.bystander_shape = BodyShape::preset(value);
+  } else if (key == "bystander_track") { spec->bystander_track = value;
+  } else if (key == "sensor_height") { s.sensor_height = number(key, value);
+  } else if (key == "tilt") { s.tilt_deg = number(key, value);
+  } else if (key == "noise") {
+    if (value != "kinect1") return false;  // a number: the legacy renderer's Gaussian sigma
+    n.enabled = true;
+  } else if (key == "shadow") { n.shadow = flag(key, value);
+  } else if (key == "holes") { n.holes = flag(key, value);
+  } else if (key == "baseline") { n.baseline = number(key, value); checkRange("baseline", n.baseline, 0.0, 0.3);
+  } else if (key == "projector") {
+    if (value == "+x") n.projector_x = 1.0;
+    else if (value == "-x") n.projector_x = -1.0;
+    else throw std::invalid_argument("bad value '" + value + "' for 'projector' (+x or -x)");
+  } else if (key == "min_range") { n.min_range = number(key, value); checkRange("min_range", n.min_range, 0.3, 2.0);
+  } else if (key == "max_range") { n.max_range = number(key, value); checkRange("max_range", n.max_range, 1.0, 10.0);
+  } else if (key == "seed") {
+    double v = number(key, value);
+    if (v < 0 || v > 4294967295.0 || v != std::floor(v)) throw std::invalid_argument("seed must be an integer >= 0");
+    spec->seed = static_cast<uint32_t>(v);
+  } else {
+    return false;
+  }
+  spec->used = true;
+  return true;
+}
+
+}  // namespace hri_sync
