@@ -37,7 +37,7 @@ import rospy
 import rostest
 from std_srvs.srv import Trigger
 
-from hri_sync.msg import ClientResult, ClockState, Decision
+from hri_sync.msg import ClientResult, ClockState, Decision, DpmState
 from hri_sync.ros.params import wait_for
 from hri_sync.timing.decision import decide
 
@@ -102,6 +102,7 @@ class FuzzDanceOff(unittest.TestCase):
     def setUp(self):
         self.lock = threading.Lock()
         self.results, self.decisions, self.synced = [], [], set()
+        self.fed = set()
         rospy.Subscriber('/client_result', ClientResult, self.keep,
                          self.results)
         rospy.Subscriber('/decision', Decision, self.keep, self.decisions)
@@ -111,6 +112,9 @@ class FuzzDanceOff(unittest.TestCase):
         for c in self.clients:
             rospy.Subscriber('/%s/clock_state' % c, ClockState,
                              self.on_clock, c)
+        for c in self.participants:
+            rospy.Subscriber('/%s/dpm_state' % c, DpmState, self.on_state,
+                             c)
         # The launch's output and its nodes' logs, in a folder of ours.
         self.log_dir = tempfile.mkdtemp(prefix='fuzz_dance_off_')
         self.out = open(os.path.join(self.log_dir, 'launch.log'), 'w')
@@ -146,6 +150,10 @@ class FuzzDanceOff(unittest.TestCase):
     def on_clock(self, msg, client):
         if msg.ok and callerid(msg) != '/fuzz_publisher':
             self.synced.add(client)
+
+    def on_state(self, msg, client):
+        if msg.samples > 0 and callerid(msg) == '/%s/dpm' % client:
+            self.fed.add(client)
 
     def start_round(self):
         """Call ~start_round in a thread; returns (thread, reply list)."""
@@ -185,6 +193,11 @@ class FuzzDanceOff(unittest.TestCase):
         self.assertTrue(wait_for(lambda: self.synced >= set(self.clients),
                                  90.0),
                         'clients never synced: %s' % sorted(self.synced))
+        # A loaded machine can start a sensor late: the first round waits
+        # for every DPM's heartbeat to report a sample, as an operator would.
+        self.assertTrue(wait_for(lambda: self.fed >= set(self.participants),
+                                 60.0),
+                        'sensors never delivered: only %s' % sorted(self.fed))
         rospy.wait_for_service('/control_module/start_round', 30.0)
         decision, _ = self.clean_round('first clean')
         self.assertNotEqual(decision.outcome, Decision.ABORTED,
