@@ -11,11 +11,15 @@ the common Mixamo / MotionBuilder names; anything else raises ``BvhError``
 naming the file and the joints that could not be found.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass, field
+from typing import Sequence
 
 import numpy as np
 
 from hri_sync.dance_off.joints import JOINTS
+
 
 END_SUFFIX = '_End'
 
@@ -46,21 +50,23 @@ class Bvh:
     motion: np.ndarray          # (frames, channels) float64
 
     @property
-    def num_frames(self):
+    def num_frames(self) -> int:
         return self.motion.shape[0]
 
     @property
-    def names(self):
+    def names(self) -> list[str]:
         return [j.name for j in self.joints]
 
-    def index(self, name):
+    def index(self, name: str) -> int:
         """Index of a joint by name (exact match)."""
         for i, joint in enumerate(self.joints):
             if joint.name == name:
                 return i
         raise KeyError(name)
 
-    def forward_kinematics(self, frames=None, rest=False):
+    def forward_kinematics(
+            self, frames: Sequence[int] | None = None,
+            rest: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Global positions (F, J, 3) and rotations (F, J, 3, 3) of all joints.
 
         ``frames``: indices or slice of frames (default all). ``rest=True``
@@ -102,7 +108,7 @@ class Bvh:
         return pos, rot
 
 
-def _axis_rotation(axis, degrees):
+def _axis_rotation(axis: int, degrees: np.ndarray) -> np.ndarray:
     """Rotation matrices (F, 3, 3) about one axis by angles in degrees."""
     rad = np.radians(degrees)
     c, s = np.cos(rad), np.sin(rad)
@@ -120,7 +126,7 @@ _CHANNELS = {'Xposition', 'Yposition', 'Zposition',
              'Xrotation', 'Yrotation', 'Zrotation'}
 
 
-def read_bvh(path):
+def read_bvh(path: str) -> Bvh:
     """Parse a BVH file; raise ``BvhError`` naming the file on any problem."""
     try:
         with open(path, 'r', errors='replace') as handle:
@@ -130,7 +136,7 @@ def read_bvh(path):
     return parse_bvh(text, path)
 
 
-def parse_bvh(text, path='<string>'):
+def parse_bvh(text: str, path: str = '<string>') -> Bvh:
     """Parse BVH text (``path`` only names the source in errors)."""
     head, sep, tail = text.partition('MOTION')
     if not sep:
@@ -144,10 +150,10 @@ def parse_bvh(text, path='<string>'):
     return Bvh(path, joints, *_parse_motion(tail, num_channels, path))
 
 
-def _parse_hierarchy(tokens, path):
+def _parse_hierarchy(tokens: list[str], path: str) -> list[BvhJoint]:
     # Over 80 lines: one token loop of the BVH grammar, each keyword a branch.
-    joints = []
-    stack = []              # indices of open joints
+    joints: list[BvhJoint] = []
+    stack: list[int] = []   # indices of open joints
     pending = None          # joint whose '{' is expected next
     channel = 0
     i = 0
@@ -231,7 +237,8 @@ def _parse_hierarchy(tokens, path):
     return joints
 
 
-def _parse_motion(text, num_channels, path):
+def _parse_motion(text: str, num_channels: int,
+                  path: str) -> tuple[float, np.ndarray]:
     lines = text.split('\n')
     header = {}
     body_start = 0
@@ -289,7 +296,7 @@ _SIDE_JOINTS = {
     'knee': ['{s}shin', '{side}leg', '{side}knee', '{s}knee'],
     'foot': ['{s}foot', '{side}ankle', '{side}foot', '{s}ankle'],
 }
-JOINT_CANDIDATES = {
+JOINT_CANDIDATES: dict[str, list[tuple[str, ...]]] = {
     'head': [('head', 'head' + END_SUFFIX.lower()), ('head',)],
     'neck': [('neck',), ('neck1',)],
     'torso': [('abdomen', 'chest'), ('chest', 'chest2'), ('spine', 'spine1'),
@@ -301,16 +308,16 @@ for _side in ('left', 'right'):
             (p.format(s=_side[0], side=_side),) for p in _patterns]
 
 
-def _plain(name):
+def _plain(name: str) -> str:
     return name.split(':')[-1].lower()
 
 
-def map_joints(bvh):
+def map_joints(bvh: Bvh) -> list[tuple[int, ...]]:
     """For each of the 15 JOINTS, the tuple of BVH joint indices to average.
 
     Raises ``BvhError`` naming the file and every joint it could not find.
     """
-    index = {}
+    index: dict[str, int] = {}
     for i, joint in enumerate(bvh.joints):
         index.setdefault(_plain(joint.name), i)
     mapping, missing = [], []
@@ -323,16 +330,17 @@ def map_joints(bvh):
             looked = ' or '.join('+'.join(n) for n in JOINT_CANDIDATES[name])
             missing.append('%s (looked for %s)' % (name, looked))
     if missing:
-        names = [j.name for j in bvh.joints if not j.end_site]
+        have = [j.name for j in bvh.joints if not j.end_site]
         raise BvhError('%s: lacks %d of the 15 hri_sync joints: %s (the '
                        "file's joints: %s%s)"
                        % (bvh.path, len(missing), '; '.join(missing),
-                          ', '.join(names[:20]),
-                          ', ...' if len(names) > 20 else ''))
+                          ', '.join(have[:20]),
+                          ', ...' if len(have) > 20 else ''))
     return mapping
 
 
-def joints15(bvh, frames=None, rest=False):
+def joints15(bvh: Bvh, frames: Sequence[int] | None = None,
+             rest: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Positions (F, 15, 3) in file units and rotations (F, 15, 3, 3).
 
     The rotation of an averaged joint is that of its first BVH joint.

@@ -26,8 +26,11 @@ not grow with the window, and the score is ready with the window's last
 frame.
 """
 
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass
+from typing import Any, Sequence, TYPE_CHECKING
 
 import numpy as np
 
@@ -35,6 +38,9 @@ from hri_sync.dance_off.joints import NUM_JOINTS
 from hri_sync.people.participant import (PARTICIPANT, ParticipantSelector,
                                          Zone)
 from hri_sync.timing.processors import Processor, ProcessResult
+
+if TYPE_CHECKING:
+    from hri_sync.timing.processors import Frame
 
 DEFAULT_MIN_CONFIDENCE = 0.5
 
@@ -59,8 +65,8 @@ class RunningExpressiveness:
     is rejected and counted in ``out_of_order`` (sort the frames first).
     """
 
-    def __init__(self, joints=NUM_JOINTS,
-                 min_confidence=DEFAULT_MIN_CONFIDENCE):
+    def __init__(self, joints: int = NUM_JOINTS,
+                 min_confidence: float = DEFAULT_MIN_CONFIDENCE) -> None:
         self.min_confidence = float(min_confidence)
         self._last_pos = np.zeros((joints, 3))
         self._last_t = np.zeros(joints)
@@ -75,9 +81,13 @@ class RunningExpressiveness:
         self.terms = 0
         self.out_of_order = 0
         self.repeated = 0
-        self.first = self.last = None   # first and last usable stamps
+        # first and last usable stamps
+        self.first: float | None = None
+        self.last: float | None = None
 
-    def add(self, stamp, positions, confidence):
+    def add(
+            self, stamp: float, positions: np.ndarray,
+            confidence: np.ndarray) -> bool:
         """Add one frame: ``positions`` (joints, 3) m, ``confidence``
         (joints,).  Returns whether it was used."""
         if not math.isfinite(stamp) or stamp <= self._prev:
@@ -122,7 +132,8 @@ class RunningExpressiveness:
         self.last = stamp
         return True
 
-    def _pairs(self, valid, stamp, positions):
+    def _pairs(self, valid: np.ndarray, stamp: float,
+               positions: np.ndarray) -> None:
         """Sum the terms of the valid joints seen before."""
         pair = valid & self._seen
         if pair.any():
@@ -130,7 +141,7 @@ class RunningExpressiveness:
             self.total += float(np.sum(d2 / (stamp - self._last_t[pair])))
             self.terms += int(np.count_nonzero(pair))
 
-    def score(self, duration):
+    def score(self, duration: float) -> Expressiveness:
         """The Expressiveness over T = ``duration`` s."""
         duration = float(duration)
         return Expressiveness(
@@ -142,8 +153,11 @@ class RunningExpressiveness:
             terms=self.terms, duration=duration)
 
 
-def expressiveness(stamps, positions, confidence=None, duration=None,
-                   min_confidence=DEFAULT_MIN_CONFIDENCE):
+def expressiveness(
+        stamps: np.ndarray | list[float],
+        positions: np.ndarray | list[np.ndarray],
+        confidence: np.ndarray | None = None, duration: float | None = None,
+        min_confidence: float = DEFAULT_MIN_CONFIDENCE) -> Expressiveness:
     """Score frames ``stamps`` (N,) s, ``positions`` (N, J, 3) m.
 
     ``confidence`` (N, J) in 0..1 (default: all 1). ``duration``: T in s
@@ -167,11 +181,13 @@ def expressiveness(stamps, positions, confidence=None, duration=None,
     for k in np.argsort(stamps, kind='stable'):     # NaN stamps last
         run.add(float(stamps[k]), positions[k], confidence[k])
     if duration is None:
-        duration = run.last - run.first if run.frames_used else 0.0
+        duration = (run.last - run.first if run.frames_used
+                    and run.first is not None and run.last is not None
+                    else 0.0)
     return run.score(duration)
 
 
-def _seconds(stamp):
+def _seconds(stamp: Any) -> float:
     """A rospy.Time/Duration-like or a number, in seconds."""
     return stamp.to_sec() if hasattr(stamp, 'to_sec') else float(stamp)
 
@@ -195,18 +211,21 @@ class SkeletonExpressiveness(Processor):
     msg_type = 'hri_sync/Skeleton'
     topic = 'skeleton'
 
-    def __init__(self, min_confidence=DEFAULT_MIN_CONFIDENCE,
-                 participant_zone=None, lost_after=0.5, zone_sensor_pose=None):
+    def __init__(self, min_confidence: float = DEFAULT_MIN_CONFIDENCE,
+                 participant_zone: str | Sequence[float] | None = None,
+                 lost_after: float = 0.5,
+                 zone_sensor_pose: str | Sequence[float] | None = None
+                 ) -> None:
         super().__init__()
         self.min_confidence = float(min_confidence)
         self.zone = Zone.parse(participant_zone, zone_sensor_pose)
         self.lost_after = float(lost_after)
         self.begin(0.0, 0.0)
 
-    def device_stamp(self, msg):
+    def device_stamp(self, msg: Any) -> float:
         return _seconds(msg.device_stamp)
 
-    def zone_params(self):
+    def zone_params(self) -> dict[str, Any]:
         """The participant params as result diagnostics (text), from
         which ``params_from`` makes the same processor again."""
         z = self.zone
@@ -217,7 +236,7 @@ class SkeletonExpressiveness(Processor):
                 'lost_after': self.lost_after}
 
     @staticmethod
-    def params_from(diagnostics):
+    def params_from(diagnostics: dict[str, str]) -> dict[str, Any]:
         """Processor params from a result's diagnostics (a dict of
         text), defaults where they are not recorded."""
         d = diagnostics
@@ -227,14 +246,14 @@ class SkeletonExpressiveness(Processor):
                 'zone_sensor_pose': d.get('zone_sensor_pose', ''),
                 'lost_after': float(d.get('lost_after', 0.5))}
 
-    def begin(self, start, end):
+    def begin(self, start: float, end: float) -> None:
         self._duration = end - start
         self._run = RunningExpressiveness(NUM_JOINTS, self.min_confidence)
         self._people = ParticipantSelector(self.zone, self.lost_after,
                                            start, end)
         self._malformed = 0
 
-    def add(self, frame):
+    def add(self, frame: Frame) -> None:
         try:
             pos = np.array([(p.x, p.y, p.z) for p in frame.msg.positions],
                            dtype=float)
@@ -249,17 +268,18 @@ class SkeletonExpressiveness(Processor):
         if self._people.offer(frame.stamp, user, pos) == PARTICIPANT:
             self._run.add(frame.stamp, pos, conf)
 
-    def result(self):
+    def result(self) -> ProcessResult:
         res = self._run.score(self._duration)
         people = self._people.summary()
-        diagnostics = {'nonfinite_joints': res.nonfinite_joints,
-                       'low_confidence_joints': res.low_confidence_joints,
-                       'malformed_frames': self._malformed,
-                       'out_of_order_frames': self._run.out_of_order,
-                       'repeated_frames': self._run.repeated,
-                       'terms': res.terms,
-                       'min_confidence': self.min_confidence,
-                       'T': res.duration}
+        diagnostics: dict[str, Any] = {
+            'nonfinite_joints': res.nonfinite_joints,
+            'low_confidence_joints': res.low_confidence_joints,
+            'malformed_frames': self._malformed,
+            'out_of_order_frames': self._run.out_of_order,
+            'repeated_frames': self._run.repeated,
+            'terms': res.terms,
+            'min_confidence': self.min_confidence,
+            'T': res.duration}
         diagnostics.update(self.zone_params())
         diagnostics.update(people)
         return ProcessResult(

@@ -11,9 +11,13 @@ quaternion of either kind of frame from a position, a heading (yaw, rad,
 about world z from world x) and a downward tilt (pitch, rad).
 """
 
+from __future__ import annotations
+
 import math
+from typing import Sequence
 
 import numpy as np
+
 
 SENSOR = 'sensor'       # x left, y up, z forward (Skeleton's x mirrored)
 REP103 = 'rep103'       # x forward, y left, z up (odom, base_footprint)
@@ -24,13 +28,14 @@ _SENSOR_AXES = np.array([[0.0, 0.0, 1.0],
                          [0.0, 1.0, 0.0]])
 
 
-def skeleton_point(p):
+def skeleton_point(p: Sequence[float]) -> tuple[float, ...]:
     """A Skeleton position (x right, y up, z forward) in the sensor's tf
     frame (x left)."""
     return (-p[0], p[1], p[2])
 
 
-def rotation(yaw, pitch=0.0, convention=REP103):
+def rotation(yaw: float, pitch: float = 0.0,
+             convention: str = REP103) -> np.ndarray:
     """3x3 rotation of a frame's axes into world: heading ``yaw`` about z,
     then tilted down by ``pitch`` (positive: looking down)."""
     if convention not in (SENSOR, REP103):
@@ -44,7 +49,7 @@ def rotation(yaw, pitch=0.0, convention=REP103):
     return r @ _SENSOR_AXES if convention == SENSOR else r
 
 
-def quaternion(r):
+def quaternion(r: np.ndarray) -> tuple[float, ...]:
     """(x, y, z, w) of a 3x3 rotation matrix (Shepperd's method), w >= 0."""
     t = r[0, 0] + r[1, 1] + r[2, 2]
     k = int(np.argmax([t, r[0, 0], r[1, 1], r[2, 2]]))
@@ -67,7 +72,9 @@ def quaternion(r):
     return tuple(-v for v in q) if q[3] < 0 else q
 
 
-def pose(x, y, z, yaw, pitch=0.0, convention=REP103):
+def pose(x: float, y: float, z: float, yaw: float, pitch: float = 0.0,
+         convention: str = REP103
+         ) -> tuple[tuple[float, float, float], tuple[float, ...]]:
     """((x, y, z), (qx, qy, qz, qw)) of a frame in world."""
     values = (x, y, z, yaw, pitch)
     if not all(math.isfinite(v) for v in values):

@@ -9,6 +9,8 @@ is drawn with thicker bones and a gold label. ``Winner`` follows the
 decisions: the last winner stays highlighted until the next round starts.
 """
 
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass
 
@@ -31,7 +33,7 @@ GOLD = (1.0, 0.84, 0.0, 1.0)
 WHITE = (1.0, 1.0, 1.0, 1.0)
 
 
-def confidence_colour(c):
+def confidence_colour(c: float) -> tuple[float, ...]:
     """(r, g, b, a): red at 0, yellow at 0.5, green at 1; NaN is grey."""
     if not math.isfinite(c):
         return (0.5, 0.5, 0.5, 1.0)
@@ -53,7 +55,8 @@ class Drawing:
     label_colour: tuple
 
 
-def draw(client_id, positions, confidence, winner=False):
+def draw(client_id: str, positions: list[tuple[float, ...]],
+         confidence: list[float], winner: bool = False) -> Drawing:
     """The Drawing of one skeleton; joints with a non-finite position are
     left out, with their bones. ``winner``: highlight it."""
     if len(positions) != NUM_JOINTS or len(confidence) != NUM_JOINTS:
@@ -86,14 +89,15 @@ class Winner:
     """The client to highlight: the last decision's winner, until the
     next round's capture starts."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.client = ''
 
-    def on_decision(self, outcome, winner, clients):
+    def on_decision(self, outcome: str, winner: int,
+                    clients: list[str]) -> None:
         """A Decision: ``winner`` is 1-based among its ``clients``."""
         ok = outcome == WINNER and 1 <= winner <= len(clients)
         self.client = clients[winner - 1] if ok else ''
 
-    def on_capture(self):
+    def on_capture(self) -> None:
         """A new round's CaptureData: nobody is the winner yet."""
         self.client = ''

@@ -26,14 +26,19 @@ orientations. Converted ``.npz`` files store positions to 0.1 mm and
 quaternion components to 1/32767.
 """
 
+from __future__ import annotations
+
 import os
 from dataclasses import dataclass
-from typing import Optional
+from typing import Optional, TYPE_CHECKING
 
 import numpy as np
 
 from hri_sync.dance_off import bvh as bvh_mod
 from hri_sync.dance_off.joints import INDEX, JOINTS, NUM_JOINTS
+
+if TYPE_CHECKING:
+    from hri_sync.dance_off.bvh import Bvh
 
 STANDING_HEIGHT = 1.70      # m
 SENSOR_HEIGHT = 1.0         # m above the floor
@@ -50,10 +55,11 @@ class Motion:
 
     times: np.ndarray               # (N,)
     positions: np.ndarray           # (N, 15, 3) metres, sensor frame
-    orientations: Optional[np.ndarray] = None  # (N, 15, 4) quaternions x, y, z, w
+    # (N, 15, 4) quaternions x, y, z, w
+    orientations: Optional[np.ndarray] = None
     name: str = ''
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self.times = np.asarray(self.times, dtype=float)
         self.positions = np.asarray(self.positions, dtype=float)
         count = self.times.shape[0]
@@ -70,15 +76,16 @@ class Motion:
         self.orientations = np.asarray(self.orientations, dtype=float)
 
     @property
-    def duration(self):
+    def duration(self) -> float:
         return float(self.times[-1] - self.times[0])
 
     @property
-    def rate(self):
+    def rate(self) -> float:
         """Mean frame rate, Hz."""
         return (len(self.times) - 1) / self.duration
 
-    def clip_time(self, t, mode='pingpong'):
+    def clip_time(self, t: np.ndarray | list[float],
+                  mode: str = 'pingpong') -> np.ndarray:
         """Map times (s, any range) onto the clip's own timeline.
 
         ``clamp`` holds the first/last frame, ``loop`` wraps around (a jump
@@ -98,7 +105,8 @@ class Motion:
             t = np.where(t > dur, 2.0 * dur - t, t)
         return t + self.times[0]
 
-    def _interp(self, times, mode):
+    def _interp(self, times: np.ndarray | list[float],
+                mode: str) -> tuple[np.ndarray, np.ndarray]:
         t = self.clip_time(times, mode)
         idx = np.clip(np.searchsorted(self.times, t, side='right') - 1,
                       0, len(self.times) - 2)
@@ -106,29 +114,33 @@ class Motion:
         w = np.clip((t - t0) / (t1 - t0), 0.0, 1.0)
         return idx, w
 
-    def positions_at(self, times, mode='pingpong'):
+    def positions_at(self, times: np.ndarray | list[float],
+                     mode: str = 'pingpong') -> np.ndarray:
         """Linearly interpolated positions (M, 15, 3) at ``times``."""
         idx, w = self._interp(times, mode)
         w = w[..., None, None]
         return self.positions[idx] * (1.0 - w) + self.positions[idx + 1] * w
 
-    def orientations_at(self, times, mode='pingpong'):
+    def orientations_at(self, times: np.ndarray,
+                        mode: str = 'pingpong') -> np.ndarray:
         """Normalised-lerp quaternions (M, 15, 4) at ``times``."""
         idx, w = self._interp(times, mode)
+        assert self.orientations is not None  # set by __post_init__
         q0, q1 = self.orientations[idx], self.orientations[idx + 1]
         sign = np.where(np.sum(q0 * q1, axis=-1, keepdims=True) < 0, -1.0, 1.0)
         q = q0 * (1.0 - w[..., None, None]) + sign * q1 * w[..., None, None]
         return q / np.linalg.norm(q, axis=-1, keepdims=True)
 
-    def resample(self, rate):
+    def resample(self, rate: float) -> 'Motion':
         """The motion sampled at ``rate`` Hz from its start (clamped)."""
         count = int(np.floor(self.duration * rate + 1e-9)) + 1
         times = self.times[0] + np.arange(count) / float(rate)
         return Motion(times - self.times[0], self.positions_at(times, 'clamp'),
                       self.orientations_at(times, 'clamp'), self.name)
 
-    def save_npz(self, path):
+    def save_npz(self, path: str) -> None:
         """Compact file: positions in 0.1 mm (int32), orientations int16."""
+        assert self.orientations is not None  # set by __post_init__
         np.savez_compressed(
             path, times=self.times,
             positions=np.round(self.positions / NPZ_POSITION_UNIT).astype(
@@ -137,7 +149,7 @@ class Motion:
                                   ).astype(np.int16),
             joints=np.array(JOINTS), name=np.array(self.name))
 
-    def save_track(self, path, comment=''):
+    def save_track(self, path: str, comment: str = '') -> None:
         """The plain-text ``.track`` of interfaces.md (positions only)."""
         flat = np.concatenate([self.times[:, None] - self.times[0],
                                self.positions.reshape(len(self.times), -1)],
@@ -152,7 +164,7 @@ class Motion:
                    header='\n'.join(header), comments='# ')
 
 
-def load_motion(path, height=STANDING_HEIGHT):
+def load_motion(path: str, height: float = STANDING_HEIGHT) -> Motion:
     """Read a .bvh, .npz or .track file as a Motion in the sensor frame.
 
     ``height`` applies to BVH input only (converted files are already
@@ -185,7 +197,7 @@ def load_motion(path, height=STANDING_HEIGHT):
                      '.track)' % (path, ext))
 
 
-def read_track(path):
+def read_track(path: str) -> Motion:
     """Read a ``.track`` file (identity orientations)."""
     try:
         data = np.loadtxt(path, comments='#', ndmin=2)
@@ -199,7 +211,7 @@ def read_track(path):
                   name=name)
 
 
-def _head_segment(bvh, head_index):
+def _head_segment(bvh: Bvh, head_index: int) -> list[int]:
     """Indices of the head joint and all its descendants."""
     out = [head_index]
     for i, joint in enumerate(bvh.joints):
@@ -208,7 +220,7 @@ def _head_segment(bvh, head_index):
     return out
 
 
-def standing_height(bvh):
+def standing_height(bvh: Bvh) -> float:
     """The clip's standing height in file units (see module docstring)."""
     mapping = bvh_mod.map_joints(bvh)
     pos, _ = bvh.forward_kinematics()
@@ -217,7 +229,8 @@ def standing_height(bvh):
     return float(np.percentile(extent, HEIGHT_PERCENTILE))
 
 
-def motion_from_bvh(bvh, height=STANDING_HEIGHT, name=''):
+def motion_from_bvh(bvh: Bvh, height: float = STANDING_HEIGHT,
+                    name: str = '') -> Motion:
     """Turn a parsed BVH clip into a sensor-frame Motion (module docstring)."""
     mapping = bvh_mod.map_joints(bvh)
     pos_all, rot_all = bvh.forward_kinematics()
@@ -255,7 +268,7 @@ def motion_from_bvh(bvh, height=STANDING_HEIGHT, name=''):
     return Motion(times, out, matrix_to_quaternion(rot_sensor), name)
 
 
-def matrix_to_quaternion(mats):
+def matrix_to_quaternion(mats: np.ndarray) -> np.ndarray:
     """Rotation matrices (..., 3, 3) to unit quaternions (..., 4) x, y, z, w.
 
     Shepperd's method: each element uses the best-conditioned of the four
@@ -277,8 +290,9 @@ def matrix_to_quaternion(mats):
              lambda r: (m02 + m20, m12 + m21, r * r, m10 - m01))):
         r = np.sqrt(np.maximum(big, 1e-12))
         cands.append(np.stack(xyzw(r), axis=-1) / (2.0 * r[..., None]))
-    cands = np.stack(cands, axis=-2)                    # (..., 4, 4)
+    stacked = np.stack(cands, axis=-2)                  # (..., 4, 4)
     best = np.argmax(np.stack([m00 + m11 + m22, m00, m11, m22], axis=-1),
                      axis=-1)
-    q = np.take_along_axis(cands, best[..., None, None], axis=-2)[..., 0, :]
+    q = np.take_along_axis(stacked, best[..., None, None],
+                           axis=-2)[..., 0, :]
     return q / np.linalg.norm(q, axis=-1, keepdims=True)

@@ -11,11 +11,17 @@ noise of ``noise`` m per axis (white: the worst case for a speed-based
 score), and drops the frame with probability ``drop``.
 """
 
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import Iterator, Sequence, TYPE_CHECKING
 
 import numpy as np
 
 from hri_sync.dance_off.joints import NUM_JOINTS
+
+if TYPE_CHECKING:
+    from hri_sync.dance_off.motion import Motion
 
 
 @dataclass
@@ -29,7 +35,8 @@ class SensorFrames:
     dropped: int                # ticks dropped in this batch
 
 
-def tick_times(start, phase, rate, t0, t1):
+def tick_times(start: float, phase: float, rate: float, t0: float,
+               t1: float) -> np.ndarray:
     """Tick instants ``start + phase + k / rate`` (integer k) in [t0, t1)."""
     period = 1.0 / rate
     first = np.ceil((t0 - start - phase) / period - 1e-9)
@@ -44,7 +51,8 @@ class Perturbation:
     seeded stream of its own (one draw per frame for drops, so a seed
     fixes which frames are dropped however they are batched)."""
 
-    def __init__(self, noise=0.003, drop=0.0, seed=None):
+    def __init__(self, noise: float = 0.003, drop: float = 0.0,
+                 seed: int | None = None) -> None:
         if noise < 0 or not 0.0 <= drop < 1.0:
             raise ValueError('need noise >= 0, 0 <= drop < 1; got noise=%r '
                              'drop=%r' % (noise, drop))
@@ -54,11 +62,11 @@ class Perturbation:
         self.rng = np.random.default_rng(noise_seed)
         self.drop_rng = np.random.default_rng(drop_seed)
 
-    def kept(self, count):
+    def kept(self, count: int | tuple[int, ...]) -> np.ndarray:
         """Which of ``count`` frames survive (bool array)."""
         return self.drop_rng.random(count) >= self.drop
 
-    def jitter(self, positions):
+    def jitter(self, positions: np.ndarray) -> np.ndarray:
         """``positions`` (any shape, metres) with the noise added."""
         positions = np.asarray(positions, dtype=float)
         if self.noise > 0:
@@ -70,8 +78,10 @@ class Perturbation:
 class SkeletonSource:
     """Samples a ``hri_sync.dance_off.motion.Motion`` like a live tracker."""
 
-    def __init__(self, motion, noise=0.003, drop=0.0, speed=1.0, hold=None,
-                 offset=0.0, mode='pingpong', confidence=1.0, seed=None):
+    def __init__(self, motion: Motion, noise: float = 0.003, drop: float = 0.0,
+                 speed: float = 1.0, hold: float | None = None,
+                 offset: float = 0.0, mode: str = 'pingpong',
+                 confidence: float = 1.0, seed: int | None = None) -> None:
         if speed <= 0:
             raise ValueError('need speed > 0; got speed=%r' % (speed,))
         self.motion = motion
@@ -82,28 +92,30 @@ class SkeletonSource:
         self.mode = mode
         self.confidence = float(confidence)
 
-    def clip_times(self, stamps, start):
+    def clip_times(self, stamps: np.ndarray, start: float) -> np.ndarray:
         """Motion time shown at host times ``stamps``."""
         stamps = np.asarray(stamps, dtype=float)
         if self.hold is not None:
             return np.full(stamps.shape, float(self.hold))
         return self.offset + (stamps - start) * self.speed
 
-    def frames(self, stamps, start):
+    def frames(self, stamps: np.ndarray | list[float],
+               start: float) -> SensorFrames:
         """The frames the sensor produces at ticks ``stamps`` (host time)."""
-        stamps = np.asarray(stamps, dtype=float)
-        keep = self.perturb.kept(stamps.shape)
-        stamps = stamps[keep]
-        clip = self.clip_times(stamps, start)
+        ticks = np.asarray(stamps, dtype=float)
+        keep = self.perturb.kept(ticks.shape)
+        ticks = ticks[keep]
+        clip = self.clip_times(ticks, start)
         pos = self.perturb.jitter(self.motion.positions_at(clip, self.mode))
         return SensorFrames(
-            stamps=stamps, positions=pos,
+            stamps=ticks, positions=pos,
             orientations=self.motion.orientations_at(clip, self.mode),
-            confidence=np.full((len(stamps), NUM_JOINTS), self.confidence),
+            confidence=np.full((len(ticks), NUM_JOINTS), self.confidence),
             dropped=int(np.sum(~keep)))
 
 
-def recorded_frames(msgs, device_secs):
+def recorded_frames(msgs: list[str],
+                    device_secs: list[float]) -> tuple[list[str], np.ndarray]:
     """A recorded stream ready to replay: its frames in device-stamp order
     (stable), a frame whose stamp does not advance left out, and their
     times from 0.  Returns (frames, times)."""
@@ -115,7 +127,8 @@ def recorded_frames(msgs, device_secs):
     return [m for m, k in zip(msgs, keep) if k], rel[keep]
 
 
-def replay_schedule(rel_times):
+def replay_schedule(
+        rel_times: Sequence[float]) -> Iterator[tuple[float, int]]:
     """Endless (time, index) of recorded frames replayed forward, backward,
     forward... ``rel_times``: the frames' increasing times from 0. The turn
     frames are not repeated, so the gaps are always recorded gaps."""

@@ -9,8 +9,11 @@ with the decision module's rule and parameters. Reading a recording is
 ``hri_sync.tools``' part (``tools.bag``, ``tools.session``).
 """
 
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 from hri_sync.timing.decision import ABORTED, USABLE, decide
 from hri_sync.dance_off.expressiveness import SkeletonExpressiveness
@@ -20,7 +23,7 @@ REL_TOL = 1e-6
 ABS_TOL = 1e-9
 
 
-def seconds(t):
+def seconds(t: Any) -> float:
     """A rospy.Time or a rosbags Time (sec, nanosec) in seconds."""
     if hasattr(t, 'to_sec'):
         return t.to_sec()
@@ -55,24 +58,24 @@ class RoundCheck:
     problems: list = field(default_factory=list)
 
     @property
-    def ok(self):
+    def ok(self) -> bool:
         return not self.problems and not any(c.problems for c in self.clients)
 
 
-def _close(a, b):
+def _close(a: float, b: float) -> bool:
     if math.isnan(a) and math.isnan(b):
         return True
     return math.isclose(a, b, rel_tol=REL_TOL, abs_tol=ABS_TOL)
 
 
-def _processor(result):
+def _processor(result: Any) -> SkeletonExpressiveness:
     """The result's processor again, with the params its diagnostics
     recorded (min_confidence, the participant zone)."""
     return SkeletonExpressiveness(**SkeletonExpressiveness.params_from(
         {kv.key: kv.value for kv in result.diagnostics}))
 
 
-def check_client(result, captured):
+def check_client(result: Any, captured: list[Any]) -> ClientCheck:
     """Recompute one ClientResult from ``captured``: [(stamp, msg)] sorted."""
     check = ClientCheck(result.client_id, result.status,
                         frames=result.frames, value=result.value)
@@ -96,7 +99,10 @@ def check_client(result, captured):
     return check
 
 
-def check_round(decision, results, captured, config, aborted_reason=None):
+def check_round(decision: Any, results: dict[str, Any],
+                captured: dict[str, list[tuple[float, Any]]],
+                config: dict[str, str | float],
+                aborted_reason: str | None = None) -> RoundCheck:
     """Check one recorded Decision.
 
     ``results``: {client_id: ClientResult} of the round; ``captured``:
@@ -140,14 +146,17 @@ def check_round(decision, results, captured, config, aborted_reason=None):
     return check
 
 
-def check_recording(decisions, results, captured, config, aborted=None):
+def check_recording(decisions: list[Any], results: list[Any],
+                    captured: dict[str, list[tuple[float, Any]]],
+                    config: dict[str, str | float],
+                    aborted: dict[int, str] | None = None) -> list[RoundCheck]:
     """Check every recorded decision.
 
     ``results``: list of ClientResult; ``captured``: {client_id: [(stamp,
     msg)]}; ``aborted``: {round: reason} from RoundStatus.
     """
     aborted = aborted or {}
-    by_round = {}
+    by_round: dict[int, dict[str, Any]] = {}
     for r in results:
         by_round.setdefault(r.round, {})[r.client_id] = r
     for frames in captured.values():
@@ -157,7 +166,7 @@ def check_recording(decisions, results, captured, config, aborted=None):
             for d in sorted(decisions, key=lambda d: d.round)]
 
 
-def format_table(checks):
+def format_table(checks: list[RoundCheck]) -> str:
     """A plain-text table of the checks."""
     lines = ['round client   status   frames(rec/re)  value recorded   '
              'recomputed       check']

@@ -10,11 +10,18 @@ time server is unreachable the model is kept (holdover) and its
 uncertainty grows with the time since the last good measurement at the
 clock's drift bound.
 """
+
+from __future__ import annotations
+
 import math
 import threading
 from dataclasses import dataclass
+from typing import Callable, TYPE_CHECKING
 
 from hri_sync.timing.clock import DRIFT_BOUND, ClockModel, GlobalClock
+
+if TYPE_CHECKING:
+    from hri_sync.timing.times import LocalTime
 
 
 class SyncError(Exception):
@@ -38,11 +45,11 @@ class ClockStatus:
     round_trip: float = math.nan
 
     @property
-    def ok(self):
+    def ok(self) -> bool:
         """True when there is a model to use (fresh or in holdover)."""
         return self.model.ready
 
-    def reason(self, local):
+    def reason(self, local: LocalTime) -> str:
         """Why the clock is not fresh at local time ``local`` ('' if it is):
         the error without a model, the holdover's age and cause with one."""
         if not self.ok:
@@ -68,8 +75,9 @@ class ClockSync:
     answer takes seconds).
     """
 
-    def __init__(self, measure, local_clock, resync_period=5.0,
-                 first_pause=0.5, drift_bound=DRIFT_BOUND, **fit):
+    def __init__(self, measure: Callable, local_clock: Callable,
+                 resync_period: float = 5.0, first_pause: float = 0.5,
+                 drift_bound: float = DRIFT_BOUND, **fit) -> None:
         if not (math.isfinite(resync_period) and resync_period > 0):
             raise ValueError('resync period must be > 0 s, got %r'
                              % (resync_period,))
@@ -85,7 +93,7 @@ class ClockSync:
         self._lock = threading.Lock()
         self.latest = self._status()
 
-    def sync(self):
+    def sync(self) -> ClockStatus:
         """Make one measurement into the model; return the new status."""
         with self._lock:
             try:
@@ -98,12 +106,12 @@ class ClockSync:
             self.latest = self._status()
             return self.latest
 
-    def status(self):
+    def status(self) -> ClockStatus:
         """The current ClockStatus (no measurement)."""
         with self._lock:
             return self._status()
 
-    def _status(self):
+    def _status(self) -> ClockStatus:
         c = self.clock
         return ClockStatus(
             ClockModel(c.local_ref, c.offset, c.drift, c.uncertainty,
@@ -112,7 +120,9 @@ class ClockSync:
             c.measurements[-1].delay if c.measurements
             and not self.last_error else math.nan)
 
-    def run(self, sleep, stopped, report):
+    def run(
+            self, sleep: Callable, stopped: Callable,
+            report: Callable) -> None:
         """The resync loop: measure, ``report(status)``, ``sleep(s)``;
         until ``stopped()``.
 

@@ -13,12 +13,20 @@ One round is a ``protocol.ControlRound``; STR_AFT comes from its
 ``protocol.StrAftPolicy``, fed with each ACK's dispatch latency
 (``sync_received`` minus the round's sync_time stamp, both global).
 """
+
+from __future__ import annotations
+
 import math
 from collections import Counter
 from dataclasses import dataclass
+from typing import Any, TYPE_CHECKING
 
 from hri_sync.timing.protocol import Abort, Ack, ControlRound, ProtocolError
 from hri_sync.timing.vocabulary import RoundState
+
+if TYPE_CHECKING:
+    from hri_sync.timing.protocol import Capture, StrAftPolicy
+
 
 IDLE = 'idle'
 SYNCING, CAPTURING = RoundState.SYNCING, RoundState.CAPTURING
@@ -67,7 +75,7 @@ class RoundEnd:
     message: str
 
     @property
-    def ok(self):
+    def ok(self) -> bool:
         """True when the round got its decision."""
         return self.outcome == DECIDED
 
@@ -80,7 +88,7 @@ class Refused:
     ok = False
 
 
-def _secs(t):
+def _secs(t: float) -> float:
     """A ROS time or a float as float seconds."""
     return t.to_sec() if hasattr(t, 'to_sec') else float(t)
 
@@ -97,8 +105,9 @@ class ControlSession:
     (``ProtocolError``).
     """
 
-    def __init__(self, clients, dur, policy, min_clients=None,
-                 ack_timeout=3.0, decision_timeout=5.0, first_round=1):
+    def __init__(self, clients: list[Any], dur: float, policy: StrAftPolicy,
+                 min_clients: int | None = None, ack_timeout: float = 3.0,
+                 decision_timeout: float = 5.0, first_round: int = 1) -> None:
         if not (isinstance(first_round, int) and first_round >= 1):
             raise ProtocolError('~first_round must be >= 1, got %r'
                                 % (first_round,))
@@ -117,27 +126,28 @@ class ControlSession:
         self.decision_timeout = decision_timeout
         self.next_round = first_round
         self.phase = IDLE
-        self.current = None        # the ControlRound in progress or last
-        self.order = None          # its Capture, once sent
+        self.current: ControlRound | None = None  # in progress or last
+        self.order: Capture | None = None  # its Capture, once sent
         self.deadline = math.nan   # global: ACKs, then the decision
         self.sync_stamp = math.nan
         self.decided = False
-        self.ended = {}            # round -> its RoundEnd, recent rounds
-        self.ignored = Counter()   # decisions not acted on, by why
+        self.ended: dict[int, RoundEnd] = {}  # recent rounds
+        self.ignored: Counter[str] = Counter()  # decisions not acted on
         self.stopped = False
 
     @property
-    def idle(self):
+    def idle(self) -> bool:
         """True when no round is running (a start would be accepted)."""
         return self.phase == IDLE and not self.stopped
 
     @property
-    def round(self):
+    def round(self) -> int:
         """The round in progress, or the last one started
         (``first_round - 1`` before any)."""
         return self.next_round - 1
 
-    def start(self, now, clock_ok=True, clock_error=''):
+    def start(self, now: float, clock_ok: bool = True,
+              clock_error: str = '') -> list[Any]:
         """Start the next round at global ``now``.
 
         ``clock_ok`` false (the server has no clock model; ``clock_error``
@@ -163,7 +173,7 @@ class ControlSession:
         return [self._status(rnd, SYNCING, '', now),
                 SyncOrder(rnd.round, now)]
 
-    def on_ack(self, msg):
+    def on_ack(self, msg: Any) -> list[Log]:
         """A SyncAck (or anything with its fields; ``sync_received`` a ROS
         time or float seconds, global).  Returns log lines only: the round
         moves on at the next ``poll``."""
@@ -186,12 +196,13 @@ class ControlSession:
                        msg.offset, msg.uncertainty * 1e3,
                        '' if ok else ' (%s)' % msg.reason))]
 
-    def on_decision(self, round_id):
+    def on_decision(self, round_id: int) -> list[Any]:
         """A Decision for ``round_id``; acted on at the next ``poll``."""
-        if self.phase == CAPTURING and round_id == self.current.round:
+        current = self.current.round if self.current else None
+        if self.phase == CAPTURING and round_id == current:
             self.decided = True
             return []
-        if self.phase != IDLE and round_id == self.current.round:
+        if self.phase != IDLE and round_id == current:
             why = 'before_capture'
             log = Log('warn', 'decision for round %d before its capture '
                       'order: ignored' % round_id)
@@ -211,14 +222,14 @@ class ControlSession:
         self.ignored[why] += 1
         return [log]
 
-    def poll(self, now):
+    def poll(self, now: float) -> list[Any]:
         """Let time pass to global ``now``: close the ACKs, end the
         round."""
-        if self.phase == SYNCING:
-            rnd = self.current
+        rnd = self.current
+        if self.phase == SYNCING and rnd is not None:
             if rnd.all_answered() or now >= self.deadline:
                 return self._close(rnd, now)
-        elif self.phase == CAPTURING:
+        elif self.phase == CAPTURING and self.order is not None:
             round_id = self.order.round
             if self.decided:
                 return [self._end(round_id, DECIDED,
@@ -232,11 +243,11 @@ class ControlSession:
                                   % round_id)]
         return []
 
-    def shutdown(self):
+    def shutdown(self) -> list[Any]:
         """The node stops: end the round in progress as SHUTDOWN; refuse
         further starts."""
         self.stopped = True
-        if self.phase == IDLE:
+        if self.phase == IDLE or self.current is None:
             return []
         round_id = self.current.round
         before = 'its decision' if self.phase == CAPTURING else \
@@ -246,17 +257,18 @@ class ControlSession:
                 self._end(round_id, SHUTDOWN,
                           'round %d: shut down' % round_id)]
 
-    def result(self, round_id):
+    def result(self, round_id: int) -> RoundEnd | None:
         """The RoundEnd of ``round_id``, or None while it runs (or when it
         is unknown or long past)."""
         return self.ended.get(round_id)
 
-    def outcome(self, round_id):
+    def outcome(self, round_id: int) -> str:
         """How ``round_id`` ended ('unknown' while it runs or if unknown)."""
         end = self.ended.get(round_id)
         return end.outcome if end else 'unknown'
 
-    def _close(self, rnd, now):
+    def _close(self, rnd: ControlRound,
+               now: float) -> list[Capture | StatusUpdate | Log | RoundEnd]:
         order = rnd.close(now)
         if isinstance(order, Abort):
             return [Log('error', order.reason),
@@ -277,11 +289,12 @@ class ControlSession:
                        ','.join(order.clients), note))]
 
     @staticmethod
-    def _status(rnd, state, reason, now):
+    def _status(rnd: ControlRound, state: str, reason: str,
+                now: float) -> StatusUpdate:
         return StatusUpdate(rnd.round, state, reason, rnd.acked,
                             rnd.refused, rnd.missing, now)
 
-    def _end(self, round_id, outcome, message):
+    def _end(self, round_id: int, outcome: str, message: str) -> RoundEnd:
         self.phase = IDLE
         end = RoundEnd(round_id, outcome, message)
         self.ended[round_id] = end
@@ -301,16 +314,16 @@ class ClientsWait:
     ``on_state`` each clock_state: ``usable`` and the reason when not.
     """
 
-    def __init__(self, clients, failures=2):
+    def __init__(self, clients: list[str], failures: int = 2) -> None:
         if failures < 1:
             raise ValueError('failures must be >= 1')
         self.clients = list(clients)
         self.failures = failures
-        self.usable = set()
-        self.failed = Counter()     # failed reports in a row
-        self.reason = {}            # client -> its last reason
+        self.usable: set[str] = set()
+        self.failed: Counter[str] = Counter()  # failed reports in a row
+        self.reason: dict[str, str] = {}  # client -> its last reason
 
-    def on_state(self, client, usable, reason=''):
+    def on_state(self, client: str, usable: bool, reason: str = '') -> None:
         """A clock_state of ``client`` (unknown clients are ignored)."""
         if client not in self.clients:
             return
@@ -324,20 +337,20 @@ class ClientsWait:
             self.reason[client] = reason or 'no reason given'
 
     @property
-    def settled(self):
+    def settled(self) -> bool:
         """True once every client is usable or failed ``failures`` times."""
         return not self.waiting()
 
-    def waiting(self):
+    def waiting(self) -> list[Any]:
         """The clients not settled yet, in order."""
         return [c for c in self.clients if c not in self.usable
                 and self.failed[c] < self.failures]
 
-    def unsynced(self):
+    def unsynced(self) -> list[Any]:
         """The clients without a usable clock, in order."""
         return [c for c in self.clients if c not in self.usable]
 
-    def describe(self, clients):
+    def describe(self, clients: list[str]) -> str:
         """'c (its last reason or: no clock_state yet)' for ``clients``."""
         return ', '.join('%s (%s)' % (c, self.reason.get(c) or
                                       'no clock_state yet') for c in clients)

@@ -9,15 +9,21 @@ complete: a sample stamped at or after its end has arrived, or the
 sensor's observed period plus a margin has passed its end with nothing
 more.  Every window carries an error bound on its stamps.
 """
+
+from __future__ import annotations
+
 import math
 from collections import Counter, deque
 from dataclasses import dataclass, field
+from typing import Any, Callable
 
 from hri_sync.timing.capture import (ERROR, CaptureWindow, SampleBuffer,
                                      window_stats)
 from hri_sync.timing.clock import ClockModel
-from hri_sync.timing.mapping import ArrivalStamps, DeviceClockMapper
+from hri_sync.timing.mapping import (ArrivalStamps, DeviceClockMapper,
+                                     TimeMapping)
 from hri_sync.timing.processors import Processor
+from hri_sync.timing.times import DeviceTime, GlobalTime, LocalTime
 from hri_sync.timing.validate import Rejected
 from hri_sync.timing.vocabulary import DRIFT_BOUND, MIN_COVERAGE
 
@@ -88,9 +94,13 @@ class DataProcess:
     ``frames_rejected`` and ``invalid_<reason>``), never stamped.
     """
 
-    def __init__(self, make_processor, stamp_source='auto', min_coverage=MIN_COVERAGE,
-                 history=2.0, margin=0.03, reorder=0.2, drift_bound=DRIFT_BOUND,
-                 jump=0.1, refit=0.05):
+    def __init__(
+            self,
+            make_processor: Callable[[], Processor],
+            stamp_source: str = 'auto', min_coverage: float = MIN_COVERAGE,
+            history: float = 2.0, margin: float = 0.03, reorder: float = 0.2,
+            drift_bound: float = DRIFT_BOUND, jump: float = 0.1,
+            refit: float = 0.05) -> None:
         if stamp_source not in STAMP_SOURCES:
             raise ValueError('stamp_source must be one of %s, got %r'
                              % (', '.join(STAMP_SOURCES), stamp_source))
@@ -98,14 +108,15 @@ class DataProcess:
         self.make_processor = make_processor
         self.read_device_stamp = probe.device_stamp
         self.check = probe.check
-        self.invalid = Counter()     # samples the check rejected, by reason
+        self.invalid: Counter[str] = Counter()  # check's rejects, by reason
         self.last_invalid = ''       # the last one's message
         if stamp_source == 'auto':
             stamp_source = ('arrival' if type(probe).device_stamp
                             is Processor.device_stamp else 'device')
         self.stamp_source = stamp_source
-        self.mapping = (DeviceClockMapper() if stamp_source == 'device'
-                        else ArrivalStamps())
+        self.mapping: TimeMapping[Any] = ArrivalStamps()
+        if stamp_source == 'device':
+            self.mapping = DeviceClockMapper()
         self.min_coverage = min_coverage
         self.margin = margin
         self.reorder = reorder
@@ -113,30 +124,36 @@ class DataProcess:
         self.jump = jump
         self.refit = refit
         self._fitted = -math.inf    # device stamp of the map's last fit
-        self.clock = None
+        self.clock: ClockModel | None = None
         self.history = SampleBuffer(history)
-        self.windows = {}                  # round -> CaptureWindow
-        self.closed = deque(maxlen=16)     # (round, start, end) published
-        self.counts = Counter()
-        self._pending = []      # (device, arrival, local, msg, raw): a jump
-        self._settling = []     # the same, held until the map is ready
-        self._gaps = deque(maxlen=31)
-        self._lags = deque(maxlen=32)
-        self._last_stamp = None
+        self.windows: dict[int, CaptureWindow] = {}
+        # (round, start, end) published
+        self.closed: deque[tuple[int, float, float]] = deque(maxlen=16)
+        self.counts: Counter[str] = Counter()
+        # (device, arrival, local, msg, raw): a jump, then the same held
+        # until the map is ready
+        self._pending: list[tuple] = []
+        self._settling: list[tuple] = []
+        self._gaps: deque[float] = deque(maxlen=31)
+        self._lags: deque[float] = deque(maxlen=32)
+        self._last_stamp: float | None = None
 
     # -- clock and stamps -------------------------------------------------
 
-    def set_clock(self, model):
+    def set_clock(self, model: Any) -> None:
         """Use ClockModel ``model`` (local -> global) from now on."""
         self.clock = ClockModel(model.local_ref, model.offset, model.drift,
                                 model.uncertainty, self.drift_bound)
 
-    def clock_bound(self, local):
-        """Error bound (s) of the global time of local time ``local``."""
+    def clock_bound(self, local: LocalTime) -> float:
+        """Error bound (s) of the global time of local time ``local``
+        (infinite without a clock)."""
+        if self.clock is None:
+            return math.inf
         return self.clock.uncertainty_at(local)
 
     @property
-    def period(self):
+    def period(self) -> float:
         """The sensor's observed period: the median of its recent positive
         stamp spacings (NaN until there are some)."""
         if not self._gaps:
@@ -144,21 +161,22 @@ class DataProcess:
         return sorted(self._gaps)[len(self._gaps) // 2]
 
     @property
-    def lag(self):
+    def lag(self) -> float:
         """How late after their stamps samples arrive: the second largest
         of the last 32 (0 for arrival stamps; one stall does not count)."""
         if len(self._lags) < 2:
             return 0.0
         return sorted(self._lags)[-2]
 
-    def _reject(self, reason, arrival=None):
+    def _reject(self, reason: str, arrival: float | None = None) -> None:
         self.counts[reason] += 1
         if arrival is not None:
             for w in self.windows.values():
                 if w.start <= arrival < w.end:
                     w.rejected[reason] += 1
 
-    def _stamp_device(self, msg, raw, arrival, local):
+    def _stamp_device(self, msg: Any, raw: bytes | None,
+                      arrival: GlobalTime, local: LocalTime) -> list[Any]:
         """[(stamp, msg, raw, arrival, local)] of the samples this one
         stamps: none while it is held, itself, or those held before it
         too."""
@@ -174,11 +192,14 @@ class DataProcess:
             return []
         sample = (device, arrival, local, msg, raw)
         m = self.mapping
-        if m.samples and not (device >= m.last_device and
-                              m.to_global(device) <= arrival + self.jump):
+        assert isinstance(m, DeviceClockMapper)  # stamp_source 'device'
+        last = m.last_device
+        if last is not None and not (
+                device >= last and
+                m.to_global(DeviceTime(device)) <= arrival + self.jump):
             return self._held(sample)
         self._drop_pending(arrival)
-        m.add(device, arrival)
+        m.add(DeviceTime(device), arrival)
         if not (m.ready and 0 <= device - self._fitted < self.refit):
             m.refit()
             self._fitted = device
@@ -190,17 +211,18 @@ class DataProcess:
             return []
         return self._release(self._settling)
 
-    def _release(self, held):
+    def _release(self, held: list[tuple]) -> list[tuple]:
         """Stamp ``held`` samples with the map as it is now."""
         self._settling = []
         return [(self.mapping.to_global(d), msg, r, a, t)
                 for d, a, t, msg, r in held]
 
-    def _held(self, sample):
+    def _held(self, sample: tuple) -> list[Any]:
         """A device stamp that breaks with the map: garbage, or the first
         sample of a restarted device clock (confirmed by ``settle`` that
         continue it, when the map starts over and stamps them all)."""
         pending = self._pending
+        assert isinstance(self.mapping, DeviceClockMapper)
         device, arrival = sample[:2]
         if pending:
             base = min(p[1] - p[0] for p in pending)
@@ -221,14 +243,15 @@ class DataProcess:
         self._pending = [sample]
         return []
 
-    def _drop_pending(self, arrival):
+    def _drop_pending(self, arrival: float) -> None:
         for _ in self._pending:
             self._reject('bad_device_stamp', arrival)
         self._pending = []
 
     # -- inputs -----------------------------------------------------------
 
-    def on_sample(self, msg, local, raw=None):
+    def on_sample(self, msg: Any, local: LocalTime,
+                  raw: bytes | None = None) -> Step:
         """A sample arrived at local time ``local``; ``raw``: anything the
         shell wants back with it when it is captured (its serialized
         form).  Returns a Step."""
@@ -253,11 +276,13 @@ class DataProcess:
             self._take(step, *sample)
         return step
 
-    def refuse(self, reason):
+    def refuse(self, reason: str) -> None:
         """Count a sample the shell could not even read (``reason``)."""
         self.counts[reason] += 1
 
-    def _take(self, step, stamp, msg, raw, arrival, local):
+    def _take(self, step: Step, stamp: GlobalTime, msg: Any,
+              raw: bytes | None, arrival: GlobalTime,
+              local: LocalTime) -> None:
         """One stamped sample: to the history and the open windows."""
         bound = self.clock_bound(local)
         self._lags.append(max(0.0, arrival - stamp))
@@ -277,7 +302,8 @@ class DataProcess:
                 self.counts['late_after_result'] += 1
                 step.late.append(round_id)
 
-    def open(self, round_id, start, end):
+    def open(self, round_id: int, start: GlobalTime,
+             end: GlobalTime) -> Step:
         """A capture command for [start, end) (global).  Returns a Step:
         the samples of the history already in the window, and an error
         result when the window cannot be captured.
@@ -313,22 +339,22 @@ class DataProcess:
         w = CaptureWindow(round_id, start, end, self.make_processor(),
                           self.reorder, self.margin)
         self.windows[round_id] = w
-        for f in self.history.take(start, math.inf):
+        for f in self.history.take(start, GlobalTime(math.inf)):
             msg, raw, arrival, bound = f.msg
-            if w.offer(f.stamp, msg, arrival, bound):
+            if w.offer(GlobalTime(f.stamp), msg, arrival, bound):
                 step.captured.append((f.stamp, msg, raw))
             if w.complete:
                 step.results.append(self._close(w))
                 break
         return step
 
-    def started(self, round_id, local):
+    def started(self, round_id: int, local: LocalTime) -> None:
         """The shell's wake-up at the window start came at ``local``."""
         w = self.windows.get(round_id)
         if w is not None and self.clock is not None:
             w.wake_lateness = self.clock.to_global(local) - w.start
 
-    def poll(self, local):
+    def poll(self, local: LocalTime) -> list[Any]:
         """Results of windows complete at local time ``local`` for lack of
         samples."""
         if self.clock is None:
@@ -338,17 +364,17 @@ class DataProcess:
         return [self._close(w) for w in list(self.windows.values())
                 if w.due(now, period, lag)]
 
-    def next_poll(self):
+    def next_poll(self) -> float | None:
         """The local time before which no open window can be due (None
         without open windows): a poll can sleep until then."""
         if self.clock is None or not self.windows:
             return None
-        return min(self.clock.to_local(w.end + self.margin)
+        return min(self.clock.to_local(GlobalTime(w.end + self.margin))
                    for w in self.windows.values())
 
     # -- results ----------------------------------------------------------
 
-    def _totals(self):
+    def _totals(self) -> dict[str, int | str]:
         c = self.counts
         return {'unstamped_total': c['no_clock'] + c['no_device_stamp']
                 + c['bad_device_stamp'],
@@ -360,13 +386,14 @@ class DataProcess:
                 'invalid_total': sum(self.invalid.values()),
                 'stamp_source': self.stamp_source}
 
-    def _error(self, round_id, start, end, why):
+    def _error(self, round_id: int, start: GlobalTime, end: GlobalTime,
+               why: str) -> WindowResult:
         stats = window_stats([], start, end)
         return WindowResult(round_id, ERROR, start, end,
                             coverage=stats['coverage'],
                             diagnostics=dict(self._totals(), error=why))
 
-    def _silence(self, end, period):
+    def _silence(self, end: float, period: float) -> str:
         """Why the sensor counts as silent at the window's ``end`` (global):
         no sample ever, or none for more than three periods before it;
         '' when it was delivering."""
@@ -380,13 +407,14 @@ class DataProcess:
                     'window' % gap)
         return ''
 
-    def _close(self, w):
+    def _close(self, w: CaptureWindow) -> WindowResult:
         del self.windows[w.round]
         self.closed.append((w.round, w.start, w.end))
         status, res, stats, error = w.finish(self.min_coverage)
         residual = self.mapping.residual
-        bound = residual + (w.bound if len(w.stamps) else self.clock_bound(
-            self.clock.to_local(w.end)))
+        clock = self.clock
+        bound = residual + (w.bound if len(w.stamps) or clock is None
+                            else self.clock_bound(clock.to_local(w.end)))
         diagnostics = dict(res.diagnostics) if res else {'error': error}
         diagnostics.update(self._totals())
         diagnostics.update({

@@ -4,9 +4,13 @@ No ROS.  Participant numbers count from 1 in the order of ``participants``.
 ``RoundCollector`` is the DM's state machine: it collects each round's
 results until all are in or the round's deadline on the global clock.
 """
+
+from __future__ import annotations
+
 import math
 from collections import Counter
 from dataclasses import dataclass
+from typing import Any
 
 from hri_sync.timing.vocabulary import ON_MISSING, Outcome, ResultStatus
 
@@ -24,8 +28,9 @@ class Verdict:
     reason: str
 
 
-def decide(participants, results, min_value=0.0, tie_margin=0.0,
-           on_missing='partial'):
+def decide(participants: list[str], results: dict[str, tuple[str, float]],
+           min_value: float = 0.0, tie_margin: float = 0.0,
+           on_missing: str = 'partial') -> Verdict:
     """Decide a round.
 
     ``results`` maps client_id -> (status, value).  A participant without a
@@ -95,8 +100,9 @@ class RoundCollector:
     ``add`` says why and counts it in ``ignored``.
     """
 
-    def __init__(self, participants, result_timeout, min_value=0.0,
-                 tie_margin=0.0, on_missing='partial', remember=100):
+    def __init__(self, participants: list[Any], result_timeout: float,
+                 min_value: float = 0.0, tie_margin: float = 0.0,
+                 on_missing: str = 'partial', remember: int = 100) -> None:
         if not participants:
             raise ValueError('no participants')
         if not (math.isfinite(result_timeout) and result_timeout > 0):
@@ -106,12 +112,14 @@ class RoundCollector:
         self.participants = list(participants)
         self.result_timeout = result_timeout
         self.rule = (min_value, tie_margin, on_missing)
-        self.open_rounds = {}    # round -> (window end, {client: result})
-        self.closed = {}         # round -> why, the last ``remember``
+        # round -> (window end, {client: result})
+        self.open_rounds: dict[
+            int, tuple[float, dict[str, tuple[str, float, float]]]] = {}
+        self.closed: dict[int, str] = {}  # round -> why, last ``remember``
         self.remember = remember
-        self.ignored = Counter()
+        self.ignored: Counter[str] = Counter()
 
-    def open(self, round_id, window_end):
+    def open(self, round_id: int, window_end: float) -> bool:
         """A capture order for ``round_id`` whose window ends at global
         ``window_end``.  False (and counted) when already known."""
         if round_id in self.open_rounds or round_id in self.closed:
@@ -123,12 +131,14 @@ class RoundCollector:
         self.open_rounds[round_id] = (window_end, {})
         return True
 
-    def deadline(self, round_id):
+    def deadline(self, round_id: int) -> float:
         """Global deadline of an open round."""
         return self.open_rounds[round_id][0] + self.result_timeout
 
-    def add(self, round_id, client_id, status, value,
-            timing_uncertainty=math.nan):
+    def add(
+            self, round_id: int, client_id: str, status: str, value: float,
+            timing_uncertainty: float = math.nan
+            ) -> tuple[Closed | None, str]:
         """A ClientResult.  Returns (Closed or None, why ignored or '')."""
         why = ''
         if round_id in self.closed:
@@ -148,17 +158,17 @@ class RoundCollector:
             return self._close(round_id, 'all results'), ''
         return None, ''
 
-    def next_deadline(self):
+    def next_deadline(self) -> float | None:
         """The earliest deadline of the open rounds (None if none)."""
         return min((self.deadline(r) for r in self.open_rounds),
                    default=None)
 
-    def due(self, now):
+    def due(self, now: float) -> list[Any]:
         """Close the rounds whose deadline is past at global ``now``."""
         late = [r for r in self.open_rounds if now >= self.deadline(r)]
         return [self._close(r, 'deadline') for r in sorted(late)]
 
-    def abort(self, round_id, reason):
+    def abort(self, round_id: int, reason: str) -> Closed | None:
         """The CM aborted ``round_id``: Closed (aborted), or None when it
         was closed already."""
         if round_id in self.closed:
@@ -169,12 +179,12 @@ class RoundCollector:
                                         [math.nan] * len(self.participants),
                                         reason), end, 'aborted', math.nan)
 
-    def _remember(self, round_id, why):
+    def _remember(self, round_id: int, why: str) -> None:
         self.closed[round_id] = why
         while len(self.closed) > self.remember:
             del self.closed[min(self.closed)]
 
-    def _close(self, round_id, why):
+    def _close(self, round_id: int, why: str) -> Closed:
         end, results = self.open_rounds.pop(round_id)
         self._remember(round_id, why)
         verdict = decide(self.participants,

@@ -20,13 +20,23 @@ ordered (key, text) pairs.
 
 ``hri_sync.ros.diagnostics`` publishes them with diagnostic_updater.
 """
+
+from __future__ import annotations
+
 import math
 import threading
 from collections import Counter, deque
 from dataclasses import dataclass
+from typing import Any, TYPE_CHECKING
 
 from hri_sync.timing.control import DECIDED, NO_DECISION, SHUTDOWN
 from hri_sync.timing.vocabulary import Outcome, ResultStatus, RoundState
+
+if TYPE_CHECKING:
+    from hri_sync.timing.times import LocalTime
+    from hri_sync.timing.clock import ClockModel
+    from hri_sync.timing.clock_sync import ClockStatus
+
 
 OK, WARN, ERROR = 0, 1, 2      # diagnostic_msgs/DiagnosticStatus levels
 LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR'}
@@ -41,7 +51,7 @@ class Health:
     message: str
     values: tuple = ()
 
-    def value(self, key):
+    def value(self, key: str) -> str:
         """The text of ``key``; KeyError if there is none."""
         for k, v in self.values:
             if k == key:
@@ -49,7 +59,7 @@ class Health:
         raise KeyError(key)
 
 
-def text(x, fmt='%.3f'):
+def text(x: float | str | None, fmt: str = '%.3f') -> str:
     """A value as diagnostic text: booleans 'true'/'false', None 'none',
     floats with ``fmt`` (non-finite as 'nan', 'inf'), anything else str."""
     if x is None:
@@ -61,8 +71,10 @@ def text(x, fmt='%.3f'):
     return str(x)
 
 
-def clock_health(status, local_now, max_uncertainty=None, stale_after=None,
-                 near=0.8):
+def clock_health(status: ClockStatus, local_now: LocalTime,
+                 max_uncertainty: float | None = None,
+                 stale_after: float | None = None,
+                 near: float = 0.8) -> Health:
     """The health of a host's clock at local time ``local_now``.
 
     ``status`` is a ``ClockStatus`` (``model``, ``error``, ``samples``);
@@ -82,7 +94,7 @@ def clock_health(status, local_now, max_uncertainty=None, stale_after=None,
         drift_ppm = model.drift * 1e6
         offset_ms = model.offset_at(local_now) * 1e3
     else:
-        unc_ms, since, drift_ppm, offset_ms = math.inf, None, math.nan, \
+        unc_ms, since, drift_ppm, offset_ms = math.inf, math.nan, math.nan, \
             math.nan
     error = status.error
     if not synced:
@@ -122,7 +134,7 @@ def clock_health(status, local_now, max_uncertainty=None, stale_after=None,
         ('reason', reason),
         ('uncertainty_ms', text(unc_ms)),
         ('max_uncertainty_ms', text(limit_ms)),
-        ('since_last_sync_s', 'never' if since is None
+        ('since_last_sync_s', 'never' if math.isnan(since)
          else text(since, '%.1f')),
         ('drift_ppm', text(drift_ppm, '%+.3f')),
         ('offset_ms', text(offset_ms)),
@@ -130,8 +142,10 @@ def clock_health(status, local_now, max_uncertainty=None, stale_after=None,
         ('last_error', error)))
 
 
-def clock_state_health(source, model, reason, samples, local_now, age,
-                       stale_after=None):
+def clock_state_health(source: str, model: ClockModel | None, reason: str,
+                       samples: int, local_now: LocalTime,
+                       age: float | None,
+                       stale_after: float | None = None) -> Health:
     """The health of a clock a node reads from a ClockState (the DPM from
     its CPM, the DM from the server).
 
@@ -147,13 +161,14 @@ def clock_state_health(source, model, reason, samples, local_now, age,
         level = ERROR
         message = ('not synced: %s' % reason if reason
                    else 'no clock_state from %s yet' % source)
-        unc, since, drift, offset = math.inf, None, math.nan, math.nan
+        unc, since, drift, offset = math.inf, math.nan, math.nan, math.nan
     else:
         unc = model.uncertainty_at(local_now) * 1e3
         since = local_now - model.local_ref
         drift = model.drift * 1e6
         offset = model.offset_at(local_now) * 1e3
-        if stale_after is not None and age > stale_after:
+        if stale_after is not None and age is not None \
+                and age > stale_after:
             level = WARN
             message = ('no clock_state from %s for %.1f s, more than %.1f s'
                        % (source, age, stale_after))
@@ -166,7 +181,7 @@ def clock_state_health(source, model, reason, samples, local_now, age,
     values += [
         ('reason', '' if level == OK else message),
         ('uncertainty_ms', text(unc)),
-        ('since_last_sync_s', 'never' if since is None
+        ('since_last_sync_s', 'never' if math.isnan(since)
          else text(since, '%.1f')),
         ('drift_ppm', text(drift, '%+.3f')),
         ('offset_ms', text(offset)),
@@ -187,8 +202,10 @@ class RoundTally:
     shown from 0 too.  ``version`` grows at every change.  Thread-safe.
     """
 
-    def __init__(self, outcomes, levels=None, client_outcomes=(),
-                 clients=()):
+    def __init__(self, outcomes: tuple[str, ...],
+                 levels: dict[str, int] | None = None,
+                 client_outcomes: tuple[str, ...] = (),
+                 clients: list[str] | tuple[()] = ()) -> None:
         self.outcomes = tuple(outcomes)
         self.levels = dict(levels or {})
         self.client_outcomes = tuple(client_outcomes)
@@ -197,13 +214,13 @@ class RoundTally:
         if unknown:
             raise ValueError('levels for outcomes not counted: %s'
                              % ', '.join(sorted(unknown)))
-        self.counts = Counter()
-        self.per_client = Counter()
-        self.last = None        # (round, outcome, reason)
+        self.counts: Counter[str] = Counter()
+        self.per_client: Counter[tuple[str, str]] = Counter()
+        self.last: tuple[int, str, str] | None = None  # round, outcome, why
         self.version = 0
         self._lock = threading.Lock()
 
-    def record(self, round_id, outcome, reason=''):
+    def record(self, round_id: int, outcome: str, reason: str = '') -> None:
         """Count ``outcome`` of round ``round_id``; it is now the last."""
         if outcome not in self.outcomes:
             raise ValueError('outcome %r is not one of %s'
@@ -213,7 +230,7 @@ class RoundTally:
             self.last = (round_id, outcome, reason)
             self.version += 1
 
-    def count(self, outcome, clients):
+    def count(self, outcome: str, clients: list[Any]) -> None:
         """Count ``outcome`` once for each of ``clients``."""
         if outcome not in self.client_outcomes:
             raise ValueError('client outcome %r is not one of %s'
@@ -223,7 +240,7 @@ class RoundTally:
                 self.per_client[(c, outcome)] += 1
             self.version += 1
 
-    def health(self):
+    def health(self) -> Health:
         """Level and message from the last round; every count."""
         with self._lock:
             last = self.last
@@ -250,7 +267,7 @@ class RoundTally:
         return Health(level, message, tuple(values))
 
 
-def client_tally():
+def client_tally() -> RoundTally:
     """A CPM's rounds: its answers to sync_time and its capture orders.
 
     A NACK or a late capture order leaves the status at WARN until the
@@ -270,14 +287,15 @@ class ServerTally(RoundTally):
     round ends.
     """
 
-    def __init__(self, clients=()):
+    def __init__(self, clients: list[str] | tuple[()] = ()) -> None:
         super().__init__(
             (RoundState.SYNCING, RoundState.CAPTURING, DECIDED,
              RoundState.ABORTED, NO_DECISION, SHUTDOWN),
             {RoundState.ABORTED: WARN, NO_DECISION: ERROR, SHUTDOWN: WARN},
             client_outcomes=('refused', 'missing'), clients=clients)
 
-    def on_status(self, round_id, state, reason, refused, missing):
+    def on_status(self, round_id: int, state: str, reason: str,
+                  refused: list[Any], missing: list[Any]) -> None:
         """A round's state change ('syncing', 'capturing' or 'aborted', as
         on /round_status); once the ACKs are in, count who refused or is
         missing."""
@@ -286,7 +304,7 @@ class ServerTally(RoundTally):
             self.count('refused', refused)
             self.count('missing', missing)
 
-    def on_end(self, round_id, outcome, message):
+    def on_end(self, round_id: int, outcome: str, message: str) -> None:
         """How a round ended: 'decided', 'aborted', 'no_decision' or
         'shutdown' (an abort its status update announced is not counted
         twice)."""
@@ -297,7 +315,7 @@ class ServerTally(RoundTally):
         self.record(round_id, outcome, message)
 
 
-def result_tally():
+def result_tally() -> RoundTally:
     """A DPM's results by ClientResult status: partial and no_data are
     WARN, error ERROR, while they are the last round's."""
     return RoundTally(ResultStatus.ALL, {
@@ -311,13 +329,13 @@ class DecisionTally(RoundTally):
     ('missing').  A status that is not a ClientResult status is counted
     as 'error'."""
 
-    def __init__(self, participants):
+    def __init__(self, participants: list[str]) -> None:
         super().__init__(Outcome.ALL, {Outcome.ABORTED: WARN},
                          client_outcomes=ResultStatus.ALL + ('missing',),
                          clients=participants)
-        self._reported = {}     # open round -> clients with a result
+        self._reported: dict[int, set[str]] = {}  # open round -> clients
 
-    def on_result(self, round_id, client_id, status):
+    def on_result(self, round_id: int, client_id: str, status: str) -> None:
         """A result the DM took into round ``round_id``."""
         with self._lock:
             self._reported.setdefault(round_id, set()).add(client_id)
@@ -325,7 +343,8 @@ class DecisionTally(RoundTally):
                    else ResultStatus.ERROR,
                    [client_id])
 
-    def on_decision(self, round_id, outcome, reason, count_missing=True):
+    def on_decision(self, round_id: int, outcome: str, reason: str,
+                    count_missing: bool = True) -> None:
         """The decision of ``round_id``; the participants without a
         result are counted missing unless ``count_missing`` is false (the
         CM aborted the round before its capture: nobody was asked)."""
@@ -346,7 +365,9 @@ class RateMeter:
     of the caller's (a monotonic one in a node).  Thread-safe.
     """
 
-    def __init__(self, topic, window=5.0, silent_after=1.0, min_rate=None):
+    def __init__(self, topic: str, window: float = 5.0,
+                 silent_after: float = 1.0,
+                 min_rate: float | None = None) -> None:
         if not (math.isfinite(window) and window > 0):
             raise ValueError('rate window must be > 0 s, got %r' % (window,))
         if not (math.isfinite(silent_after) and silent_after > 0):
@@ -357,10 +378,10 @@ class RateMeter:
         self.silent_after = silent_after
         self.min_rate = min_rate
         self.total = 0
-        self._times = deque()
+        self._times: deque[float] = deque()
         self._lock = threading.Lock()
 
-    def observe(self, t):
+    def observe(self, t: float) -> None:
         """A sample arrived at ``t``."""
         with self._lock:
             self.total += 1
@@ -368,7 +389,7 @@ class RateMeter:
             while self._times and self._times[0] < t - self.window:
                 self._times.popleft()
 
-    def rate(self, now):
+    def rate(self, now: float) -> float:
         """Samples per s over the window ending at ``now`` (NaN with
         fewer than two samples in it)."""
         with self._lock:
@@ -377,7 +398,7 @@ class RateMeter:
             return math.nan
         return (len(times) - 1) / (times[-1] - times[0])
 
-    def health(self, now):
+    def health(self, now: float) -> Health:
         """The sensor's health at ``now``."""
         with self._lock:
             last = self._times[-1] if self._times else None
@@ -416,13 +437,13 @@ class RejectionWatch:
     call.
     """
 
-    def __init__(self, recent=60.0):
+    def __init__(self, recent: float = 60.0) -> None:
         self.recent = recent
         self.total = 0
-        self.grew_at = None
+        self.grew_at = -math.inf
         self._lock = threading.Lock()
 
-    def health(self, counts, now):
+    def health(self, counts: dict[str, int], now: float) -> Health:
         """Counts and level at ``now``."""
         counts = {str(k): int(n) for k, n in counts.items()}
         rejected = {k: n for k, n in counts.items()

@@ -9,6 +9,9 @@ are the CPM's local clock (the DPM runs on the same host); durations
 measured by the DPM (the sample's age) are added to the heartbeat's
 arrival, so the two processes' clocks need not agree.
 """
+
+from __future__ import annotations
+
 import math
 from collections import deque
 from dataclasses import dataclass
@@ -46,7 +49,8 @@ class Liveness:
     reason given before any heartbeat.
     """
 
-    def __init__(self, dpm_timeout, sensor_timeout, started):
+    def __init__(self, dpm_timeout: float, sensor_timeout: float | None,
+                 started: float) -> None:
         if not (isinstance(dpm_timeout, (int, float))
                 and math.isfinite(dpm_timeout) and dpm_timeout > 0):
             raise ValueError('~dpm_timeout must be > 0 s, got %r'
@@ -59,9 +63,9 @@ class Liveness:
         self.dpm_timeout = float(dpm_timeout)
         self.sensor_timeout = sensor_timeout
         self.started = started
-        self.last = None
+        self.last: Beat | None = None
 
-    def on_beat(self, beat):
+    def on_beat(self, beat: Beat) -> bool:
         """Record a heartbeat (a ``Beat``); an older one than the last is
         ignored (returns False)."""
         if self.last is not None and beat.received < self.last.received:
@@ -69,7 +73,7 @@ class Liveness:
         self.last = beat
         return True
 
-    def verdict(self, now):
+    def verdict(self, now: float) -> Verdict:
         """The ``Verdict`` at local time ``now``."""
         beat = self.last
         if beat is None:
@@ -93,13 +97,14 @@ class Liveness:
                            % (beat.input, age, self.sensor_timeout))
         return Verdict(True)
 
-    def health(self, now):
+    def health(self, now: float) -> Health:
         """The rule's state at ``now`` for /diagnostics: OK while alive,
         ERROR with the verdict's reason (the CPM NACKs) otherwise."""
         v = self.verdict(now)
         beat = self.last
-        values = (('dpm_timeout', text(self.dpm_timeout)),
-                  ('sensor_timeout', text(self.sensor_timeout)))
+        values: tuple[tuple[str, str], ...] = (
+            ('dpm_timeout', text(self.dpm_timeout)),
+            ('sensor_timeout', text(self.sensor_timeout)))
         if beat is not None:
             values += (('dpm_state_age', text(now - beat.received)),
                        ('sensor', beat.input),
@@ -109,7 +114,7 @@ class Liveness:
                        ('rate', text(beat.rate, '%.1f')))
         if not v.ok:
             return Health(ERROR, v.reason + ': NACKs', values)
-        if self.sensor_timeout is None:
+        if self.sensor_timeout is None or beat is None:
             return Health(OK, 'dpm alive', values)
         return Health(OK, 'dpm alive, sensor %s at %s Hz'
                       % (beat.input, text(beat.rate, '%.1f')), values)
@@ -119,19 +124,19 @@ class SampleMeter:
     """The DPM side: samples seen, the last one's arrival, the recent
     rate (over the last ``window`` s), all on the DPM's local clock."""
 
-    def __init__(self, window=2.0):
+    def __init__(self, window: float = 2.0) -> None:
         self.window = window
         self.samples = 0
-        self.arrivals = deque()
+        self.arrivals: deque[float] = deque()
 
-    def on_sample(self, local):
+    def on_sample(self, local: float) -> None:
         """A sample arrived at local time ``local``."""
         self.samples += 1
         self.arrivals.append(local)
         while self.arrivals[0] < local - self.window:
             self.arrivals.popleft()
 
-    def state(self, now):
+    def state(self, now: float) -> tuple[int, float, float]:
         """(samples, age of the last sample, rate in Hz) at ``now``; the
         age is NaN before the first sample, the rate NaN with fewer than
         two samples in the last ``window`` s."""

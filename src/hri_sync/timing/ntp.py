@@ -3,12 +3,19 @@
 No ROS.  The local clock is injectable so the sample's t1 and t4 are read
 from the same clock the caller corrects.
 """
+
+from __future__ import annotations
+
 import socket
 import struct
 import time
+from typing import Callable, TYPE_CHECKING
 
 from hri_sync.timing.clock import NtpSample, best_offset
 from hri_sync.timing.clock_sync import SyncError
+
+if TYPE_CHECKING:
+    from hri_sync.timing.clock import OffsetMeasurement
 
 NTP_EPOCH_OFFSET = 2208988800  # 1900-01-01 to 1970-01-01, s
 _PACKET = struct.Struct('!B B b b 11I')
@@ -18,16 +25,17 @@ class NtpError(SyncError):
     """The time server could not be queried."""
 
 
-def _to_ntp(t):
+def _to_ntp(t: float) -> tuple[int, int]:
     seconds = int(t) + NTP_EPOCH_OFFSET
     return seconds, int((t - int(t)) * 2 ** 32) & 0xffffffff
 
 
-def _from_ntp(seconds, fraction):
+def _from_ntp(seconds: int, fraction: int) -> float:
     return seconds - NTP_EPOCH_OFFSET + fraction / 2 ** 32
 
 
-def query(server, port=123, timeout=0.5, local_clock=time.time):
+def query(server: str, port: int = 123, timeout: float = 0.5,
+          local_clock: Callable = time.time) -> NtpSample:
     """Make one NTP exchange and return its NtpSample.
 
     Raises NtpError with a specific reason when the server does not answer,
@@ -77,14 +85,16 @@ def query(server, port=123, timeout=0.5, local_clock=time.time):
     return NtpSample(t1, t2, t3, t4)
 
 
-def measure(server, port=123, exchanges=8, timeout=0.5, local_clock=time.time,
-            pause=0.01):
+def measure(server: str, port: int = 123, exchanges: int = 8,
+            timeout: float = 0.5, local_clock: Callable = time.time,
+            pause: float = 0.01) -> OffsetMeasurement:
     """Make a burst of exchanges; return the minimum-delay OffsetMeasurement.
 
     Exchanges that fail are skipped; if none answers, NtpError carries the
     last reason.
     """
-    samples, last_error = [], None
+    samples: list[NtpSample] = []
+    last_error = NtpError('no exchange made')
     for i in range(exchanges):
         try:
             samples.append(query(server, port, timeout, local_clock))

@@ -7,9 +7,13 @@ samples to its processor one at a time, in stamp order, as they arrive
 window is complete; ``process`` gives the same result for a whole
 window at once (``verify_decisions`` recomputes recorded rounds with it).
 """
+
+from __future__ import annotations
+
 import importlib
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 
 @dataclass
@@ -17,7 +21,7 @@ class Frame:
     """One sample inside the capture window."""
 
     stamp: float        # global time, s
-    msg: object         # the message as received
+    msg: Any            # the message as received
 
 
 @dataclass
@@ -47,35 +51,36 @@ class Processor:
     msg_type = 'hri_sync/Sample'
     topic = 'samples'
 
-    def __init__(self, **params):
+    def __init__(self, **params) -> None:
         if params:
             raise ValueError('%s takes no parameters, got %s'
                              % (type(self).__name__,
                                 ', '.join(sorted(params))))
 
-    def device_stamp(self, msg):
+    def device_stamp(self, msg: Any) -> float | None:
         """The sample's own device time in s, or None to stamp at arrival."""
         return None
 
-    def check(self, msg):
+    def check(self, msg: Any) -> None:
         """Validate one incoming message before it is stamped: raise
         ``hri_sync.timing.validate.Rejected`` (its ``reason`` is counted,
         per window and on /diagnostics) for one that must not be used."""
 
-    def begin(self, start, end):
+    def begin(self, start: float, end: float) -> None:
         """Start a window [start, end) (global s), forgetting the last."""
         self._window = (start, end)
-        self._frames = []
+        self._frames: list[Frame] = []
 
-    def add(self, frame):
+    def add(self, frame: Frame) -> None:
         """Consume one Frame of the window (frames come in stamp order)."""
         self._frames.append(frame)
 
-    def result(self):
+    def result(self) -> ProcessResult:
         """The ProcessResult of the frames added since ``begin``."""
         return self.process(self._frames, *self._window)
 
-    def process(self, frames, start, end):
+    def process(self, frames: list[Any], start: float,
+                end: float) -> ProcessResult:
         """Return a ProcessResult for ``frames`` in [start, end)."""
         cls = type(self)
         if cls.add is Processor.add or cls.result is Processor.result:
@@ -93,13 +98,13 @@ class WindowRun:
     first error in ``diagnostics['processor_error']``); the window goes on.
     """
 
-    def __init__(self, processor, start, end):
+    def __init__(self, processor: Processor, start: float, end: float) -> None:
         self.processor = processor
         self.errors = 0
-        self.first_error = None
+        self.first_error: str | None = None
         processor.begin(start, end)
 
-    def add(self, frame):
+    def add(self, frame: Frame) -> bool:
         """Give ``frame`` to the processor; False if it raised."""
         try:
             self.processor.add(frame)
@@ -110,7 +115,7 @@ class WindowRun:
             return False
         return True
 
-    def result(self):
+    def result(self) -> ProcessResult:
         """The processor's result with the rejected frames counted."""
         res = self.processor.result()
         if self.errors:
@@ -122,12 +127,13 @@ class WindowRun:
         return res
 
 
-def stamp_order(frame):
+def stamp_order(frame: Frame) -> tuple[bool, int] | tuple[bool, float]:
     """Sort key: by stamp, non-finite stamps last."""
     return (not math.isfinite(frame.stamp), frame.stamp)
 
 
-def run_window(processor, frames, start, end):
+def run_window(processor: Processor, frames: list[Any], start: float,
+               end: float) -> ProcessResult:
     """Feed ``frames`` (any order) to ``processor`` as one window."""
     run = WindowRun(processor, start, end)
     for frame in sorted(frames, key=stamp_order):
@@ -141,10 +147,10 @@ class CountMean(Processor):
     Non-finite values are rejected and counted.
     """
 
-    def begin(self, start, end):
+    def begin(self, start: float, end: float) -> None:
         self._sum, self._count, self._rejected = 0.0, 0, 0
 
-    def add(self, frame):
+    def add(self, frame: Frame) -> None:
         value = frame.msg.value
         if math.isfinite(value):
             self._sum += value
@@ -152,7 +158,7 @@ class CountMean(Processor):
         else:
             self._rejected += 1
 
-    def result(self):
+    def result(self) -> ProcessResult:
         mean = self._sum / self._count if self._count else math.nan
         return ProcessResult(value=mean, frames_used=self._count,
                              frames_rejected=self._rejected,
@@ -163,11 +169,13 @@ class DeviceStampedCountMean(CountMean):
     """CountMean of a sensor whose ``header.stamp`` is its own clock (as
     ``hri_sync/Sample`` documents it), for ``stamp_source: device``."""
 
-    def device_stamp(self, msg):
+    def device_stamp(self, msg: Any) -> float:
         return msg.header.stamp.to_sec()
 
 
-def load_processor(path, params=None):
+def load_processor(
+        path: str,
+        params: dict[str, Any] | None = None) -> Processor:
     """Instantiate the Processor subclass at class path ``path``.
 
     Raises ValueError naming the path when it cannot be imported or is not

@@ -5,10 +5,21 @@ process module (CPM) side is ``ClientSchedule``.  Both take plain values
 (times of the local or global clock, always passed in) and return plain
 records; the nodes turn them into messages.
 """
+
+from __future__ import annotations
+
 import math
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Any, Optional, TYPE_CHECKING
+
+from hri_sync.timing.times import GlobalTime
+
+if TYPE_CHECKING:
+    from hri_sync.timing.times import LocalTime
+    from hri_sync.timing.clock import ClockModel
+    from hri_sync.timing.clock_sync import ClockStatus
+    from hri_sync.timing.liveness import Verdict
 
 
 class ProtocolError(ValueError):
@@ -39,7 +50,7 @@ class Capture:
     clients: list
 
     @classmethod
-    def from_msg(cls, msg):
+    def from_msg(cls, msg: Any) -> 'Capture':
         """From a hri_sync/CaptureData, or anything with its fields (CR_T
         is ``header.stamp``, a ROS time or float seconds).  Values are not
         checked here."""
@@ -48,14 +59,14 @@ class Capture:
         return cls(msg.round, cr_t, msg.str_aft, msg.dur, list(msg.clients))
 
     @property
-    def start(self):
+    def start(self) -> GlobalTime:
         """Global start of the window."""
-        return self.cr_t + self.str_aft
+        return GlobalTime(self.cr_t + self.str_aft)
 
     @property
-    def end(self):
+    def end(self) -> GlobalTime:
         """Global end of the window (exclusive)."""
-        return self.start + self.dur
+        return GlobalTime(self.start + self.dur)
 
 
 @dataclass
@@ -86,12 +97,13 @@ class StrAftPolicy:
     latencies: list = field(default_factory=list)
 
     @classmethod
-    def parse(cls, value, margin=0.25):
+    def parse(cls, value: float | str | None,
+              margin: float = 0.25) -> 'StrAftPolicy':
         """Build from the ``~str_aft`` param: a number of seconds or 'auto'."""
         if isinstance(value, str) and value.strip().lower() == 'auto':
             return cls(fixed=None, margin=margin)
         try:
-            fixed = float(value)
+            fixed = float(value)  # type: ignore[arg-type]  # None: raises
         except (TypeError, ValueError):
             raise ProtocolError("~str_aft must be a number of seconds or "
                                 "'auto', got %r" % (value,))
@@ -99,7 +111,7 @@ class StrAftPolicy:
             raise ProtocolError('~str_aft must be > 0 s, got %r' % (value,))
         return cls(fixed=fixed, margin=margin)
 
-    def choose(self, acks):
+    def choose(self, acks: list[Any]) -> float:
         """STR_AFT for a round whose ok ACKs are ``acks``."""
         lat = [a.latency for a in acks if math.isfinite(a.latency)]
         self.latencies = (self.latencies + lat)[-self.history:]
@@ -118,8 +130,9 @@ class ControlRound:
     ``clients`` must all ACK ok, unless ``min_clients`` allows a quorum.
     """
 
-    def __init__(self, round_id, clients, dur, str_aft_policy,
-                 min_clients=None):
+    def __init__(self, round_id: int, clients: list[Any], dur: float | str,
+                 str_aft_policy: StrAftPolicy,
+                 min_clients: int | None = None) -> None:
         if not clients:
             raise ProtocolError('~clients is empty: name at least one client')
         if len(set(clients)) != len(clients):
@@ -136,11 +149,11 @@ class ControlRound:
         self.clients = list(clients)
         self.dur = float(dur)
         self.policy = str_aft_policy
-        self.acks = {}
-        self.ignored = Counter()
+        self.acks: dict[str, Ack] = {}
+        self.ignored: Counter[str] = Counter()
         self.done = False
 
-    def on_ack(self, ack):
+    def on_ack(self, ack: Ack) -> bool:
         """Record an ACK.  Returns False (and counts why) if it is ignored."""
         if ack.round != self.round:
             self.ignored['old_round' if ack.round < self.round
@@ -159,26 +172,26 @@ class ControlRound:
         return True
 
     @property
-    def acked(self):
+    def acked(self) -> list[Any]:
         """Clients that ACKed ok, in ``clients`` order."""
         return [c for c in self.clients if c in self.acks and self.acks[c].ok]
 
     @property
-    def refused(self):
+    def refused(self) -> list[Any]:
         """Clients that answered ok=false."""
         return [c for c in self.clients
                 if c in self.acks and not self.acks[c].ok]
 
     @property
-    def missing(self):
+    def missing(self) -> list[Any]:
         """Clients that have not answered."""
         return [c for c in self.clients if c not in self.acks]
 
-    def all_answered(self):
+    def all_answered(self) -> bool:
         """True when every client answered (ok or not)."""
         return not self.missing
 
-    def close(self, now):
+    def close(self, now: float) -> Capture | Abort:
         """Decide the round at ``now`` (global): a Capture or an Abort.
 
         Called when every client answered, or at the ACK timeout.
@@ -256,16 +269,19 @@ class ClientSchedule:
     Scheduled window or Late.
     """
 
-    def __init__(self, client_id, max_uncertainty=math.inf):
+    def __init__(self, client_id: str,
+                 max_uncertainty: float = math.inf) -> None:
         if not max_uncertainty > 0:
             raise ProtocolError('~max_uncertainty must be > 0 s, got %r'
                                 % (max_uncertainty,))
         self.client_id = client_id
         self.max_uncertainty = max_uncertainty
-        self.acked_round = None
-        self.ignored = Counter()
+        self.acked_round: int | None = None
+        self.ignored: Counter[str] = Counter()
 
-    def on_sync(self, round_id, received, now, status, alive=None):
+    def on_sync(self, round_id: int, received: LocalTime, now: LocalTime,
+                status: ClockStatus,
+                alive: Verdict | None = None) -> SyncReply:
         """Answer sync_time of ``round_id``: a SyncReply.
 
         ``received`` and ``now`` are local times (sync_time's arrival, the
@@ -303,7 +319,8 @@ class ClientSchedule:
                          model.drift, model.to_global(received),
                          model.to_global(now))
 
-    def on_capture(self, capture, now_global, clock):
+    def on_capture(self, capture: Capture, now_global: float,
+                   clock: ClockModel) -> Scheduled | Late | None:
         """Return Scheduled, Late, or None (ignored and counted).
 
         ``clock`` converts global to local time (``to_local``).

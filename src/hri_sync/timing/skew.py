@@ -7,8 +7,12 @@ the sample; a client stamps the sample in its global time at arrival.  So
 delay; the minimum over the first samples of the window removes most of
 the delay, as NTP does with its minimum-delay sample.
 """
+
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass
+from typing import Any
 
 
 @dataclass
@@ -21,7 +25,8 @@ class ClientTiming:
     samples: int
 
 
-def client_timing(client_id, kept, head=10, at_end=False):
+def client_timing(client_id: str, kept: list[Any], head: int = 10,
+                  at_end: bool = False) -> ClientTiming:
     """Timing of one client from ``kept``: (global_stamp, true_time, index)
     tuples of the samples it kept, in any order.  The clock error is taken
     over the first ``head`` samples, or the last ones with ``at_end``."""
@@ -33,7 +38,7 @@ def client_timing(client_id, kept, head=10, at_end=False):
     return ClientTiming(client_id, kept[0][2], error, len(kept))
 
 
-def start_skew(timings):
+def start_skew(timings: list[Any]) -> float:
     """Spread (max - min) of the clients' clock errors at the window start,
     in s; NaN with fewer than two clients that kept samples."""
     errors = [t.clock_error for t in timings if math.isfinite(t.clock_error)]
@@ -42,7 +47,8 @@ def start_skew(timings):
     return max(errors) - min(errors)
 
 
-def percentiles(values, qs=(50, 99)):
+def percentiles(values: list[float],
+                qs: tuple[int, int] = (50, 99)) -> dict[str, float]:
     """Nearest-rank percentiles of ``values`` as {'pNN': v, ..., 'max': v}."""
     vals = sorted(v for v in values if math.isfinite(v))
     out = {}

@@ -9,11 +9,15 @@ reads CLOCK_REALTIME by a raw system call, which libfaketime does not
 intercept: the ground truth a test compares a faked process's actions
 with.
 """
+
+from __future__ import annotations
+
 import ctypes
 import ctypes.util
 import os
 import platform
 import time
+from typing import Callable
 
 # SYS_clock_gettime by architecture (asm/unistd.h).
 _SYS_CLOCK_GETTIME = {'x86_64': 228, 'aarch64': 113, 'i686': 265,
@@ -30,7 +34,7 @@ _libc = ctypes.CDLL(ctypes.util.find_library('c') or 'libc.so.6',
 _syscall_nr = _SYS_CLOCK_GETTIME.get(platform.machine())
 
 
-def true_time():
+def true_time() -> float:
     """The host's real CLOCK_REALTIME in s, bypassing libfaketime.
 
     Returns NaN on an architecture whose syscall number is not known here
@@ -49,13 +53,13 @@ class realtime:
     not delay a start.  ``ok`` says whether it was granted (it needs root
     or CAP_SYS_NICE / an rtprio limit); ``error`` says why not."""
 
-    def __init__(self, priority):
+    def __init__(self, priority: int) -> None:
         self.priority = priority
         self.ok = False
         self.error = '' if priority > 0 else 'not requested'
-        self._saved = None
+        self._saved: tuple[int, os.sched_param] | None = None
 
-    def __enter__(self):
+    def __enter__(self) -> 'realtime':
         if self.priority <= 0:
             return self
         try:
@@ -67,14 +71,14 @@ class realtime:
             self.error = str(e)
         return self
 
-    def __exit__(self, *exc):
-        if self.ok:
+    def __exit__(self, *exc: object) -> None:
+        if self.ok and self._saved is not None:
             policy, param = self._saved
             os.sched_setscheduler(0, policy, param)
-        return False
 
 
-def wait_until(now, target, spin=0.003, stop=lambda: False):
+def wait_until(now: Callable, target: float, spin: float = 0.003,
+               stop: Callable = lambda: False) -> float | None:
     """Block until ``now() >= target`` (both in the same clock, s).
 
     Sleeps until ``spin`` s before the target, then spins.  Returns how

@@ -21,10 +21,13 @@ value" it is accepted: NaN for a score, offset or joint that does not
 exist, a zero time where the contract says 0 means unknown.  Checks that
 need history (a repeated sample stamp) are in ``StampOrder``.
 """
+
+from __future__ import annotations
+
 import math
 import re
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Any, Callable, Collection, Optional
 
 from hri_sync.timing.vocabulary import (NUM_JOINTS, Outcome, ResultStatus,
                                         RoundState)
@@ -40,7 +43,8 @@ class Rejected(ValueError):
     ``field`` the field at fault, ``str(e)`` a message for a human.
     """
 
-    def __init__(self, reason, message, field=None):
+    def __init__(self, reason: str, message: str,
+                 field: str | None = None) -> None:
         super().__init__(message)
         self.reason = reason
         self.field = field
@@ -93,7 +97,8 @@ class Context:
 
 # --- values --------------------------------------------------------------
 
-def number(x, what, lo=-math.inf, hi=math.inf, nan=False):
+def number(x: float, what: str, lo: float = -math.inf, hi: float = math.inf,
+           nan: bool = False) -> float:
     """A finite number within [lo, hi] (NaN too with ``nan``)."""
     if isinstance(x, bool) or not isinstance(x, (int, float)):
         raise Rejected('not_a_number', '%s=%r is not a number' % (what, x),
@@ -110,7 +115,7 @@ def number(x, what, lo=-math.inf, hi=math.inf, nan=False):
     return x
 
 
-def time_value(t, what, optional=False):
+def time_value(t: float | str, what: str, optional: bool = False) -> float:
     """A time in s: finite, positive, below 2**32 (0 with ``optional``)."""
     if isinstance(t, bool) or not isinstance(t, (int, float)):
         raise Rejected('not_a_number', '%s=%r is not a time' % (what, t),
@@ -129,7 +134,8 @@ def time_value(t, what, optional=False):
     return t
 
 
-def time_near(t, what, ctx, ahead=0.0, behind=0.0, optional=False):
+def time_near(t: float, what: str, ctx: Context, ahead: float = 0.0,
+              behind: float = 0.0, optional: bool = False) -> float:
     """A valid time within [now - past - behind, now + future + ahead]
     of ``ctx.now`` (unchecked when now is unknown)."""
     time_value(t, what, optional)
@@ -147,7 +153,7 @@ def time_near(t, what, ctx, ahead=0.0, behind=0.0, optional=False):
     return t
 
 
-def duration(d, what, ctx):
+def duration(d: float, what: str, ctx: Context) -> float:
     """A duration within (0, max_dur]."""
     number(d, what, 0.0, ctx.limits.max_dur)
     if d <= 0:
@@ -155,7 +161,7 @@ def duration(d, what, ctx):
     return d
 
 
-def round_number(r, ctx, what='round'):
+def round_number(r: int, ctx: Context, what: str = 'round') -> int:
     """A round number >= 1, near the round in progress."""
     if isinstance(r, bool) or not isinstance(r, int):
         raise Rejected('not_a_number', '%s=%r is not a round number'
@@ -175,7 +181,7 @@ def round_number(r, ctx, what='round'):
     return r
 
 
-def name(s, what, ctx):
+def name(s: str, what: str, ctx: Context) -> str:
     """A client id: a letter, then letters, digits or '_'."""
     if not isinstance(s, str):
         raise Rejected('not_a_string', '%s=%r is not a string' % (what, s),
@@ -191,7 +197,7 @@ def name(s, what, ctx):
     return s
 
 
-def client_name(s, what, ctx):
+def client_name(s: str, what: str, ctx: Context) -> str:
     """A client id that is ``ctx.client`` when that is set."""
     name(s, what, ctx)
     if ctx.client is not None and s != ctx.client:
@@ -200,7 +206,8 @@ def client_name(s, what, ctx):
     return s
 
 
-def names(items, what, ctx, empty=True):
+def names(items: list[Any], what: str, ctx: Context,
+          empty: bool = True) -> list[Any]:
     """A list of distinct client ids, at most ``max_clients``."""
     items = list(items)
     if not items and not empty:
@@ -216,7 +223,7 @@ def names(items, what, ctx, empty=True):
     return items
 
 
-def text(s, what, ctx):
+def text(s: str, what: str, ctx: Context) -> str:
     """A free text (a reason) of at most ``max_text`` characters."""
     if not isinstance(s, str):
         raise Rejected('not_a_string', '%s=%r is not a string'
@@ -227,7 +234,7 @@ def text(s, what, ctx):
     return s
 
 
-def choice(s, what, allowed):
+def choice(s: Any, what: str, allowed: Collection[Any]) -> Any:
     """One of ``allowed``."""
     if s not in allowed:
         raise Rejected('unknown_value', '%s=%r is not one of %s'
@@ -236,7 +243,7 @@ def choice(s, what, allowed):
     return s
 
 
-def count(n, what, hi):
+def count(n: int, what: str, hi: int) -> int:
     """A whole number within [0, hi]."""
     if isinstance(n, bool) or not isinstance(n, int):
         raise Rejected('not_a_number', '%s=%r is not a count' % (what, n),
@@ -247,7 +254,7 @@ def count(n, what, hi):
     return n
 
 
-def components(v, keys, what):
+def components(v: Any, keys: tuple[str, ...], what: str) -> list[Any]:
     """The components of a nested message (a dict or a sequence)."""
     if isinstance(v, dict):
         try:
@@ -265,7 +272,7 @@ def components(v, keys, what):
     return out
 
 
-def array(items, what, length):
+def array(items: list[Any], what: str, length: int) -> list[Any]:
     """A sequence of exactly ``length`` items."""
     try:
         items = list(items)
@@ -277,13 +284,15 @@ def array(items, what, length):
     return items
 
 
-def vector(v, what, hi, keys=('x', 'y', 'z'), nan=False):
+def vector(v: Any, what: str, hi: float,
+           keys: tuple[str, ...] = ('x', 'y', 'z'),
+           nan: bool = False) -> list[float]:
     """A vector of numbers within [-hi, hi] (NaN too with ``nan``)."""
     return [number(c, '%s.%s' % (what, k), -hi, hi, nan)
             for k, c in zip(keys, components(v, keys, what))]
 
 
-def header_stamp(header, what='header'):
+def header_stamp(header: Any, what: str = 'header') -> Any:
     """The stamp of a std_msgs/Header (a dict or an object)."""
     if isinstance(header, dict):
         if 'stamp' not in header:
@@ -292,7 +301,9 @@ def header_stamp(header, what='header'):
     return getattr(header, 'stamp', None)
 
 
-def header_time(header, ctx, optional=False, ahead=0.0, behind=0.0):
+def header_time(header: Any, ctx: Context,
+                optional: bool = False, ahead: float = 0.0,
+                behind: float = 0.0) -> float:
     """The global ``header.stamp`` of a protocol message, checked by
     ``time_near`` (0 allowed with ``optional``), and its frame_id a
     bounded text; returns the stamp."""
@@ -307,14 +318,15 @@ def header_time(header, ctx, optional=False, ahead=0.0, behind=0.0):
 
 # --- messages of the timing model -----------------------------------------
 
-def sync_time(*, header, round, ctx):
+def sync_time(*, header: Any, round: Any, ctx: Context) -> None:
     """/sync_time: the CM opens a round (header.stamp: when sent)."""
     header_time(header, ctx)
     round_number(round, ctx)
 
 
-def sync_ack(*, header, round, client_id, ok, reason, offset, uncertainty,
-             drift, sync_received, ctx, sent=None):
+def sync_ack(*, header: Any, round: Any, client_id: Any, ok: Any, reason: Any,
+             offset: Any, uncertainty: Any, drift: Any, sync_received: Any,
+             ctx: Context, sent: Any = None) -> None:
     """/sync_ack: a client's ACK or NACK (header.stamp: when sent).
 
     ``sent`` (else ``ctx.sync_sent``): the stamp of the round's SyncTime,
@@ -350,7 +362,8 @@ def sync_ack(*, header, round, client_id, ok, reason, offset, uncertainty,
                               lim.max_latency), 'sync_received')
 
 
-def capture_data(*, header, round, str_aft, dur, clients, ctx):
+def capture_data(*, header: Any, round: Any, str_aft: Any, dur: Any,
+                 clients: Any, ctx: Context) -> None:
     """/capture_data: the CM's order for one window (header.stamp: CR_T,
     when sent)."""
     lim = ctx.limits
@@ -362,7 +375,8 @@ def capture_data(*, header, round, str_aft, dur, clients, ctx):
     names(clients, 'clients', ctx, empty=False)
 
 
-def capture_command(*, header, round, start, end, ctx):
+def capture_command(*, header: Any, round: Any, start: Any, end: Any,
+                    ctx: Context) -> None:
     """/<id>/capture_command: the CPM's order to its DPM (header.stamp:
     when ordered)."""
     header_time(header, ctx)
@@ -372,8 +386,8 @@ def capture_command(*, header, round, start, end, ctx):
     duration(end - start, 'end - start', ctx)
 
 
-def round_status(*, header, round, state, reason, acked, refused, missing,
-                 ctx):
+def round_status(*, header: Any, round: Any, state: Any, reason: Any,
+                 acked: Any, refused: Any, missing: Any, ctx: Context) -> None:
     """/round_status: the CM's state of a round (header.stamp: the
     change's global time, 0 when the server's clock is not synced)."""
     header_time(header, ctx, optional=True)
@@ -385,8 +399,9 @@ def round_status(*, header, round, state, reason, acked, refused, missing,
         names(items, what, ctx)
 
 
-def clock_state(*, client_id, ok, reason, local_ref, offset, drift,
-                uncertainty, samples, round_trip, ctx):
+def clock_state(*, client_id: Any, ok: Any, reason: Any, local_ref: Any,
+                offset: Any, drift: Any, uncertainty: Any, samples: Any,
+                round_trip: Any, ctx: Context) -> None:
     """/<id>/clock_state: a host's clock model, for the nodes of that host.
 
     ``ctx.local_now`` is the receiver's local now (the same host's clock):
@@ -415,10 +430,12 @@ def clock_state(*, client_id, ok, reason, local_ref, offset, drift,
                    'global now by this model')
 
 
-def client_result(*, header, round, client_id, status, capture_start,
-                  capture_end, frames, frames_rejected, frames_dropped,
-                  coverage, first_frame_offset, wake_lateness, value,
-                  timing_uncertainty, diagnostics, ctx):
+def client_result(*, header: Any, round: Any, client_id: Any, status: Any,
+                  capture_start: Any, capture_end: Any, frames: Any,
+                  frames_rejected: Any, frames_dropped: Any, coverage: Any,
+                  first_frame_offset: Any, wake_lateness: Any, value: Any,
+                  timing_uncertainty: Any, diagnostics: Any,
+                  ctx: Context) -> None:
     """/client_result: a client's result of one window (header.stamp:
     when it was made, 0 when the client had no clock model)."""
     lim = ctx.limits
@@ -456,8 +473,9 @@ def client_result(*, header, round, client_id, status, capture_start,
             text(part, 'diagnostics', ctx)
 
 
-def decision(*, header, round, outcome, winner, clients, scores, reason,
-             window_end, timing_uncertainty, ctx):
+def decision(*, header: Any, round: Any, outcome: Any, winner: Any,
+             clients: Any, scores: Any, reason: Any, window_end: Any,
+             timing_uncertainty: Any, ctx: Context) -> None:
     """/decision: the DM's verdict (header.stamp: when decided, 0 when
     the server's clock is not synced)."""
     header_time(header, ctx, optional=True)
@@ -484,7 +502,8 @@ def decision(*, header, round, outcome, winner, clients, scores, reason,
            ctx.limits.max_dur, nan=True)
 
 
-def dpm_state(*, header, client_id, input, samples, sample_age, rate, ctx):
+def dpm_state(*, header: Any, client_id: Any, input: Any, samples: Any,
+              sample_age: Any, rate: Any, ctx: Context) -> None:
     """<id>/dpm_state: a DPM's heartbeat for its CPM (same host).
 
     ``header.stamp`` is the host's local clock, near ``ctx.local_now``;
@@ -506,8 +525,9 @@ def dpm_state(*, header, client_id, input, samples, sample_age, rate, ctx):
 
 # --- samples ----------------------------------------------------------------
 
-def skeleton(*, header, client_id, user_id, device_stamp, positions,
-             orientations, confidence, ctx):
+def skeleton(*, header: Any, client_id: Any, user_id: Any, device_stamp: Any,
+             positions: Any, orientations: Any, confidence: Any,
+             ctx: Context) -> None:
     """/<id>/skeleton (and /<id>/captured): one tracked user's joints.
 
     ``header.stamp`` is global time, ``device_stamp`` the sensor's own
@@ -530,7 +550,7 @@ def skeleton(*, header, client_id, user_id, device_stamp, positions,
         number(c, 'confidence[%d]' % i, 0.0, 1.0)
 
 
-def sample(*, header, index, value, ctx):
+def sample(*, header: Any, index: Any, value: Any, ctx: Context) -> None:
     """hri_sync/Sample: one numeric sample; its header.stamp is the
     sensor's clock; a NaN value is a missing one (the processor counts
     it), an infinite one is rejected."""
@@ -547,10 +567,10 @@ class StampOrder:
     of its source is the same sample twice or a broken clock.
     """
 
-    def __init__(self):
-        self.last = {}
+    def __init__(self) -> None:
+        self.last: dict[str, float] = {}
 
-    def check(self, source, t):
+    def check(self, source: str, t: float) -> None:
         """Raise Rejected if ``t`` repeats the last stamp of ``source``."""
         if self.last.get(source) == t:
             raise Rejected('stamp_repeated', 'stamp %.6f of %s repeats the '
@@ -560,8 +580,9 @@ class StampOrder:
 
 # --- the robot's messages ---------------------------------------------------
 
-def action_start(*, header, round, client_id, action, scheduled, offset,
-                 true_time, ctx):
+def action_start(*, header: Any, round: Any, client_id: Any, action: Any,
+                 scheduled: Any, offset: Any, true_time: Any,
+                 ctx: Context) -> None:
     """~action_start of DJ Rob and the music: when an action began
     (header.stamp, global)."""
     header_time(header, ctx)
@@ -573,7 +594,8 @@ def action_start(*, header, round, client_id, action, scheduled, offset,
     time_value(true_time, 'true_time')
 
 
-def beat(*, header, round, index, bar_beat, bpm, ctx):
+def beat(*, header: Any, round: Any, index: Any, bar_beat: Any, bpm: Any,
+         ctx: Context) -> None:
     """~beat of the music player (header.stamp: the beat's time)."""
     header_time(header, ctx)
     round_number(round, ctx)
@@ -582,13 +604,14 @@ def beat(*, header, round, index, bar_beat, bpm, ctx):
     number(bpm, 'bpm', 1.0, 1000.0)
 
 
-def twist(*, linear, angular, ctx):
+def twist(*, linear: Any, angular: Any, ctx: Context) -> None:
     """geometry_msgs/Twist: a velocity command."""
     vector(linear, 'linear', ctx.limits.max_speed)
     vector(angular, 'angular', ctx.limits.max_speed)
 
 
-def odometry(*, header, child_frame_id, pose, twist, ctx):
+def odometry(*, header: Any, child_frame_id: Any, pose: Any, twist: Any,
+             ctx: Context) -> None:
     """nav_msgs/Odometry: the base's pose (finite, within max_coordinate
     of the origin; a unit orientation) and velocity.  Its stamp is the
     base's ROS time, only checked to be a time."""
@@ -611,23 +634,23 @@ def odometry(*, header, child_frame_id, pose, twist, ctx):
         number(c, 'pose.covariance')
 
 
-def enum_value(value, what, allowed):
+def enum_value(value: int, what: str, allowed: range) -> int:
     """A uint8 constant (an LED colour, a sound) out of ``allowed``."""
     count(value, what, 255)
     return choice(value, what, allowed)
 
 
-def led(*, value, ctx):
+def led(*, value: Any, ctx: Context) -> None:
     """hri_sync/Led (kobuki_msgs/Led): BLACK, GREEN, ORANGE or RED."""
     enum_value(value, 'value', range(4))
 
 
-def sound(*, value, ctx):
+def sound(*, value: Any, ctx: Context) -> None:
     """hri_sync/Sound (kobuki_msgs/Sound): ON .. CLEANINGEND."""
     enum_value(value, 'value', range(7))
 
 
-VALIDATORS = {
+VALIDATORS: dict[str, Callable[..., None]] = {
     'hri_sync/SyncTime': sync_time,
     'hri_sync/SyncAck': sync_ack,
     'hri_sync/CaptureData': capture_data,
@@ -648,7 +671,7 @@ VALIDATORS = {
 }
 
 
-def check(msg_type, fields, ctx):
+def check(msg_type: str, fields: dict[str, Any], ctx: Context) -> None:
     """Validate a message of ROS type ``msg_type`` given as a dict of its
     fields; raises Rejected, or KeyError for a type without a check."""
     try:
