@@ -1,5 +1,5 @@
-"""hri_sync.tools.procs and hri_sync_support.harness on real processes: the /proc walker, process
-groups and their shutdown, faketime clocks, waits and the bounded run.
+"""hri_sync.tools.procs and hri_sync_support.harness on real processes: the
+/proc walker, process groups and their shutdown, faketime clocks, waits and the bounded run.
 
 ``Processes`` makes this test process a child subreaper (for the rest of
 the session: orphans of later tests are re-parented to it, which is
@@ -49,7 +49,10 @@ def test_descendants_of_a_real_process_tree():
     child = subprocess.Popen(['sh', '-c', 'sleep 60 & sleep 60 & wait'],
                              start_new_session=True)
     try:
-        eventually(lambda: len(procs.descendants()) >= 3,
+        # A forked child is named 'sh' until it has exec'd sleep (a race a
+        # loaded machine shows): wait for both to be sleeps.
+        eventually(lambda: [info.name for info in procs.descendants(
+            child.pid).values()] == ['sleep', 'sleep'],
                    'sh and its two sleeps')
         tree = procs.descendants()
         assert child.pid in tree
