@@ -1,5 +1,6 @@
 """hri_sync.tools.procs and hri_sync_support.harness on real processes: the
-/proc walker, process groups and their shutdown, faketime clocks, waits and the bounded run.
+/proc walker, process groups and their shutdown, faketime clocks, waits and
+the bounded run.
 
 ``Processes`` makes this test process a child subreaper (for the rest of
 the session: orphans of later tests are re-parented to it, which is
