@@ -27,7 +27,7 @@ from hri_sync.timing.times import DeviceTime, GlobalTime, LocalTime
 from hri_sync.timing.validate import Rejected
 from hri_sync.timing.vocabulary import DRIFT_BOUND, MIN_COVERAGE
 
-STAMP_SOURCES = ('auto', 'arrival', 'device')
+STAMP_SOURCES = ('auto', 'arrival', 'device', 'host')
 
 
 @dataclass
@@ -65,8 +65,13 @@ class DataProcess:
     """Stamps samples, runs capture windows and decides when each is done.
 
     ``make_processor()`` returns a fresh Processor for each window.
-    ``stamp_source``: 'arrival', 'device', or 'auto' (device when the
-    processor reads device stamps).  Device stamps that are zero, not
+    ``stamp_source``: 'arrival', 'device', 'host' or 'auto' (host when
+    the processor says its device stamps are already on this host's
+    clock, ``host_stamped``; device when it reads device stamps).  A host
+    stamp (a bridge that mapped it, e.g. ``nodes/lsl_inlet``) is mapped
+    by the clock model alone; one not finite, not positive, or after its
+    own arrival by more than ``jump`` s is rejected (``bad_device_stamp``);
+    the processor's ``stamp_error(msg)`` is added to its error bound.  Device stamps that are zero, not
     finite, or break with the device clock map (going back, or mapping
     after their own arrival by more than ``jump`` s) are held: if they and
     the next samples continue consistently for ``settle`` samples, the
@@ -111,8 +116,10 @@ class DataProcess:
         self.invalid: Counter[str] = Counter()  # check's rejects, by reason
         self.last_invalid = ''       # the last one's message
         if stamp_source == 'auto':
-            stamp_source = ('arrival' if type(probe).device_stamp
+            stamp_source = ('host' if probe.host_stamped else 'arrival'
+                            if type(probe).device_stamp
                             is Processor.device_stamp else 'device')
+        self.stamp_error = probe.stamp_error
         self.stamp_source = stamp_source
         self.mapping: TimeMapping[Any] = ArrivalStamps()
         if stamp_source == 'device':
@@ -211,6 +218,24 @@ class DataProcess:
             return []
         return self._release(self._settling)
 
+    def _stamp_host(self, msg: Any, raw: bytes | None, arrival: GlobalTime,
+                    local: LocalTime) -> list[Any]:
+        """[(stamp, msg, raw, arrival, local)] of a sample whose device
+        stamp is on this host's clock: mapped by the clock model."""
+        assert self.clock is not None     # on_sample checked it
+        try:
+            host = float(self.read_device_stamp(msg))
+        except (AttributeError, TypeError, ValueError):
+            host = math.nan
+        if not math.isfinite(host):
+            self._reject('no_device_stamp', arrival)
+            return []
+        stamp = self.clock.to_global(LocalTime(host))
+        if host <= 0 or stamp > arrival + self.jump:
+            self._reject('bad_device_stamp', arrival)
+            return []
+        return [(stamp, msg, raw, arrival, local)]
+
     def _release(self, held: list[tuple]) -> list[tuple]:
         """Stamp ``held`` samples with the map as it is now."""
         self._settling = []
@@ -269,6 +294,8 @@ class DataProcess:
             return step
         if self.stamp_source == 'device':
             stamped = self._stamp_device(msg, raw, arrival, local)
+        elif self.stamp_source == 'host':
+            stamped = self._stamp_host(msg, raw, arrival, local)
         else:
             self.mapping.observe(arrival, arrival)
             stamped = [(arrival, msg, raw, arrival, local)]
@@ -284,7 +311,7 @@ class DataProcess:
               raw: bytes | None, arrival: GlobalTime,
               local: LocalTime) -> None:
         """One stamped sample: to the history and the open windows."""
-        bound = self.clock_bound(local)
+        bound = self.clock_bound(local) + self.stamp_error(msg)
         self._lags.append(max(0.0, arrival - stamp))
         if self._last_stamp is not None and stamp > self._last_stamp:
             self._gaps.append(stamp - self._last_stamp)

@@ -50,6 +50,9 @@ class Processor:
 
     msg_type = 'hri_sync/Sample'
     topic = 'samples'
+    # True: ``device_stamp`` is on the DPM host's own clock (a bridge
+    # mapped it there), so the clock model alone maps it to global time.
+    host_stamped = False
 
     def __init__(self, **params) -> None:
         if params:
@@ -60,6 +63,11 @@ class Processor:
     def device_stamp(self, msg: Any) -> float | None:
         """The sample's own device time in s, or None to stamp at arrival."""
         return None
+
+    def stamp_error(self, msg: Any) -> float:
+        """The error bound (s) of the sample's device stamp itself,
+        added to the clock model's (0: none known)."""
+        return 0.0
 
     def check(self, msg: Any) -> None:
         """Validate one incoming message before it is stamped: raise

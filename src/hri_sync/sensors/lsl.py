@@ -1,0 +1,251 @@
+"""Lab Streaming Layer (LSL) streams in: stamps and the generic processor.
+
+No ROS and no pylsl (``nodes/lsl_inlet`` holds the inlet; docs/lsl.md).
+An LSL sample's timestamp is on its outlet host's LSL clock; the inlet
+maps it to this host's LSL clock with LSL's own offset estimate
+(``time_correction``), fitted with drift (``CorrectionFit``), and then to
+this host's wall clock, which the DPM maps to global time with its clock
+model (``stamp_source: host``).  ``LslStamper`` does the first two and
+catches a stream whose clock resets; ``LslChannels`` is the DPM's
+processor of the ``hri_sync/LslSample`` messages the inlet publishes.
+"""
+import math
+from collections import deque
+
+import numpy as np
+
+from hri_sync.sensors.base import HeaderStamped, finite
+from hri_sync.timing.processors import ProcessResult
+from hri_sync.timing.validate import Rejected
+
+# hri_sync/LslSample kinds (the message's constants).
+DATA, TICK, LOST, CLOCK_RESET, RECOVERED = range(5)
+EVENTS = {LOST: 'lost', CLOCK_RESET: 'clock_reset', RECOVERED: 'recovered'}
+
+
+def theil_sen(t, y):
+    """(slope, intercept at t = 0) of the Theil-Sen line through the
+    points: the median of the pairwise slopes, robust to an outlier."""
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    if len(t) < 2:
+        return 0.0, float(y[0])
+    i, j = np.triu_indices(len(t), 1)
+    dt = t[j] - t[i]
+    keep = dt != 0
+    slope = float(np.median((y[j] - y[i])[keep] / dt[keep])) \
+        if keep.any() else 0.0
+    return slope, float(np.median(y - slope * t))
+
+
+class CorrectionFit:
+    """LSL's clock offset to an outlet (``time_correction``: remote LSL
+    time + correction = local LSL time), fitted with drift.
+
+    ``add(local, correction, rtt)``: one estimate, made at local LSL time
+    ``local``, with its round-trip time.  LSL re-estimates every few
+    seconds; between estimates a drifting clock walks away from the last
+    one (200 ppm: 1 ms in 5 s), so the map is the Theil-Sen line through
+    the last ``keep`` estimates (the drift fit LSL's docs suggest for
+    post-processing, done live).  ``bound(local)``: half the round trip
+    of the worst recent estimate (an offset measured over a round trip is
+    off by at most half of it) plus the median scatter of the estimates
+    about the line.  With one estimate the line is flat and the bound
+    grows with ``drift_bound`` s/s from it.
+    """
+
+    def __init__(self, keep=12, drift_bound=5e-4):
+        self.points = deque(maxlen=keep)
+        self.drift_bound = drift_bound
+        self.slope = 0.0
+        self.intercept = math.nan
+        self.ref = 0.0
+
+    def add(self, local, correction, rtt=0.0):
+        """One time_correction estimate (ignored when it repeats the
+        last one: LSL returns its last estimate until the next)."""
+        if not all(math.isfinite(v) for v in (local, correction, rtt)):
+            raise ValueError('time correction %r at %r (rtt %r): not '
+                             'finite' % (correction, local, rtt))
+        if self.points and self.points[-1][1] == correction:
+            return
+        self.points.append((local, correction, max(0.0, rtt)))
+        t = np.array([p[0] for p in self.points])
+        self.ref = float(t[-1])
+        self.slope, self.intercept = theil_sen(
+            t - self.ref, [p[1] for p in self.points])
+
+    def reset(self):
+        """Forget the estimates (the outlet's clock broke)."""
+        self.points.clear()
+        self.slope, self.intercept = 0.0, math.nan
+
+    @property
+    def ready(self):
+        return bool(self.points)
+
+    def correction(self, local):
+        """The fitted correction at local LSL time ``local``."""
+        return self.intercept + self.slope * (local - self.ref)
+
+    def scatter(self):
+        """Median distance (s) of the estimates from the line."""
+        if len(self.points) < 3:
+            return 0.0
+        return float(np.median([abs(c - self.correction(t))
+                                for t, c, _ in self.points]))
+
+    def bound(self, local):
+        """Error bound (s) of ``correction(local)``."""
+        if not self.points:
+            return math.inf
+        half_rtt = max(p[2] for p in self.points) / 2
+        if len(self.points) == 1:
+            return half_rtt + self.drift_bound * abs(local - self.ref)
+        return half_rtt + self.scatter()
+
+
+class ClockBreak(Exception):
+    """A sample's LSL stamp breaks with the stream's clock (``reason``)."""
+
+
+class LslStamper:
+    """Maps an LSL sample's stamp to this host's wall clock and catches a
+    stream whose clock resets.
+
+    ``stamp(lsl_stamp, now_lsl, wall_minus_lsl)`` -> (host stamp, error
+    bound): the stamp plus the fitted correction is the sample's local
+    LSL time (at most ``now_lsl``, when it was pulled, plus ``ahead`` s);
+    plus ``wall_minus_lsl`` (this process's wall minus LSL clock, read
+    together) it is on the host's wall clock.  A stamp that goes back by
+    more than ``ahead`` s, or maps into the future, raises ClockBreak:
+    the stream is ``broken`` and its samples are refused until
+    ``settle`` in a row map consistently again: not into the future and
+    no later than three times the recent largest delivery lag (at least
+    ``min_lag`` s) before they were pulled (LSL's next estimate corrected
+    an outlet host clock that stepped).  A stream whose own stamps were
+    reset stays broken: its samples have no known time.
+    """
+
+    def __init__(self, fit, ahead=0.005, settle=5, min_lag=0.25):
+        self.fit = fit
+        self.ahead = ahead
+        self.settle = settle
+        self.min_lag = min_lag
+        self.last = None        # the last accepted sample's LSL stamp
+        self.broken = ''        # why, while the stream's clock is broken
+        self._good = 0
+        self._lags = deque(maxlen=64)   # accepted samples' delivery lags
+
+    @property
+    def max_lag(self):
+        """The most a consistent sample may lag behind its pull (s)."""
+        return max(self.min_lag, 3 * max(self._lags, default=0.0))
+
+    def _check(self, lsl_stamp, local, now_lsl):
+        if not math.isfinite(lsl_stamp):
+            return 'a stamp that is not finite (%r)' % lsl_stamp
+        if self.last is not None and lsl_stamp < self.last - self.ahead:
+            return 'the stamp went back %.6f s' % (self.last - lsl_stamp)
+        if local > now_lsl + self.ahead:
+            return 'the stamp maps %.6f s into the future' % (
+                local - now_lsl)
+        if self.broken and now_lsl - local > self.max_lag:
+            return 'the stamp maps %.3f s before its delivery' % (
+                now_lsl - local)
+        return ''
+
+    def stamp(self, lsl_stamp, now_lsl, wall_minus_lsl):
+        if not self.fit.ready:
+            raise ClockBreak('no time correction estimate yet')
+        local = lsl_stamp + self.fit.correction(now_lsl)
+        why = self._check(lsl_stamp, local, now_lsl)
+        if self.broken:
+            self._good = 0 if why else self._good + 1
+            self.last = lsl_stamp if math.isfinite(lsl_stamp) else self.last
+            if self._good < self.settle:
+                raise ClockBreak(self.broken)
+            self.broken = ''
+        elif why:
+            self.broken = why
+            self._good = 0
+            self.last = lsl_stamp if math.isfinite(lsl_stamp) else self.last
+            raise ClockBreak(why)
+        self.last = lsl_stamp
+        self._lags.append(max(0.0, now_lsl - local))
+        return local + wall_minus_lsl, self.fit.bound(now_lsl)
+
+
+class LslChannels(HeaderStamped):
+    """The generic processor of an LSL stream (``hri_sync/LslSample``
+    from ``nodes/lsl_inlet``): counts the window's samples and gives each
+    numeric channel's mean; for a marker stream, the markers.
+
+    value = the number of samples in the window; diagnostics:
+    ``channel_means`` (numeric), ``markers`` (the first 20 of a string
+    stream, with their offsets from the window start), ``rate`` (Hz), and
+    ``lsl_stream`` = ``lost: ...`` / ``clock_reset: ...`` when the inlet
+    reported its stream lost or its clock broken in the window (each
+    event in ``lsl_events``).  Stamps are on the host clock
+    (``host_stamped``), each with its mapping's error bound.
+    """
+
+    msg_type = 'hri_sync/LslSample'
+    topic = 'lsl'
+    host_stamped = True
+
+    def __init__(self):
+        super().__init__()
+        self.begin(0.0, 0.0)
+
+    def stamp_error(self, msg):
+        return msg.stamp_error if math.isfinite(msg.stamp_error) else 0.0
+
+    def check(self, msg):
+        if msg.kind not in (DATA, TICK) and msg.kind not in EVENTS:
+            raise Rejected('malformed', 'LslSample kind %r' % msg.kind,
+                           'kind')
+        finite(list(msg.channels), 'channels')
+        if not (msg.stamp_error >= 0):
+            raise Rejected('malformed', 'stamp_error %r' % msg.stamp_error,
+                           'stamp_error')
+
+    def begin(self, start, end):
+        self._start, self._duration = start, end - start
+        self._n = 0
+        self._sums = None
+        self._markers = []
+        self._events = []
+
+    def add(self, frame):
+        msg = frame.msg
+        if msg.kind == TICK:
+            return
+        if msg.kind in EVENTS:
+            self._events.append('%s at %+.3f s: %s' % (
+                EVENTS[msg.kind], frame.stamp - self._start, msg.reason))
+            return
+        self._n += 1
+        if msg.channels:
+            v = np.asarray(msg.channels, float)
+            if self._sums is None or len(self._sums) != len(v):
+                self._sums = np.zeros(len(v))
+            self._sums += v
+        if msg.markers and len(self._markers) < 20:
+            self._markers.append('%+.4f %s' % (frame.stamp - self._start,
+                                               '|'.join(msg.markers)))
+
+    def result(self):
+        d = {'unit': 'samples', 'rate': (self._n / self._duration
+                                         if self._duration > 0 else 0.0)}
+        if self._sums is not None and self._n:
+            d['channel_means'] = ' '.join(
+                '%.6g' % m for m in self._sums / self._n)
+        if self._markers:
+            d['markers'] = '; '.join(self._markers)
+        if self._events:
+            d['lsl_events'] = '; '.join(self._events)
+            bad = [e for e in self._events if not e.startswith('recovered')]
+            if bad:
+                d['lsl_stream'] = bad[-1]
+        return ProcessResult(value=float(self._n), frames_used=self._n,
+                             diagnostics=d)

@@ -1,0 +1,125 @@
+#!/usr/bin/python3
+"""Checks LSL in (issue 21 items 1 and 7) against true time.
+
+``lsl_source.py`` writes each sample's true time into it (first channel,
+or a marker's first word); the client ``~client`` captures the stream
+through ``lsl_inlet`` and its DPM, and republishes the window's samples on
+NS/<client>/captured with their global stamps.  Global time is the time
+server's, here the true clock.  For every round this checks that the
+result came, that every captured sample's global stamp is within the
+result's timing_uncertainty (plus ~margin) of its true time and inside
+the window, and that the result counts them.  With ``~fault`` (vanish or
+reset, in the middle of round ``~fault_round``): that round's result is
+not ok and says why in ``lsl_stream`` (``lost: ...``,
+``clock_reset: ...``), no sample stamped wrongly got in, and the next
+round's result says the stream is still lost or broken.
+"""
+import math
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+
+from hri_sync.msg import ClientResult, LslSample
+
+KIND_OF_FAULT = {'vanish': 'lost', 'reset': 'clock_reset'}
+
+
+def truth_of(msg):
+    """The true time the source wrote into a sample."""
+    if msg.markers:
+        return float(msg.markers[0].split()[0])
+    return msg.channels[0]
+
+
+class LslCheck(unittest.TestCase):
+
+    def setUp(self):
+        self.client = rospy.get_param('~client', 'eeg')
+        self.rounds = int(rospy.get_param('~rounds', 2))
+        self.margin = float(rospy.get_param('~margin', 0.002))
+        self.fault = rospy.get_param('~fault', '')
+        self.fault_round = int(rospy.get_param('~fault_round', 1))
+        self.lock = threading.Lock()
+        self.captured = []      # (global stamp, LslSample)
+        self.results = {}
+        rospy.Subscriber('/%s/captured' % self.client, LslSample,
+                         self.on_captured, queue_size=100000)
+        rospy.Subscriber('/client_result', ClientResult, self.on_result,
+                         queue_size=100)
+
+    def on_captured(self, msg):
+        with self.lock:
+            self.captured.append((msg.header.stamp.to_sec(), msg))
+
+    def on_result(self, msg):
+        if msg.client_id == self.client:
+            with self.lock:
+                self.results[msg.round] = msg
+
+    def wait(self):
+        deadline = time.time() + float(rospy.get_param('~timeout', 240))
+        while time.time() < deadline and not rospy.is_shutdown():
+            with self.lock:
+                if all(r in self.results for r in range(1, self.rounds + 1)):
+                    break
+            time.sleep(0.2)
+        time.sleep(3.0)     # the captured samples follow their results
+
+    def check_round(self, r):
+        start, end = r.capture_start.to_sec(), r.capture_end.to_sec()
+        d = {kv.key: kv.value for kv in r.diagnostics}
+        with self.lock:
+            data = [(s, m) for s, m in self.captured
+                    if start <= s < end and m.kind == LslSample.DATA]
+        errors = [s - truth_of(m) for s, m in data]
+        worst = max((abs(e) for e in errors), default=math.nan)
+        rospy.loginfo(
+            'lsl_check: round %d %s: %d samples, value %g, coverage %.2f, '
+            'timing_uncertainty %.3f ms, |global - true| max %.3f ms, '
+            'median %.3f ms; %s', r.round, r.status, len(data), r.value,
+            r.coverage, r.timing_uncertainty * 1e3, worst * 1e3,
+            sorted(abs(e) for e in errors)[len(errors) // 2] * 1e3
+            if errors else math.nan, d.get('lsl_stream', 'stream ok'))
+        for e in errors:
+            self.assertLessEqual(
+                abs(e), r.timing_uncertainty + self.margin,
+                'round %d: a sample %.3f ms from its true time, beyond the '
+                'reported bound %.3f ms + margin' % (
+                    r.round, e * 1e3, r.timing_uncertainty * 1e3))
+        self.assertEqual(int(r.value), len(data),
+                         'round %d: the result counts %g samples, %d were '
+                         'captured' % (r.round, r.value, len(data)))
+        return d, data
+
+    def test_rounds(self):
+        self.wait()
+        with self.lock:
+            missing = [n for n in range(1, self.rounds + 1)
+                       if n not in self.results]
+        self.assertFalse(missing, 'no result of rounds %s' % missing)
+        for n in range(1, self.rounds + 1):
+            r = self.results[n]
+            d, data = self.check_round(r)
+            if not self.fault or n < self.fault_round:
+                self.assertEqual(r.status, ClientResult.OK, d)
+                self.assertNotIn('lsl_stream', d)
+                self.assertGreater(len(data), 0)
+                continue
+            kind = KIND_OF_FAULT[self.fault]
+            self.assertNotEqual(r.status, ClientResult.OK, d)
+            self.assertTrue(d.get('lsl_stream', '').startswith(kind),
+                            'round %d: lsl_stream %r, not %s' % (
+                                n, d.get('lsl_stream'), kind))
+            if n == self.fault_round:
+                self.assertGreater(len(data), 0, 'the samples before the '
+                                   'fault are lost too')
+            else:
+                self.assertEqual(r.status, ClientResult.NO_DATA, d)
+
+
+if __name__ == '__main__':
+    rospy.init_node('lsl_check')
+    rostest.rosrun('hri_sync', 'lsl_check', LslCheck)

@@ -1,0 +1,82 @@
+#!/usr/bin/python3
+"""An LSL outlet for the LSL tests, on whatever clock it runs under
+(launch-prefix faketime): each sample's first channel is its true time
+(raw-syscall CLOCK_REALTIME, which libfaketime does not fake), its LSL
+stamp is local_clock() read right after it, its second channel a counter.
+
+Faults, at the middle of round ``~fault_round``'s capture window (read
+from /capture_data, global = true time here): ``~fault: vanish`` ends the
+process at once (SIGKILL, as a crashed or unplugged source); ``reset``
+shifts every later stamp by ``~reset_shift`` s (a device clock that was
+reset).  ``~rate`` 0: an irregular marker stream (a marker every
+``~marker_period`` s, its text 'TRUTH INDEX').
+"""
+import os
+import signal
+import threading
+import time
+
+from hri_sync.tools import venv
+
+venv.ensure(['pylsl'], 'lsl_source', __file__)
+
+import pylsl  # noqa: E402
+import rospy  # noqa: E402
+
+from hri_sync.msg import CaptureData  # noqa: E402
+from hri_sync.timing.truth import true_time  # noqa: E402
+
+
+class Source:
+    def __init__(self):
+        self.rate = float(rospy.get_param('~rate', 100.0))
+        self.fault = rospy.get_param('~fault', '')
+        self.fault_round = int(rospy.get_param('~fault_round', 1))
+        self.shift = 0.0
+        self.reset_shift = float(rospy.get_param('~reset_shift', -2.0))
+        self.fault_at = None
+        strings = self.rate == 0
+        info = pylsl.StreamInfo(
+            rospy.get_param('~name', 'hri_test'),
+            rospy.get_param('~type', 'Markers' if strings else 'Test'),
+            1 if strings else 2, self.rate,
+            pylsl.cf_string if strings else pylsl.cf_double64,
+            rospy.get_param('~source_id', 'hri_sync_test_source'))
+        self.outlet = pylsl.StreamOutlet(info)
+        self.period = float(rospy.get_param('~marker_period', 0.5)) \
+            if strings else 1.0 / self.rate
+        rospy.Subscriber('/capture_data', CaptureData, self.on_capture)
+
+    def on_capture(self, msg):
+        if msg.round == self.fault_round and self.fault:
+            start = msg.header.stamp.to_sec() + msg.str_aft
+            self.fault_at = start + msg.dur / 2
+            rospy.loginfo('lsl_source: %s at true time %.3f', self.fault,
+                          self.fault_at)
+
+    def run(self):
+        k = 0
+        nxt = time.monotonic()
+        while not rospy.is_shutdown():
+            truth = true_time()
+            if self.fault_at is not None and truth >= self.fault_at:
+                self.fault_at = None
+                if self.fault == 'vanish':
+                    os.kill(os.getpid(), signal.SIGKILL)
+                self.shift = self.reset_shift
+                rospy.loginfo('lsl_source: stamps shifted by %g s',
+                              self.shift)
+            stamp = pylsl.local_clock() + self.shift
+            if self.rate == 0:
+                self.outlet.push_sample(['%.6f %d' % (truth, k)], stamp)
+            else:
+                self.outlet.push_sample([truth, float(k)], stamp)
+            k += 1
+            nxt += self.period
+            time.sleep(max(0.0, nxt - time.monotonic()))
+
+
+if __name__ == '__main__':
+    rospy.init_node('lsl_source')
+    threading.Thread(target=Source().run, daemon=True).start()
+    rospy.spin()
