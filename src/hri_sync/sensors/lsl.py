@@ -120,13 +120,15 @@ class LslStamper:
     more than ``ahead`` s, or maps into the future, raises ClockBreak:
     the stream is ``broken`` and its samples are refused until
     ``settle`` in a row map consistently again: not into the future and
-    no later than three times the recent largest delivery lag (at least
-    ``min_lag`` s) before they were pulled (LSL's next estimate corrected
-    an outlet host clock that stepped).  A stream whose own stamps were
-    reset stays broken: its samples have no known time.
+    lagging their pull by no more than 1.5 times the largest lag of the
+    last 64 good samples plus ``min_lag`` s (LSL's next estimate
+    corrected an outlet host clock that stepped).  A stream whose own
+    stamps were reset stays broken: its samples have no known time.  (A
+    reset back by less than the stream's delivery lag cannot be told from
+    delivery jitter.)
     """
 
-    def __init__(self, fit, ahead=0.005, settle=5, min_lag=0.25):
+    def __init__(self, fit, ahead=0.005, settle=5, min_lag=0.02):
         self.fit = fit
         self.ahead = ahead
         self.settle = settle
@@ -139,12 +141,13 @@ class LslStamper:
     @property
     def max_lag(self):
         """The most a consistent sample may lag behind its pull (s)."""
-        return max(self.min_lag, 3 * max(self._lags, default=0.0))
+        return 1.5 * max(self._lags, default=0.0) + self.min_lag
 
     def _check(self, lsl_stamp, local, now_lsl):
         if not math.isfinite(lsl_stamp):
             return 'a stamp that is not finite (%r)' % lsl_stamp
-        if self.last is not None and lsl_stamp < self.last - self.ahead:
+        if not self.broken and self.last is not None and \
+                lsl_stamp < self.last - self.ahead:
             return 'the stamp went back %.6f s' % (self.last - lsl_stamp)
         if local > now_lsl + self.ahead:
             return 'the stamp maps %.6f s into the future' % (
@@ -161,14 +164,12 @@ class LslStamper:
         why = self._check(lsl_stamp, local, now_lsl)
         if self.broken:
             self._good = 0 if why else self._good + 1
-            self.last = lsl_stamp if math.isfinite(lsl_stamp) else self.last
             if self._good < self.settle:
                 raise ClockBreak(self.broken)
             self.broken = ''
         elif why:
             self.broken = why
             self._good = 0
-            self.last = lsl_stamp if math.isfinite(lsl_stamp) else self.last
             raise ClockBreak(why)
         self.last = lsl_stamp
         self._lags.append(max(0.0, now_lsl - local))
@@ -213,6 +214,7 @@ class LslChannels(HeaderStamped):
         self._start, self._duration = start, end - start
         self._n = 0
         self._sums = None
+        self._numeric = 0
         self._markers = []
         self._events = []
 
@@ -229,7 +231,9 @@ class LslChannels(HeaderStamped):
             v = np.asarray(msg.channels, float)
             if self._sums is None or len(self._sums) != len(v):
                 self._sums = np.zeros(len(v))
+                self._numeric = 0
             self._sums += v
+            self._numeric += 1
         if msg.markers and len(self._markers) < 20:
             self._markers.append('%+.4f %s' % (frame.stamp - self._start,
                                                '|'.join(msg.markers)))
@@ -237,9 +241,9 @@ class LslChannels(HeaderStamped):
     def result(self):
         d = {'unit': 'samples', 'rate': (self._n / self._duration
                                          if self._duration > 0 else 0.0)}
-        if self._sums is not None and self._n:
+        if self._numeric:
             d['channel_means'] = ' '.join(
-                '%.6g' % m for m in self._sums / self._n)
+                '%.6g' % m for m in self._sums / self._numeric)
         if self._markers:
             d['markers'] = '; '.join(self._markers)
         if self._events:

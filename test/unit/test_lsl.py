@@ -1,0 +1,150 @@
+"""LSL in: the time-correction fit, the stamper, the processor and the
+DPM's host stamps (hri_sync.sensors.lsl; docs/lsl.md)."""
+import math
+from types import SimpleNamespace as NS
+
+import pytest
+
+from hri_sync.sensors.lsl import (CLOCK_RESET, DATA, LOST, TICK, ClockBreak,
+                                  CorrectionFit, LslChannels, LslStamper)
+from hri_sync.timing.clock import ClockModel
+from hri_sync.timing.data_process import DataProcess
+from hri_sync.timing.processors import Frame
+from hri_sync.timing.validate import Rejected
+
+
+def drifting(t, offset=3.0, drift=2e-4):
+    """A remote clock's correction at local time t."""
+    return offset + drift * t
+
+
+def test_fit_follows_drift_between_estimates():
+    fit = CorrectionFit()
+    for t in range(0, 20, 2):           # an estimate every 2 s
+        fit.add(float(t), drifting(t), 1e-4)
+    assert fit.slope == pytest.approx(2e-4, rel=1e-6)
+    # 1.5 s after the last estimate: the last value is 0.3 ms off, the fit
+    # is not.
+    assert abs(fit.correction(19.5) - drifting(19.5)) < 1e-9
+    assert abs(drifting(18) - drifting(19.5)) > 2.9e-4
+    assert fit.bound(19.5) == pytest.approx(5e-5)
+
+
+def test_fit_ignores_repeats_and_one_outlier():
+    fit = CorrectionFit()
+    for t in range(10):
+        fit.add(float(t), drifting(t), 1e-4)
+        fit.add(float(t) + 0.5, drifting(t), 1e-4)      # repeated: ignored
+    fit.add(10.0, drifting(10) + 0.01, 1e-4)            # a bad estimate
+    assert len(fit.points) == 11
+    assert abs(fit.correction(11) - drifting(11)) < 1e-6
+
+
+def test_fit_with_one_estimate_grows_its_bound():
+    fit = CorrectionFit(drift_bound=5e-4)
+    assert fit.bound(0) == math.inf and not fit.ready
+    fit.add(10.0, 1.0, 2e-4)
+    assert fit.correction(12.0) == 1.0
+    assert fit.bound(12.0) == pytest.approx(1e-4 + 1e-3)
+    with pytest.raises(ValueError):
+        fit.add(11.0, math.nan)
+
+
+def stamper():
+    fit = CorrectionFit()
+    fit.add(0.0, 5.0, 1e-4)
+    fit.add(2.0, 5.0 + 1e-9, 1e-4)
+    return LslStamper(fit, settle=3)
+
+
+def test_stamper_maps_to_the_wall_clock():
+    s = stamper()
+    host, bound = s.stamp(95.0, 100.01, 1000.0)
+    assert host == pytest.approx(1100.0, abs=1e-6) and bound == pytest.approx(5e-5)
+
+
+def test_stamper_catches_a_clock_reset_and_stays_broken():
+    s = stamper()
+    for k in range(10):
+        s.stamp(95.0 + 0.01 * k, 100.0 + 0.01 * k + 0.002, 0.0)
+    with pytest.raises(ClockBreak, match='went back'):
+        s.stamp(93.1, 100.102, 0.0)
+    # The stream goes on from its new base: consistent among themselves,
+    # but 2 s before their delivery: still refused.
+    for k in range(10):
+        with pytest.raises(ClockBreak):
+            s.stamp(93.11 + 0.01 * k, 100.112 + 0.01 * k, 0.0)
+    assert s.broken
+
+
+def test_stamper_recovers_when_samples_map_again():
+    s = stamper()
+    s.stamp(95.0, 100.001, 0.0)
+    with pytest.raises(ClockBreak, match='future'):
+        s.stamp(96.0, 100.011, 0.0)
+    # LSL's next estimate or the stream corrects it: after settle samples.
+    for k in range(2):
+        with pytest.raises(ClockBreak):
+            s.stamp(95.02 + 0.01 * k, 100.021 + 0.01 * k, 0.0)
+    host, _ = s.stamp(95.04, 100.041, 0.0)
+    assert host == pytest.approx(100.04, abs=1e-6) and not s.broken
+
+
+def sample(kind=DATA, stamp=1.0, channels=(), markers=(), reason='',
+           error=1e-4):
+    return NS(kind=kind, header=NS(stamp=stamp), channels=list(channels),
+              markers=list(markers), reason=reason, stamp_error=error,
+              lsl_stamp=stamp)
+
+
+def test_processor_counts_means_markers_and_events():
+    p = LslChannels()
+    p.begin(10.0, 12.0)
+    for k in range(4):
+        p.add(Frame(10.0 + k * 0.1, sample(channels=(k, 2.0))))
+    p.add(Frame(10.5, sample(TICK)))
+    p.add(Frame(11.0, sample(markers=('go',))))
+    p.add(Frame(11.2, sample(LOST, reason='the outlet is gone')))
+    r = p.result()
+    assert r.value == 5 and r.frames_used == 5
+    assert r.diagnostics['channel_means'] == '1.5 2'
+    assert r.diagnostics['markers'] == '+1.0000 go'
+    assert r.diagnostics['lsl_stream'].startswith('lost at +1.200 s: the '
+                                                  'outlet is gone')
+    assert r.diagnostics['rate'] == pytest.approx(2.5)
+
+
+@pytest.mark.parametrize('msg', [sample(kind=9), sample(channels=(math.nan,)),
+                                 sample(error=math.nan)])
+def test_processor_rejects_malformed(msg):
+    with pytest.raises(Rejected):
+        LslChannels().check(msg)
+
+
+def test_dpm_maps_host_stamps_by_the_clock_model_alone():
+    dp = DataProcess(LslChannels)
+    assert dp.stamp_source == 'host'
+    dp.set_clock(ClockModel(1000.0, 3.0, 0.0, 1e-4))
+    dp.open(1, 1003.5, 1004.0)
+    steps = [dp.on_sample(sample(stamp=1000.5 + 0.01 * k, channels=(k,),
+                                 error=2e-4), 1000.52 + 0.01 * k)
+             for k in range(60)]
+    results = [r for s in steps for r in s.results]
+    assert len(results) == 1
+    r = results[0]
+    assert r.frames == 50 and r.status == 'ok'
+    assert 3e-4 <= r.timing_uncertainty < 3.5e-4
+    # A stamp after its own arrival, or none, is refused and counted.
+    dp.on_sample(sample(stamp=1002.0, channels=(1,)), 1001.0)
+    dp.on_sample(sample(stamp=math.nan, channels=(1,)), 1001.0)
+    assert dp.counts['bad_device_stamp'] == 1
+    assert dp.counts['no_device_stamp'] == 1
+
+
+def test_clock_reset_kind_is_an_event():
+    p = LslChannels()
+    p.begin(0.0, 1.0)
+    p.add(Frame(0.5, sample(CLOCK_RESET, reason='the stamp went back 2 s')))
+    r = p.result()
+    assert r.frames_used == 0
+    assert r.diagnostics['lsl_stream'].startswith('clock_reset at +0.500')
