@@ -148,3 +148,45 @@ def test_clock_reset_kind_is_an_event():
     r = p.result()
     assert r.frames_used == 0
     assert r.diagnostics['lsl_stream'].startswith('clock_reset at +0.500')
+
+
+# -- LSL out (hri_sync.tools.lsl_markers) -----------------------------------
+
+def test_marker_text_round_trips_and_refuses_nan():
+    from hri_sync.tools.lsl_markers import marker_text, parse_marker
+    d = parse_marker(marker_text('result', 3, 1000.1234567, 1e-4,
+                                 client='a', value=None))
+    assert d == {'event': 'result', 'round': 3, 'global_time': 1000.123457,
+                 'bound': 0.0001, 'client': 'a', 'value': None}
+    with pytest.raises(ValueError):
+        marker_text('result', 3, 1000.0, 1e-4, value=math.nan)
+    with pytest.raises(ValueError):
+        marker_text('party', 3, 1000.0, 1e-4)
+    with pytest.raises(ValueError):
+        parse_marker('{"event": "other"}')
+
+
+def test_capture_events_are_the_window():
+    from hri_sync.tools.lsl_markers import capture_events
+    (e1, t1, f1), (e2, t2, _) = capture_events(2, 100.0, 0.5, 4.0, ['a'])
+    assert (e1, t1, e2, t2) == ('window_start', 100.5, 'window_end', 104.5)
+    assert f1 == {'clients': ['a'], 'dur': 4.0}
+
+
+def test_marker_clock_maps_global_to_lsl_with_bound():
+    from hri_sync.tools.lsl_markers import MarkerClock
+    c = MarkerClock()
+    with pytest.raises(ValueError):
+        c.to_lsl(1000.0, 50.0)
+    c.model = ClockModel(900.0, 3.0, 0.0, 2e-4)
+    stamp, bound = c.to_lsl(1003.0, 50.0)
+    assert stamp == pytest.approx(950.0) and bound == pytest.approx(2e-4)
+
+
+def test_unread_markers_are_counted_and_reported_once_a_round():
+    from hri_sync.tools.lsl_markers import Unread
+    u = Unread()
+    assert 'round 1' in u.pushed(1, consumers=False)
+    assert u.pushed(1, consumers=False) == ''
+    assert u.pushed(2, consumers=True) == ''
+    assert u.total == 2 and u.summary() == '1: 2'

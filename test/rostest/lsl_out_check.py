@@ -1,0 +1,149 @@
+#!/usr/bin/python3
+"""Checks LSL out (issue 21 items 2 and 7): reads nodes/lsl_outlet's
+marker stream back with pylsl, as LabRecorder would, on the true clock.
+
+Each marker's LSL stamp, mapped to this process's clock by LSL's time
+correction (fitted with drift, ``hri_sync.sensors.lsl.CorrectionFit``),
+is this host's true time here; it must be within the marker's ``bound``
+plus the correction's bound plus ``~margin`` of the event's global time
+as the ROS topics give it (sync_time, the capture window from
+capture_data, each client_result, the decision), global being the time
+server's, the true clock.  Every event of each round read must be there.
+With ``~connect_after_round`` k, the reader connects only after round
+k's decision: the markers of rounds 1..k had no reader, and the outlet
+must say so on /diagnostics (markers_unread, unread_by_round) and go on.
+"""
+import threading
+import time
+import unittest
+
+from hri_sync.tools import venv
+
+venv.ensure(['pylsl'], 'lsl_out_check', __file__)
+
+import pylsl  # noqa: E402
+import rospy  # noqa: E402
+import rostest  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+
+from hri_sync.msg import CaptureData, ClientResult, Decision, SyncTime  # noqa: E402,E501
+from hri_sync.sensors.lsl import CorrectionFit  # noqa: E402
+from hri_sync.tools import lsl_io  # noqa: E402
+from hri_sync.tools.lsl_markers import parse_marker  # noqa: E402
+
+
+class LslOutCheck(unittest.TestCase):
+
+    def setUp(self):
+        self.rounds = int(rospy.get_param('~rounds', 2))
+        self.clients = rospy.get_param('~clients', 'a').split(',')
+        self.after = int(rospy.get_param('~connect_after_round', 0))
+        self.margin = float(rospy.get_param('~margin', 0.002))
+        self.lock = threading.Lock()
+        self.truth = {}     # (round, event, client) -> global time
+        self.markers = []   # (LSL stamp, text)
+        self.unread = {}
+        self.fit = CorrectionFit()
+        for topic, kind, cb in (('/sync_time', SyncTime, self.on_sync),
+                                ('/capture_data', CaptureData, self.on_cap),
+                                ('/client_result', ClientResult,
+                                 self.on_result),
+                                ('/decision', Decision, self.on_decision),
+                                ('/diagnostics', DiagnosticArray,
+                                 self.on_diagnostics)):
+            rospy.Subscriber(topic, kind, cb, queue_size=100)
+
+    def put(self, key, t):
+        with self.lock:
+            self.truth.setdefault(key, t)
+
+    def on_sync(self, m):
+        self.put((m.round, 'sync', ''), m.header.stamp.to_sec())
+
+    def on_cap(self, m):
+        start = m.header.stamp.to_sec() + m.str_aft
+        self.put((m.round, 'window_start', ''), start)
+        self.put((m.round, 'window_end', ''), start + m.dur)
+
+    def on_result(self, m):
+        self.put((m.round, 'result', m.client_id), m.header.stamp.to_sec())
+
+    def on_decision(self, m):
+        self.put((m.round, 'decision', ''), m.header.stamp.to_sec())
+
+    def on_diagnostics(self, m):
+        for s in m.status:
+            if 'lsl_outlet' in s.name and s.name.endswith('lsl'):
+                with self.lock:
+                    self.unread = {kv.key: kv.value for kv in s.values}
+
+    def read(self, deadline):
+        """Connect (after round ``after``'s decision), then pull markers
+        and time corrections until the last round's decision + 2 s."""
+        while (self.after, 'decision', '') not in self.truth and \
+                self.after and time.time() < deadline:
+            time.sleep(0.05)
+        infos = lsl_io.resolve(name='hri_sync_events', timeout=30.0)
+        self.assertTrue(infos, 'no LSL stream hri_sync_events found')
+        inlet = pylsl.StreamInlet(infos[0], recover=False)
+        inlet.open_stream(10.0)
+        rospy.loginfo('lsl_out_check: reading %s', lsl_io.describe(infos[0]))
+        done = None
+        while time.time() < deadline and (done is None or
+                                          time.time() < done):
+            c, remote, rtt = lsl_io.time_correction_ex(inlet, 5.0)
+            self.fit.add(remote + c, c, rtt)
+            samples, stamps = inlet.pull_chunk(timeout=0.2)
+            with self.lock:
+                self.markers += [(t, s[0]) for s, t in zip(samples, stamps)]
+                if done is None and (self.rounds, 'decision', '') in \
+                        self.truth:
+                    done = time.time() + 2.0
+        return lsl_io.wall_minus_lsl()
+
+    def expected(self, n):
+        return [(n, e, '') for e in ('sync', 'window_start', 'window_end',
+                                     'decision')] + \
+            [(n, 'result', c) for c in self.clients]
+
+    def test_markers(self):
+        deadline = time.time() + float(rospy.get_param('~timeout', 240))
+        offset = self.read(deadline)
+        seen = {}
+        for stamp, text in self.markers:
+            d = parse_marker(text)
+            key = (d['round'], d['event'], d.get('client', ''))
+            # The fit's time axis is this host's LSL clock.
+            local = stamp + self.fit.correction(self.fit.ref)
+            true = stamp + self.fit.correction(local) + offset
+            seen[key] = (true, d)
+        worst = 0.0
+        for n in range(self.after + 1, self.rounds + 1):
+            for key in self.expected(n):
+                self.assertIn(key, seen, 'no marker %s' % (key,))
+                self.assertIn(key, self.truth, 'no ROS event %s' % (key,))
+                true, d = seen[key]
+                err = true - self.truth[key]
+                bound = d['bound'] + self.fit.bound(true - offset)
+                worst = max(worst, abs(err))
+                rospy.loginfo('lsl_out_check: %s: marker %+.3f ms from the '
+                              'event (bound %.3f ms)', key, err * 1e3,
+                              bound * 1e3)
+                self.assertLessEqual(abs(err), bound + self.margin, key)
+                self.assertAlmostEqual(d['global_time'], self.truth[key],
+                                       places=5)
+        rospy.loginfo('lsl_out_check: worst marker error %.3f ms', worst * 1e3)
+        for n in range(1, self.after + 1):
+            self.assertFalse([k for k in seen if k[0] == n],
+                             'round %d markers read before connecting' % n)
+        if self.after:
+            with self.lock:
+                unread = dict(self.unread)
+            self.assertGreater(int(unread.get('markers_unread', 0)), 0,
+                               unread)
+            self.assertIn('1: ', unread.get('unread_by_round', ''))
+
+
+if __name__ == '__main__':
+    rospy.init_node('lsl_out_check')
+    rostest.rosrun('hri_sync', 'lsl_out_check', LslOutCheck)
