@@ -190,3 +190,16 @@ def test_unread_markers_are_counted_and_reported_once_a_round():
     assert u.pushed(1, consumers=False) == ''
     assert u.pushed(2, consumers=True) == ''
     assert u.total == 2 and u.summary() == '1: 2'
+
+
+def test_kinds_match_the_message():
+    import os
+    import re
+    from hri_sync.sensors import lsl
+    path = os.path.join(os.path.dirname(__file__), '..', '..', 'msg',
+                        'LslSample.msg')
+    with open(path) as f:
+        found = dict(re.findall(r'^uint8 ([A-Z_]+)=(\d+)', f.read(), re.M))
+    assert {k: int(v) for k, v in found.items()} == {
+        'DATA': lsl.DATA, 'TICK': lsl.TICK, 'LOST': lsl.LOST,
+        'CLOCK_RESET': lsl.CLOCK_RESET, 'RECOVERED': lsl.RECOVERED}
