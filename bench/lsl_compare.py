@@ -52,7 +52,9 @@ def parse_args():
     p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     skew_bench.add_args(p, 20, 'clock offsets within +/- this, s (default 3)')
     skew_bench.add_run_args(p)
-    p.set_defaults(clients=4)
+    # The LSL recorder connects before the warm-up, as LabRecorder runs
+    # before a session: the live fit has its first estimates by round 1.
+    p.set_defaults(clients=4, warmup=6.0)
     args = p.parse_args()
     skew_bench.check_args(p, args)
     return args
@@ -101,7 +103,7 @@ class Run:
         bench.wait_clients()
         self.recorder.connect({c: 'lsl_bench_' + c for c in bench.clients})
         log('LSL recorder connected to %d outlets', len(bench.clients))
-        self.since = time.time()
+        self.since = time.time() + args.warmup
         bench.start_server(ntp_args)
         bench.record_rounds(deadline)
         self.offset = self.recorder.stop()

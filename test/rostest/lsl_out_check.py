@@ -25,8 +25,10 @@ import pylsl  # noqa: E402
 import rospy  # noqa: E402
 import rostest  # noqa: E402
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from std_msgs.msg import Header  # noqa: E402
 
-from hri_sync.msg import CaptureData, ClientResult, Decision, SyncTime  # noqa: E402,E501
+from hri_sync.msg import (ActionStart, CaptureData, ClientResult,  # noqa: E402
+                          Decision, SyncTime)
 from hri_sync.sensors.lsl import CorrectionFit  # noqa: E402
 from hri_sync.tools import lsl_io  # noqa: E402
 from hri_sync.tools.lsl_markers import parse_marker  # noqa: E402
@@ -44,6 +46,9 @@ class LslOutCheck(unittest.TestCase):
         self.markers = []   # (LSL stamp, text)
         self.unread = {}
         self.fit = CorrectionFit()
+        # DJ Rob's action start: this checker stands in for turtlebot_gesture.
+        self.action_pub = rospy.Publisher('/dj_rob/action_start',
+                                          ActionStart, queue_size=10)
         for topic, kind, cb in (('/sync_time', SyncTime, self.on_sync),
                                 ('/capture_data', CaptureData, self.on_cap),
                                 ('/client_result', ClientResult,
@@ -70,6 +75,13 @@ class LslOutCheck(unittest.TestCase):
 
     def on_decision(self, m):
         self.put((m.round, 'decision', ''), m.header.stamp.to_sec())
+        if m.round == self.rounds:
+            t = time.time()     # global = the true clock here
+            self.action_pub.publish(ActionStart(
+                header=Header(stamp=rospy.Time.from_sec(t)), round=m.round,
+                client_id='dj_rob', action=ActionStart.DANCE,
+                scheduled=rospy.Time.from_sec(t), offset=0.0))
+            self.put((m.round, 'action_start', 'dj_rob'), t)
 
     def on_diagnostics(self, m):
         for s in m.status:
@@ -104,7 +116,8 @@ class LslOutCheck(unittest.TestCase):
     def expected(self, n):
         return [(n, e, '') for e in ('sync', 'window_start', 'window_end',
                                      'decision')] + \
-            [(n, 'result', c) for c in self.clients]
+            [(n, 'result', c) for c in self.clients] + \
+            ([(n, 'action_start', 'dj_rob')] if n == self.rounds else [])
 
     def test_markers(self):
         deadline = time.time() + float(rospy.get_param('~timeout', 240))
