@@ -224,7 +224,8 @@ class DataProcess:
         stamp is on this host's clock: mapped by the clock model."""
         assert self.clock is not None     # on_sample checked it
         try:
-            host = float(self.read_device_stamp(msg))
+            read = self.read_device_stamp(msg)
+            host = math.nan if read is None else float(read)
         except (AttributeError, TypeError, ValueError):
             host = math.nan
         if not math.isfinite(host):
