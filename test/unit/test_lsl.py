@@ -203,3 +203,14 @@ def test_kinds_match_the_message():
     assert {k: int(v) for k, v in found.items()} == {
         'DATA': lsl.DATA, 'TICK': lsl.TICK, 'LOST': lsl.LOST,
         'CLOCK_RESET': lsl.CLOCK_RESET, 'RECOVERED': lsl.RECOVERED}
+
+
+def test_fit_leaves_out_slow_exchanges():
+    fit = CorrectionFit()
+    for t in range(0, 20, 2):
+        # A loaded host: every third exchange slow and 0.4 ms off.
+        slow = t % 6 == 4
+        fit.add(float(t), drifting(t) + (4e-4 if slow else 0.0),
+                1e-3 if slow else 7e-5)
+    assert abs(fit.correction(21.0) - drifting(21.0)) < 1e-9
+    assert fit.bound(21.0) == pytest.approx(3.5e-5)

@@ -44,13 +44,14 @@ class CorrectionFit:
     ``add(local, correction, rtt)``: one estimate, made at local LSL time
     ``local``, with its round-trip time.  LSL re-estimates every few
     seconds; between estimates a drifting clock walks away from the last
-    one (200 ppm: 1 ms in 5 s), so the map is the Theil-Sen line through
-    the last ``keep`` estimates (the drift fit LSL's docs suggest for
-    post-processing, done live).  ``bound(local)``: half the round trip
-    of the worst recent estimate (an offset measured over a round trip is
-    off by at most half of it) plus the median scatter of the estimates
-    about the line.  With one estimate the line is flat and the bound
-    grows with ``drift_bound`` s/s from it.
+    one (200 ppm: 0.4 ms in 2 s), so the map is the Theil-Sen line through
+    those of the last ``keep`` estimates whose round trip is short
+    (``used``; the drift fit LSL's docs suggest for post-processing, done
+    live).  ``bound(local)``: half the round trip of the worst used
+    estimate (an offset measured over a round trip is off by at most half
+    of it) plus their median scatter about the line.  With one used
+    estimate the line is flat and the bound grows with ``drift_bound`` s/s
+    from it.
     """
 
     def __init__(self, keep=12, drift_bound=5e-4):
@@ -69,10 +70,17 @@ class CorrectionFit:
         if self.points and self.points[-1][1] == correction:
             return
         self.points.append((local, correction, max(0.0, rtt)))
-        t = np.array([p[0] for p in self.points])
-        self.ref = float(t[-1])
+        used = self.used()
+        self.ref = float(self.points[-1][0])
         self.slope, self.intercept = theil_sen(
-            t - self.ref, [p[1] for p in self.points])
+            [p[0] - self.ref for p in used], [p[1] for p in used])
+
+    def used(self):
+        """The estimates the line goes through: those whose round trip
+        is within twice the least one's + 50 us (a loaded host's slow
+        exchanges are the least certain: NTP's clock filter idea)."""
+        least = min(p[2] for p in self.points)
+        return [p for p in self.points if p[2] <= 2 * least + 50e-6]
 
     def reset(self):
         """Forget the estimates (the outlet's clock broke)."""
@@ -88,18 +96,20 @@ class CorrectionFit:
         return self.intercept + self.slope * (local - self.ref)
 
     def scatter(self):
-        """Median distance (s) of the estimates from the line."""
-        if len(self.points) < 3:
+        """Median distance (s) of the used estimates from the line."""
+        used = self.used()
+        if len(used) < 3:
             return 0.0
         return float(np.median([abs(c - self.correction(t))
-                                for t, c, _ in self.points]))
+                                for t, c, _ in used]))
 
     def bound(self, local):
         """Error bound (s) of ``correction(local)``."""
         if not self.points:
             return math.inf
-        half_rtt = max(p[2] for p in self.points) / 2
-        if len(self.points) == 1:
+        used = self.used()
+        half_rtt = max(p[2] for p in used) / 2
+        if len(used) == 1:
             return half_rtt + self.drift_bound * abs(local - self.ref)
         return half_rtt + self.scatter()
 
