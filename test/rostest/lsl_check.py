@@ -21,8 +21,10 @@ import unittest
 
 import rospy
 import rostest
+from std_srvs.srv import Trigger
 
-from hri_sync.msg import ClientResult, LslSample
+from hri_sync.msg import ClientResult, DpmState, LslSample
+from hri_sync.ros.params import wait_for
 
 KIND_OF_FAULT = {'vanish': 'lost', 'reset': 'clock_reset'}
 
@@ -49,6 +51,9 @@ class LslCheck(unittest.TestCase):
                          self.on_captured, queue_size=100000)
         rospy.Subscriber('/client_result', ClientResult, self.on_result,
                          queue_size=100)
+        self.fed = False
+        rospy.Subscriber('/%s/dpm_state' % self.client, DpmState,
+                         self.on_state)
 
     def on_captured(self, msg):
         with self.lock:
@@ -59,13 +64,21 @@ class LslCheck(unittest.TestCase):
             with self.lock:
                 self.results[msg.round] = msg
 
-    def wait(self):
-        deadline = time.time() + float(rospy.get_param('~timeout', 240))
-        while time.time() < deadline and not rospy.is_shutdown():
-            with self.lock:
-                if all(r in self.results for r in range(1, self.rounds + 1)):
-                    break
-            time.sleep(0.2)
+    def on_state(self, msg):
+        self.fed |= msg.samples > 0
+
+    def run_rounds(self):
+        """Start each round (the server has rounds:=0) once the DPM has
+        had a sample (a loaded machine can start the inlet late, and the
+        CPM rightly NACKs a silent sensor), and wait for its result."""
+        self.assertTrue(wait_for(lambda: self.fed, 120.0, 0.1),
+                        'the DPM never had a sample of the LSL stream')
+        start = rospy.ServiceProxy('/control_module/start_round', Trigger)
+        start.wait_for_service(60.0)
+        for n in range(1, self.rounds + 1):
+            reply = start()     # returns at the round's end
+            rospy.loginfo('lsl_check: round %d: %s', n, reply.message)
+            wait_for(lambda: n in self.results, 30.0, 0.1)
         time.sleep(3.0)     # the captured samples follow their results
 
     def check_round(self, r):
@@ -95,7 +108,7 @@ class LslCheck(unittest.TestCase):
         return d, data
 
     def test_rounds(self):
-        self.wait()
+        self.run_rounds()
         with self.lock:
             missing = [n for n in range(1, self.rounds + 1)
                        if n not in self.results]

@@ -26,9 +26,11 @@ import rospy  # noqa: E402
 import rostest  # noqa: E402
 from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from std_msgs.msg import Header  # noqa: E402
+from std_srvs.srv import Trigger  # noqa: E402
 
 from hri_sync.msg import (ActionStart, CaptureData, ClientResult,  # noqa: E402
-                          Decision, SyncTime)
+                          Decision, DpmState, SyncTime)
+from hri_sync.ros.params import wait_for  # noqa: E402
 from hri_sync.sensors.lsl import CorrectionFit  # noqa: E402
 from hri_sync.tools import lsl_io  # noqa: E402
 from hri_sync.tools.lsl_markers import parse_marker  # noqa: E402
@@ -57,6 +59,11 @@ class LslOutCheck(unittest.TestCase):
                                 ('/diagnostics', DiagnosticArray,
                                  self.on_diagnostics)):
             rospy.Subscriber(topic, kind, cb, queue_size=100)
+        self.fed = set()
+        self.connected = False
+        for c in self.clients:
+            rospy.Subscriber('/%s/dpm_state' % c, DpmState,
+                             lambda m, c=c: m.samples and self.fed.add(c))
 
     def put(self, key, t):
         with self.lock:
@@ -89,9 +96,24 @@ class LslOutCheck(unittest.TestCase):
                 with self.lock:
                     self.unread = {kv.key: kv.value for kv in s.values}
 
+    def run_rounds(self):
+        """Start each round (the server has rounds:=0) once every DPM
+        has had a sample (a loaded machine can start a sensor late), each
+        after the last one's end."""
+        self.assertTrue(wait_for(lambda: self.fed >= set(self.clients),
+                                 120.0, 0.1), 'sensors never delivered')
+        start = rospy.ServiceProxy('/control_module/start_round', Trigger)
+        start.wait_for_service(60.0)
+        for n in range(1, self.rounds + 1):
+            if n > self.after:      # LSL gives a reader what comes after
+                wait_for(lambda: self.connected, 60.0, 0.05)
+            rospy.loginfo('lsl_out_check: round %d: %s', n,
+                          start().message)     # returns at the round's end
+
     def read(self, deadline):
         """Connect (after round ``after``'s decision), then pull markers
         and time corrections until the last round's decision + 2 s."""
+        threading.Thread(target=self.run_rounds, daemon=True).start()
         while (self.after, 'decision', '') not in self.truth and \
                 self.after and time.time() < deadline:
             time.sleep(0.05)
@@ -99,6 +121,7 @@ class LslOutCheck(unittest.TestCase):
         self.assertTrue(infos, 'no LSL stream hri_sync_events found')
         inlet = pylsl.StreamInlet(infos[0], recover=False)
         inlet.open_stream(10.0)
+        self.connected = True
         rospy.loginfo('lsl_out_check: reading %s', lsl_io.describe(infos[0]))
         done = None
         while time.time() < deadline and (done is None or
