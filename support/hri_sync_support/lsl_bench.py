@@ -144,6 +144,7 @@ def errors(stream, since):
         if truth < since:
             continue
         offline = icpt + slope * (stamp + latest - ref)
+        offline = icpt + slope * (stamp + offline - ref)   # at its own time
         for m, c in zip(METHODS, (latest, offline, online)):
             out[m].append((truth, stamp + c - truth))
     return out
