@@ -49,9 +49,10 @@ class CorrectionFit:
     (``used``; the drift fit LSL's docs suggest for post-processing, done
     live).  ``bound(local)``: half the round trip of the worst used
     estimate (an offset measured over a round trip is off by at most half
-    of it) plus their median scatter about the line.  With one used
-    estimate the line is flat and the bound grows with ``drift_bound`` s/s
-    from it.
+    of it), plus their median scatter about the line, plus the slope's
+    own error (a round trip over the estimates' span) times the time from
+    the last one.  With one used estimate the line is flat and the bound
+    grows with ``drift_bound`` s/s from it.
     """
 
     def __init__(self, keep=12, drift_bound=5e-4):
@@ -63,11 +64,12 @@ class CorrectionFit:
 
     def add(self, local, correction, rtt=0.0):
         """One time_correction estimate (ignored when it repeats the
-        last one: LSL returns its last estimate until the next)."""
+        last one, time and value: LSL returns its last estimate until the
+        next)."""
         if not all(math.isfinite(v) for v in (local, correction, rtt)):
             raise ValueError('time correction %r at %r (rtt %r): not '
                              'finite' % (correction, local, rtt))
-        if self.points and self.points[-1][1] == correction:
+        if self.points and self.points[-1][:2] == (local, correction):
             return
         self.points.append((local, correction, max(0.0, rtt)))
         used = self.used()
@@ -108,10 +110,14 @@ class CorrectionFit:
         if not self.points:
             return math.inf
         used = self.used()
-        half_rtt = max(p[2] for p in used) / 2
-        if len(used) == 1:
-            return half_rtt + self.drift_bound * abs(local - self.ref)
-        return half_rtt + self.scatter()
+        rtt = max(p[2] for p in used)
+        last = used[-1][0]
+        span = last - used[0][0]
+        if len(used) == 1 or span <= 0:
+            return rtt / 2 + self.drift_bound * abs(local - last)
+        # The slope is off by up to a round trip over the span: that much
+        # per second from the last estimate.
+        return rtt / 2 + self.scatter() + rtt / span * abs(local - last)
 
 
 class ClockBreak(Exception):
