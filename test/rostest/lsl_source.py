@@ -1,15 +1,17 @@
 #!/usr/bin/python3
 """An LSL outlet for the LSL tests, on whatever clock it runs under
 (launch-prefix faketime): each sample's first channel is its true time
-(raw-syscall CLOCK_REALTIME, which libfaketime does not fake), its LSL
-stamp is local_clock() read right after it, its second channel a counter.
+(raw-syscall CLOCK_REALTIME, which libfaketime does not fake, read before
+and after its LSL stamp, local_clock(): the midpoint), its second a
+counter, its third how long the two reads took (a process preempted
+between them stamps its sample late: the checker leaves those out).
 
 Faults, at the middle of round ``~fault_round``'s capture window (read
 from /capture_data, global = true time here): ``~fault: vanish`` ends the
 process at once (SIGKILL, as a crashed or unplugged source); ``reset``
 shifts every later stamp by ``~reset_shift`` s (a device clock that was
 reset).  ``~rate`` 0: an irregular marker stream (a marker every
-``~marker_period`` s, its text 'TRUTH INDEX').
+``~marker_period`` s, its text 'TRUTH INDEX READ').
 """
 import os
 import signal
@@ -39,7 +41,7 @@ class Source:
         info = pylsl.StreamInfo(
             rospy.get_param('~name', 'hri_test'),
             rospy.get_param('~type', 'Markers' if strings else 'Test'),
-            1 if strings else 2, self.rate,
+            1 if strings else 3, self.rate,
             pylsl.cf_string if strings else pylsl.cf_double64,
             rospy.get_param('~source_id', 'hri_sync_test_source'))
         self.outlet = pylsl.StreamOutlet(info)
@@ -58,7 +60,10 @@ class Source:
         k = 0
         nxt = time.monotonic()
         while not rospy.is_shutdown():
-            truth = true_time()
+            before = true_time()
+            stamp = pylsl.local_clock() + self.shift
+            after = true_time()
+            truth, read = (before + after) / 2, after - before
             if self.fault_at is not None and truth >= self.fault_at:
                 self.fault_at = None
                 if self.fault == 'vanish':
@@ -66,11 +71,11 @@ class Source:
                 self.shift = self.reset_shift
                 rospy.loginfo('lsl_source: stamps shifted by %g s',
                               self.shift)
-            stamp = pylsl.local_clock() + self.shift
             if self.rate == 0:
-                self.outlet.push_sample(['%.6f %d' % (truth, k)], stamp)
+                self.outlet.push_sample(['%.6f %d %.6f' % (truth, k, read)],
+                                        stamp)
             else:
-                self.outlet.push_sample([truth, float(k)], stamp)
+                self.outlet.push_sample([truth, float(k), read], stamp)
             k += 1
             nxt += self.period
             time.sleep(max(0.0, nxt - time.monotonic()))
