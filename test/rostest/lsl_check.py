@@ -13,7 +13,9 @@ stamp) and inside the window, and that the result counts them.  With ``~fault`` 
 reset, in the middle of round ``~fault_round``): that round's result is
 not ok and says why in ``lsl_stream`` (``lost: ...``,
 ``clock_reset: ...``), no sample stamped wrongly got in, and the next
-round's result says the stream is still lost or broken.
+round's result says the stream is still lost or broken.  With
+``~recover_round``: the source is respawned late; that round starts once
+the inlet reported the stream back (RECOVERED) and must be ok.
 """
 import math
 import threading
@@ -60,6 +62,10 @@ class LslCheck(unittest.TestCase):
         self.fed = False
         rospy.Subscriber('/%s/dpm_state' % self.client, DpmState,
                          self.on_state)
+        self.recover_round = int(rospy.get_param('~recover_round', 0))
+        self.recovered = False
+        rospy.Subscriber('/%s/lsl' % self.client, LslSample, self.on_lsl,
+                         queue_size=1000)
 
     def on_captured(self, msg):
         with self.lock:
@@ -69,6 +75,9 @@ class LslCheck(unittest.TestCase):
         if msg.client_id == self.client:
             with self.lock:
                 self.results[msg.round] = msg
+
+    def on_lsl(self, msg):
+        self.recovered |= msg.kind == LslSample.RECOVERED
 
     def on_state(self, msg):
         self.fed |= msg.samples > 0
@@ -82,6 +91,9 @@ class LslCheck(unittest.TestCase):
         start = rospy.ServiceProxy('/control_module/start_round', Trigger)
         start.wait_for_service(60.0)
         for n in range(1, self.rounds + 1):
+            if n == self.recover_round:
+                self.assertTrue(wait_for(lambda: self.recovered, 90.0, 0.1),
+                                'the inlet never reported the stream back')
             reply = start()     # returns at the round's end
             rospy.loginfo('lsl_check: round %d: %s', n, reply.message)
             wait_for(lambda: n in self.results, 30.0, 0.1)
@@ -126,7 +138,8 @@ class LslCheck(unittest.TestCase):
         for n in range(1, self.rounds + 1):
             r = self.results[n]
             d, data = self.check_round(r)
-            if not self.fault or n < self.fault_round:
+            if not self.fault or n < self.fault_round or \
+                    n == self.recover_round:
                 self.assertEqual(r.status, ClientResult.OK, d)
                 self.assertNotIn('lsl_stream', d)
                 self.assertGreater(len(data), 0)

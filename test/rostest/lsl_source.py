@@ -50,8 +50,11 @@ class Source:
         rospy.Subscriber('/capture_data', CaptureData, self.on_capture)
 
     def on_capture(self, msg):
-        if msg.round == self.fault_round and self.fault:
-            start = msg.header.stamp.to_sec() + msg.str_aft
+        start = msg.header.stamp.to_sec() + msg.str_aft
+        # A respawned source gets the latched order again: a fault only
+        # while it is still ahead.
+        if msg.round == self.fault_round and self.fault and \
+                start + msg.dur / 2 > true_time():
             self.fault_at = start + msg.dur / 2
             rospy.loginfo('lsl_source: %s at true time %.3f', self.fault,
                           self.fault_at)
