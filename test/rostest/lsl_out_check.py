@@ -51,6 +51,9 @@ class LslOutCheck(unittest.TestCase):
         # DJ Rob's action start: this checker stands in for turtlebot_gesture.
         self.action_pub = rospy.Publisher('/dj_rob/action_start',
                                           ActionStart, queue_size=10)
+        # A forged decision (not the DM's): the outlet must not push it.
+        self.forged_pub = rospy.Publisher('/decision', Decision,
+                                          queue_size=10)
         for topic, kind, cb in (('/sync_time', SyncTime, self.on_sync),
                                 ('/capture_data', CaptureData, self.on_cap),
                                 ('/client_result', ClientResult,
@@ -61,6 +64,7 @@ class LslOutCheck(unittest.TestCase):
             rospy.Subscriber(topic, kind, cb, queue_size=100)
         self.fed = set()
         self.connected = False
+        self.acted = False
         for c in self.clients:
             rospy.Subscriber('/%s/dpm_state' % c, DpmState,
                              lambda m, c=c: m.samples and self.fed.add(c))
@@ -81,14 +85,21 @@ class LslOutCheck(unittest.TestCase):
         self.put((m.round, 'result', m.client_id), m.header.stamp.to_sec())
 
     def on_decision(self, m):
+        if m.reason == 'forged':    # our own, below
+            return
         self.put((m.round, 'decision', ''), m.header.stamp.to_sec())
-        if m.round == self.rounds:
+        if m.round == self.rounds and not self.acted:
+            self.acted = True
             t = time.time()     # global = the true clock here
             self.action_pub.publish(ActionStart(
                 header=Header(stamp=rospy.Time.from_sec(t)), round=m.round,
                 client_id='dj_rob', action=ActionStart.DANCE,
-                scheduled=rospy.Time.from_sec(t), offset=0.0))
+                scheduled=rospy.Time.from_sec(t), offset=0.0,
+                true_time=rospy.Time.from_sec(t)))
             self.put((m.round, 'action_start', 'dj_rob'), t)
+            self.forged_pub.publish(Decision(
+                header=Header(stamp=rospy.Time.from_sec(t)), round=m.round,
+                outcome=Decision.NO_WINNER, reason='forged'))
 
     def on_diagnostics(self, m):
         for s in m.status:
@@ -169,6 +180,9 @@ class LslOutCheck(unittest.TestCase):
                 self.assertAlmostEqual(d['global_time'], self.truth[key],
                                        places=5)
         rospy.loginfo('lsl_out_check: worst marker error %.3f ms', worst * 1e3)
+        self.assertFalse([d for _, d in seen.values()
+                          if d.get('reason') == 'forged'],
+                         'a forged decision became a marker')
         for n in range(1, self.after + 1):
             self.assertFalse([k for k in seen if k[0] == n],
                              'round %d markers read before connecting' % n)
