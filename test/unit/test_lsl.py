@@ -216,3 +216,19 @@ def test_fit_leaves_out_slow_exchanges():
                 1e-3 if slow else 7e-5)
     assert abs(fit.correction(21.0) - drifting(21.0)) < 1e-9
     assert fit.bound(21.0) == pytest.approx(3.5e-5 + 7e-5 / 18 * 3)
+
+
+def test_activity_is_the_rms_deviation_from_the_window_mean():
+    p = LslChannels(measure='activity')
+    p.begin(0.0, 1.0)
+    for k, x in enumerate((1.0, 3.0, 1.0, 3.0)):
+        p.add(Frame(0.1 * k, sample(channels=(x, 9.81))))
+    r = p.result()
+    # Gravity (a constant channel) drops out; 1, 3, 1, 3: 1 from its mean.
+    assert r.value == pytest.approx(1.0) and r.frames_used == 4
+    with pytest.raises(ValueError):
+        LslChannels(measure='loudness')
+    q = LslChannels(measure='activity')
+    q.begin(0.0, 1.0)
+    q.add(Frame(0.5, sample(markers=('go',))))
+    assert math.isnan(q.result().value)

@@ -197,9 +197,14 @@ class LslChannels(HeaderStamped):
     from ``nodes/lsl_inlet``): counts the window's samples and gives each
     numeric channel's mean; for a marker stream, the markers.
 
-    value = the number of samples in the window; diagnostics:
-    ``channel_means`` (numeric), ``markers`` (the first 20 of a string
-    stream, with their offsets from the window start), ``rate`` (Hz), and
+    ``measure: count`` (default): value = the number of samples in the
+    window; ``measure: activity``: the RMS deviation of the channel
+    vector from its window mean, sqrt(mean |x - mean(x)|^2), in the
+    channels' unit (ImuActivity's measure, for an LSL accelerometer or any
+    numeric stream; NaN without numeric samples).  Diagnostics:
+    ``channel_means`` (numeric), ``activity``, ``samples``, ``markers``
+    (the first 20 of a string stream, with their offsets from the window
+    start), ``rate`` (Hz), and
     ``lsl_stream`` = ``lost: ...`` / ``clock_reset: ...`` when the inlet
     reported its stream lost or its clock broken in the window (each
     event in ``lsl_events``).  Stamps are on the host clock
@@ -210,8 +215,12 @@ class LslChannels(HeaderStamped):
     topic = 'lsl'
     host_stamped = True
 
-    def __init__(self):
+    def __init__(self, measure='count'):
         super().__init__()
+        if measure not in ('count', 'activity'):
+            raise ValueError("measure must be count or activity, got %r"
+                             % (measure,))
+        self.measure = measure
         self.begin(0.0, 0.0)
 
     def stamp_error(self, msg):
@@ -230,6 +239,7 @@ class LslChannels(HeaderStamped):
         self._start, self._duration = start, end - start
         self._n = 0
         self._sums = None
+        self._sum2 = 0.0
         self._numeric = 0
         self._markers = []
         self._events = []
@@ -247,8 +257,10 @@ class LslChannels(HeaderStamped):
             v = np.asarray(msg.channels, float)
             if self._sums is None or len(self._sums) != len(v):
                 self._sums = np.zeros(len(v))
+                self._sum2 = 0.0
                 self._numeric = 0
             self._sums += v
+            self._sum2 += float(v @ v)
             self._numeric += 1
         if msg.markers and len(self._markers) < 20:
             self._markers.append('%+.4f %s' % (frame.stamp - self._start,
@@ -257,9 +269,14 @@ class LslChannels(HeaderStamped):
     def result(self):
         d = {'unit': 'samples', 'rate': (self._n / self._duration
                                          if self._duration > 0 else 0.0)}
+        activity = math.nan
         if self._numeric:
-            d['channel_means'] = ' '.join(
-                '%.6g' % m for m in self._sums / self._numeric)
+            mean = self._sums / self._numeric
+            d['channel_means'] = ' '.join('%.6g' % m for m in mean)
+            activity = math.sqrt(max(0.0, self._sum2 / self._numeric
+                                     - float(mean @ mean)))
+            d['activity'] = activity
+        d['samples'] = self._n
         if self._markers:
             d['markers'] = '; '.join(self._markers)
         if self._events:
@@ -267,5 +284,8 @@ class LslChannels(HeaderStamped):
             bad = [e for e in self._events if not e.startswith('recovered')]
             if bad:
                 d['lsl_stream'] = bad[-1]
-        return ProcessResult(value=float(self._n), frames_used=self._n,
-                             diagnostics=d)
+        if self.measure == 'activity':
+            d['unit'] = 'channel units (RMS)'
+        return ProcessResult(
+            value=activity if self.measure == 'activity' else float(self._n),
+            frames_used=self._n, diagnostics=d)
