@@ -3,10 +3,10 @@
 ``python -m hri_sync_support.lsl_bench source NAME RATE``, run under a
 client's ``faketime`` spec, is that client's LSL outlet: each sample is
 its true time (the raw-syscall CLOCK_MONOTONIC, which libfaketime does not
-fake), stamped with local_clock() (faked, as LSL's clock on that host).  ``LslRecorder``, in
-the bench process on the true clock, is the lab's recorder: an inlet per
-client, LSL's time_correction polled as LabRecorder does, and each
-sample's mapping error three ways:
+fake), stamped with local_clock() (faked, as LSL's clock on that host).
+``LslRecorder``, in the bench process on the true clock, is the lab's
+recorder: an inlet per client, LSL's time_correction polled as
+LabRecorder does, and each sample's mapping error three ways:
 
 - ``docs``: stamp + the latest ``time_correction()``, as LSL's docs show
   it for online use;

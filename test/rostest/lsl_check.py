@@ -9,11 +9,11 @@ server's, here the true clock.  For every round this checks that the
 result came, that every captured sample's global stamp is within the
 result's timing_uncertainty (plus ~margin) of its true time (but for
 samples whose source was preempted between reading the truth and its
-stamp) and inside the window, and that the result counts them.  With ``~fault`` (vanish or
-reset, in the middle of round ``~fault_round``): that round's result is
-not ok and says why in ``lsl_stream`` (``lost: ...``,
-``clock_reset: ...``), no sample stamped wrongly got in, and the next
-round's result says the stream is still lost or broken.  With
+stamp) and inside the window, and that the result counts them.  With
+``~fault`` (vanish or reset, in the middle of round ``~fault_round``):
+that round's result is not ok and says why in ``lsl_stream`` (``lost:
+...``, ``clock_reset: ...``), no sample stamped wrongly got in, and the
+next round's result says the stream is still lost or broken.  With
 ``~recover_round``: the source is respawned late; that round starts once
 the inlet reported the stream back (RECOVERED) and must be ok.
 """

@@ -58,7 +58,8 @@ def resolve(name='', kind='', source_id='', timeout=1.0):
 
 def describe(info):
     """One line naming a StreamInfo's stream."""
-    return '%s (type %s, %d channels of %s at %g Hz, source_id %r, host %s)' % (
+    return ('%s (type %s, %d channels of %s at %g Hz, source_id %r, '
+            'host %s)') % (
         info.name(), info.type(), info.channel_count(),
         'string' if info.channel_format() == pylsl.cf_string
         else 'numbers', info.nominal_srate(), info.source_id(),

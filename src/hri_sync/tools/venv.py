@@ -1,12 +1,13 @@
 """Run a tool under a Python that has the libraries it needs.
 
-ROS runs nodes with /usr/bin/python3; the PyPI-only ``rosbags`` lives in
-the package's venv (``make venv``). ``ensure(modules, prog, script)``
-returns if every module imports, else re-executes ``script`` under the
-first venv that exists (``$HRI_SYNC_VENV``, the source tree's ``.venv``
-when ``script`` runs from one, the ROS package's ``.venv``, an install
-space's ``share/hri_sync/venv`` made by ``catkin_make install``), or exits
-with what to install.
+ROS runs nodes with /usr/bin/python3; the PyPI-only ``rosbags`` and
+``pylsl`` live in the package's venv (``make venv``).
+``ensure(modules, prog, script)`` returns if every module imports, else
+re-executes ``script`` under the first venv that exists
+(``$HRI_SYNC_VENV``, the source tree's ``.venv`` when ``script`` runs from
+one, the ROS package's ``.venv``, an install space's
+``share/hri_sync/venv`` made by ``catkin_make install``), or exits with
+what to install.
 """
 import importlib
 import os
@@ -49,6 +50,6 @@ def ensure(modules, prog, script):
                          + sys.argv[1:])
     sys.exit('%s: the Python libraries %s are missing (looked for a venv '
              'with them in %s). In the hri_sync source folder run "make '
-             'setup", or anywhere: pip install rosbags matplotlib numpy '
+             'setup", or anywhere: pip install rosbags matplotlib numpy pylsl '
              'pyyaml' % (prog, ', '.join(missing),
                          ', '.join(c for c in candidates if c) or 'none'))
