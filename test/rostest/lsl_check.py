@@ -14,8 +14,8 @@ stamp) and inside the window, and that the result counts them.  With
 that round's result is not ok and says why in ``lsl_stream`` (``lost:
 ...``, ``clock_reset: ...``), no sample stamped wrongly got in, and the
 next round's result says the stream is still lost or broken.  With
-``~recover_round``: the source is respawned late; that round starts once
-the inlet reported the stream back (RECOVERED) and must be ok.
+``~recover_round``: that round starts once the inlet reported the stream
+back (RECOVERED) and a sample followed, and must be ok.
 """
 import math
 import threading
@@ -29,7 +29,7 @@ from std_srvs.srv import Trigger
 from hri_sync.msg import ClientResult, DpmState, LslSample
 from hri_sync.ros.params import wait_for
 
-KIND_OF_FAULT = {'vanish': 'lost', 'reset': 'clock_reset'}
+KIND_OF_FAULT = {'vanish': 'lost', 'stall': 'lost', 'reset': 'clock_reset'}
 
 
 MAX_READ = 2e-4    # s: a truth that took longer to read was preempted
@@ -63,7 +63,7 @@ class LslCheck(unittest.TestCase):
         rospy.Subscriber('/%s/dpm_state' % self.client, DpmState,
                          self.on_state)
         self.recover_round = int(rospy.get_param('~recover_round', 0))
-        self.recovered = False
+        self.recovered = self.back = False
         rospy.Subscriber('/%s/lsl' % self.client, LslSample, self.on_lsl,
                          queue_size=1000)
 
@@ -77,7 +77,10 @@ class LslCheck(unittest.TestCase):
                 self.results[msg.round] = msg
 
     def on_lsl(self, msg):
-        self.recovered |= msg.kind == LslSample.RECOVERED
+        """Recovered: a sample after the inlet reported the stream back."""
+        if msg.kind == LslSample.RECOVERED:
+            self.back = True
+        self.recovered |= self.back and msg.kind == LslSample.DATA
 
     def on_state(self, msg):
         self.fed |= msg.samples > 0

@@ -8,7 +8,8 @@ between them stamps its sample late: the checker leaves those out).
 
 Faults, at the middle of round ``~fault_round``'s capture window (read
 from /capture_data, global = true time here): ``~fault: vanish`` ends the
-process at once (SIGKILL, as a crashed or unplugged source); ``reset``
+process at once (SIGKILL, as a crashed or unplugged source); ``stall``
+stops pushing for 3 s, its connection open (a hung source); ``reset``
 shifts every later stamp by ``~reset_shift`` s (a device clock that was
 reset).  ``~rate`` 0: an irregular marker stream (a marker every
 ``~marker_period`` s, its text 'TRUTH INDEX READ').
@@ -71,6 +72,11 @@ class Source:
                 self.fault_at = None
                 if self.fault == 'vanish':
                     os.kill(os.getpid(), signal.SIGKILL)
+                if self.fault == 'stall':
+                    rospy.loginfo('lsl_source: stalled for 3 s')
+                    time.sleep(3.0)
+                    nxt = time.monotonic()
+                    continue
                 self.shift = self.reset_shift
                 rospy.loginfo('lsl_source: stamps shifted by %g s',
                               self.shift)
