@@ -26,8 +26,10 @@ apt:
 
 venv: $(VENV)/.done
 
-$(VENV)/.done:
-	$(ROS_PY) -m venv --system-site-packages $(VENV)
+# Re-run when the Makefile (PIP_PACKAGES) changes: a pulled checkout gets
+# the packages added since its venv was made.
+$(VENV)/.done: $(ROOT)/Makefile
+	[ -x $(VENV)/bin/python ] || $(ROS_PY) -m venv --system-site-packages $(VENV)
 	$(VENV)/bin/pip install -q $(PIP_PACKAGES)
 	touch $@
 
