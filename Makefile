@@ -6,7 +6,7 @@ VENV := $(ROOT)/.venv
 ROS_PY := /usr/bin/python3
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 APT_PACKAGES := $(shell grep -v '^\#' $(ROOT)/scripts/apt-packages.txt)
-PIP_PACKAGES := rosbags
+PIP_PACKAGES := rosbags mcap
 SOURCE := source $(WS)/devel/setup.bash
 
 .PHONY: setup apt venv build test unit check test-install test-site rostest \
@@ -26,10 +26,15 @@ apt:
 
 venv: $(VENV)/.done
 
-$(VENV)/.done:
-	$(ROS_PY) -m venv --system-site-packages $(VENV)
-	$(VENV)/bin/pip install -q $(PIP_PACKAGES)
-	touch $@
+# .done holds the package list installed: a package added to PIP_PACKAGES
+# is installed into an existing venv too.
+$(VENV)/.done: FORCE
+	@[ "$$(cat $@ 2>/dev/null)" = "$(PIP_PACKAGES)" ] || { \
+	  $(ROS_PY) -m venv --system-site-packages $(VENV) && \
+	  $(VENV)/bin/pip install -q $(PIP_PACKAGES) && \
+	  echo "$(PIP_PACKAGES)" > $@; }
+
+FORCE:
 
 build:
 	@mkdir -p $(WS)/src $(WS)/devel/lib/python3/dist-packages

@@ -3,7 +3,7 @@
 # pip needs PyPI or a local index; a failure only warns.
 set(venv "$ENV{DESTDIR}${CMAKE_INSTALL_PREFIX}/${HRI_SYNC_VENV}")
 if(EXISTS "${venv}/bin/python")
-  execute_process(COMMAND "${venv}/bin/python" -c "import rosbags"
+  execute_process(COMMAND "${venv}/bin/python" -c "import rosbags, mcap"
     RESULT_VARIABLE missing OUTPUT_QUIET ERROR_QUIET)
   if(NOT missing)
     message(STATUS "Up-to-date: ${venv} (rosbags)")
@@ -16,7 +16,7 @@ execute_process(
   RESULT_VARIABLE failed)
 if(NOT failed)
   execute_process(
-    COMMAND "${venv}/bin/pip" install -q --disable-pip-version-check rosbags
+    COMMAND "${venv}/bin/pip" install -q --disable-pip-version-check rosbags mcap
     RESULT_VARIABLE failed)
 endif()
 if(failed)
