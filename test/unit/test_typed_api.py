@@ -10,7 +10,7 @@ import pytest
 
 SRC = os.path.join(os.path.dirname(__file__), '..', '..', 'src', 'hri_sync')
 TYPED = ['timing/clock.py', 'timing/mapping.py', 'timing/capture.py',
-         'timing/times.py', 'timing/vocabulary.py']
+         'timing/times.py', 'timing/vocabulary.py', 'timing/host_clock.py']
 
 
 def unannotated(path):
