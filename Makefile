@@ -6,7 +6,7 @@ VENV := $(ROOT)/.venv
 ROS_PY := /usr/bin/python3
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 APT_PACKAGES := $(shell grep -v '^\#' $(ROOT)/scripts/apt-packages.txt)
-PIP_PACKAGES := rosbags pylsl
+PIP_PACKAGES := rosbags pylsl mcap
 SOURCE := source $(WS)/devel/setup.bash
 
 .PHONY: setup apt venv build test unit check test-install test-site rostest \
@@ -26,12 +26,7 @@ apt:
 
 venv: $(VENV)/.done
 
-# Re-run when the Makefile (PIP_PACKAGES) changes: a pulled checkout gets
-# the packages added since its venv was made.
-$(VENV)/.done: $(ROOT)/Makefile
-	[ -x $(VENV)/bin/python ] || $(ROS_PY) -m venv --system-site-packages $(VENV)
-	$(VENV)/bin/pip install -q $(PIP_PACKAGES)
-	touch $@
+PIP_PACKAGES := rosbags pylsl mcap
 
 build:
 	@mkdir -p $(WS)/src $(WS)/devel/lib/python3/dist-packages

@@ -150,6 +150,32 @@ class DiagnosticsCheck(unittest.TestCase):
                   and self.server in v['last_reason'],
                   'with the NACK of round 1 and its reason')
 
+    def test_every_cpm_and_the_cm_check_their_host_clock(self):
+        # Issue 21, item 6: the system clock against the time server.
+        for client in SYNCED:
+            self.seen(CPM_NODES[client] + ': host_clock',
+                      lambda level, msg, v, hw: hw == client
+                      and v['system_clock_offset_ms'].endswith(' ms')
+                      and v['model_offset_ms'].endswith(' ms')
+                      and v['warn_above_ms'] == '5.0'
+                      and 'chrony_offset_ms' in v
+                      and 'off the time server (measured by SNTP)' in msg,
+                      'with its SNTP-measured offset')
+        self.seen('control_module: host_clock',
+                  lambda level, msg, v, hw: 'measured by SNTP' in msg,
+                  'with its SNTP-measured offset')
+        history = self.diag.history(CPM_NODES[self.bad] + ': host_clock')
+        self.assertTrue(history, 'no host_clock status from %s' % self.bad)
+        level, message, values, _ = history[-1]
+        self.assertEqual(values['system_clock_offset_ms'], 'n/a')
+        self.assertIn(self.server, values['system_clock_error'])
+        if values['chrony_offset_ms'].endswith(' ms'):    # a chronyd here
+            self.assertIn('by chrony', message)
+        else:
+            self.assertEqual(level, DiagnosticStatus.ERROR, message)
+            self.assertIn('system clock offset unknown: ', message)
+            self.assertIn(self.server, message)
+
     def test_the_cm_shows_the_quorum_round_then_its_decision(self):
         self.seen('control_module: input',
                   lambda level, msg, v, hw: 'rejected_total' in v,

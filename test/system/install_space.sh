@@ -8,8 +8,8 @@
 #     virtual Kinect, DJ Rob on kobuki_sim and the music, the site frames
 #     (static_frame), recording a bag; preflight gives a verdict;
 #     rviz.launch's skeleton_markers publishes markers;
-#   - verify_decisions recomputes that bag and report writes its HTML (with
-#     the install's rosbags venv);
+#   - verify_decisions recomputes that bag and report writes its HTML and
+#     MCAP (with the install's rosbags and mcap venv);
 #   - system.launch runs a round (synthetic_sensor);
 #   - the C++ tools record_oni, oni_info and tracker_eval run.
 # Exit 0 when all of it passed. KEEP=1 keeps the workspace.
@@ -105,10 +105,15 @@ else
 fi
 
 # report: exit 0 (every round passed) or 1 (a verdict failed) both mean it ran.
-run "rosrun hri_sync report $bag --out $TMP/report" > "$TMP/report.log" 2>&1
+# With --export mcap: the MCAP and its layouts beside the bag's copy, and
+# the shipped layouts installed (docs/viewers.md).
+run "rosrun hri_sync report $bag --out $TMP/report --export mcap --mcap-dir $TMP/report" > "$TMP/report.log" 2>&1
 code=$?
-if [ $code -le 1 ] && [ -s "$TMP/report/index.html" ]; then
-  say "report: $TMP/report/index.html (exit $code)"
+mcap=$TMP/report/$(basename "${bag%.bag}").mcap
+if [ $code -le 1 ] && [ -s "$TMP/report/index.html" ] && [ -s "$mcap" ] \
+    && [ -s "${mcap%.mcap}.plotjuggler.xml" ] \
+    && [ -s "$share/config/layouts/hri_sync.foxglove.json" ]; then
+  say "report: $TMP/report/index.html, $mcap (exit $code)"
 else
   tail -20 "$TMP/report.log"
   fail "report (exit $code)"

@@ -8,13 +8,18 @@ polls with sleeps (timed waits hang under libfaketime), and within 50 ms
 of a change of a round tally it watches (``add_tally``).  Each status is named
 ``<node name>: <task>`` by diagnostic_updater, e.g. ``left/cpm: clock``.
 
-``clock_check`` is the status of a ``SyncedClock``, ``ClockStateWatch``
+``clock_check`` is the status of a ``SyncedClock``, ``HostClockCheck``
+that of the host's system clock against the time server (its last SNTP
+burst, chrony's estimate, the model's offset: ``timing.host_clock``),
+``ClockStateWatch``
 that of a clock read from a ClockState topic; ``round_diagnostics`` makes
 a node's ``clock`` and ``rounds`` statuses, ``ProcessDiagnostics`` the
 DPM's and ``DecisionDiagnostics`` the DM's;
 ``NodeDiagnostics.rejections`` adds the counts of rejected input (an
 inbox's per-(topic, reason) ``summary``, a state machine's ``ignored``).
 """
+import math
+import socket
 import threading
 import time
 
@@ -24,6 +29,7 @@ import rospy
 from hri_sync.ros.clock_state import model_from_msg
 from hri_sync.ros.names import protocol_topic
 from hri_sync.ros.params import param, positive
+from hri_sync.timing import host_clock
 from hri_sync.timing.health import (ERROR, DecisionTally, RateMeter,
                                     RejectionWatch, clock_health,
                                     clock_state_health, result_tally)
@@ -99,6 +105,7 @@ def round_diagnostics(hardware_id, tally, synced_clock=None,
     diagnostics = NodeDiagnostics(hardware_id)
     if synced_clock is not None:
         diagnostics.add('clock', clock_check(synced_clock, max_uncertainty))
+        diagnostics.add('host_clock', HostClockCheck(synced_clock).health)
     diagnostics.add_tally('rounds', tally)
     return diagnostics
 
@@ -112,6 +119,46 @@ def clock_check(synced_clock, max_uncertainty=None):
                    + synced_clock.exchanges * synced_clock.timeout)
     return lambda: clock_health(sync.latest, time.time(), max_uncertainty,
                                 stale_after)
+
+
+class HostClockCheck:
+    """Status ``host_clock``: this host's system clock against the time
+    server, from the SyncedClock's last SNTP burst (its local clock is the
+    system clock), beside the model's offset and chrony's estimate
+    (``chronyc -c tracking``, asked every ``~chrony_period`` s, default
+    30, by a thread of its own: a check never waits for it). WARN above
+    ``~system_clock_warn`` (5 ms), ERROR above ``~system_clock_error``
+    (50 ms): docs/host_clocks.md says why."""
+
+    def __init__(self, synced_clock):
+        self.sync = synced_clock.sync
+        self.warn = param('system_clock_warn', host_clock.WARN_OFFSET, float,
+                          positive, '> 0 s')
+        self.error = param('system_clock_error', host_clock.ERROR_OFFSET,
+                           float, positive, '> 0 s')
+        self.period = param('chrony_period', 30.0, float, positive, '> 0 s')
+        self.host = socket.gethostname()
+        self.chrony = None
+        threading.Thread(target=self._poll_chrony, daemon=True).start()
+
+    def _poll_chrony(self):
+        while not rospy.is_shutdown():
+            self.chrony = host_clock.chrony_tracking()
+            due = time.monotonic() + self.period
+            while time.monotonic() < due and not rospy.is_shutdown():
+                time.sleep(POLL)
+
+    def health(self):
+        """The status now."""
+        status = self.sync.latest
+        last = self.sync.clock.measurements[-1:] if not status.error \
+            else []
+        now = time.time()
+        return host_clock.health(host_clock.HostClock(
+            self.host, last[0].offset if last else math.nan,
+            last[0].delay if last else math.nan, status.error,
+            status.model.offset_at(now) if status.ok else math.nan,
+            self.chrony), self.warn, self.error)
 
 
 class ClockStateWatch:

@@ -4,13 +4,16 @@ Reads each recording (``hri_sync.tools.bag``), sorts it into rounds
 (``session``), computes every figure (``analysis``), draws the plots
 (``plots``) and writes ``DIR/index.html`` (``page``: self-contained,
 plots embedded) and ``DIR/summary.json`` (every figure shown, for
-scripts); with ``export`` also the aligned CSV (``export``).
+scripts); with ``export`` also the aligned CSV (``export``); with
+``write_mcaps`` each bag as MCAP for Foxglove and PlotJuggler
+(``mcap_export``).
 """
 import json
 import os
 import time
 
-from hri_sync.tools import analysis, bag, export, page, plots
+from hri_sync.tools import (analysis, bag, export, layouts, mcap_export,
+                            page, plots)
 from hri_sync.tools.session import build_session
 
 
@@ -87,6 +90,28 @@ def build(paths, out_dir, allow_old=False, do_reindex=False,
     with open(os.path.join(out_dir, 'summary.json'), 'w') as f:
         json.dump(report, f, indent=1, allow_nan=False)
     return report
+
+
+def write_mcaps(paths, mcap_dir=None, say=print):
+    """``report --export mcap``: each bag of ``paths`` as MCAP beside it
+    (or in ``mcap_dir``), with its PlotJuggler and Foxglove layouts; a bag
+    that ``--reindex`` salvaged is read from its reindexed copy. Says what
+    each wrote; returns the errors."""
+    errors = []
+    for path in paths:
+        active = bag.unclosed(path)
+        if active and os.path.exists(bag.reindexed_path(active)):
+            path = bag.reindexed_path(active)
+        try:
+            done = mcap_export.write_mcap(
+                path, mcap_export.mcap_path(path, mcap_dir))
+        except (bag.BagError, mcap_export.McapError) as e:
+            errors.append('MCAP of %s not written: %s' % (path, e))
+            continue
+        say('%s: MCAP: %s; layouts %s' % (
+            path, mcap_export.summary(done),
+            ', '.join(layouts.write_session(done))))
+    return errors
 
 
 def one_line(report):
