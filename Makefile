@@ -26,7 +26,15 @@ apt:
 
 venv: $(VENV)/.done
 
-PIP_PACKAGES := rosbags pylsl mcap
+# .done holds the package list installed: a package added to PIP_PACKAGES
+# is installed into an existing venv too.
+$(VENV)/.done: FORCE
+	@[ "$$(cat $@ 2>/dev/null)" = "$(PIP_PACKAGES)" ] || { \
+	  $(ROS_PY) -m venv --system-site-packages $(VENV) && \
+	  $(VENV)/bin/pip install -q $(PIP_PACKAGES) && \
+	  echo "$(PIP_PACKAGES)" > $@; }
+
+FORCE:
 
 build:
 	@mkdir -p $(WS)/src $(WS)/devel/lib/python3/dist-packages
