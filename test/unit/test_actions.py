@@ -218,3 +218,14 @@ def test_judge_keeps_a_note_on_an_ok_start():
                                                               'note')
     assert judge(Firing(light, 1, 10.0), 11.0, ActionFailed())[0] == \
         Action.FAILED
+    assert judge(Firing(light, 1, 10.0, 'a'), 10.1, note='b') == (
+        Action.LATE, 'began 100.00 ms after its scheduled time (tolerance '
+        '5.00 ms); a; b')
+
+
+def test_the_shells_note_on_a_start_is_its_reason():
+    clock = FakeClock(1000.0)
+    (light,) = parse_actions([LIGHT])
+    report = run_firing(Firing(light, 1, 1001.0), clock.now, clock.wait,
+                        lambda a: 'no subscriber', lambda: (0.0, 0.0))
+    assert (report.status, report.reason) == (Action.OK, 'no subscriber')

@@ -278,24 +278,26 @@ class StartReport(NamedTuple):
         return self.actual - self.firing.scheduled
 
 
-def judge(firing, actual, error=None):
+def judge(firing, actual, error=None, note=''):
     """(status, reason) of a firing that began at ``actual`` (global), or
-    failed with ``error``."""
+    failed with ``error``; ``note``: what the shell said of its start."""
     if error is not None:
         return Action.FAILED, str(error) or type(error).__name__
+    notes = [n for n in (firing.note, note) if n]
     late = actual - firing.scheduled
     tolerance = firing.action.tolerance
     if late > tolerance:
-        why = 'began %.2f ms after its scheduled time (tolerance %.2f ms)' \
-            % (late * 1e3, tolerance * 1e3)
-        return Action.LATE, why + ('; ' + firing.note if firing.note else '')
-    return Action.OK, firing.note
+        notes.insert(0, 'began %.2f ms after its scheduled time (tolerance '
+                     '%.2f ms)' % (late * 1e3, tolerance * 1e3))
+        return Action.LATE, '; '.join(notes)
+    return Action.OK, '; '.join(notes)
 
 
 def run_firing(firing, now, wait, execute, host_clocks):
     """Wait for ``firing`` and run it: ``now()`` global time, ``wait(t)``
     blocks until global ``t`` (None: stopped), ``execute(action)`` begins
-    it (raises ActionFailed), ``host_clocks()`` (local, true).  Returns the
+    it (returns a note on its start or None; raises ActionFailed),
+    ``host_clocks()`` (local, true).  Returns the
     StartReport, or None if stopped before it began.  A firing later than
     its action's ``max_late`` is not run (FAILED)."""
     max_late = firing.action.max_late
@@ -306,6 +308,7 @@ def run_firing(firing, now, wait, execute, host_clocks):
     actual = now()
     late = actual - firing.scheduled
     error: Optional[Exception] = None
+    note = None
     if max_late is not None and late > max_late:
         error = ActionFailed('not run: %.1f ms after its scheduled time '
                              '(max_late %.1f ms)%s' % (
@@ -313,8 +316,8 @@ def run_firing(firing, now, wait, execute, host_clocks):
                                  '; ' + firing.note if firing.note else ''))
     else:
         try:
-            execute(firing.action)
+            note = execute(firing.action)
         except ActionFailed as e:
             error = e
-    status, reason = judge(firing, actual, error)
+    status, reason = judge(firing, actual, error, note or '')
     return StartReport(firing, actual, local, true, status, reason)
