@@ -37,7 +37,8 @@ from geometry_msgs.msg import PointStamped
 from std_msgs.msg import String
 from std_srvs.srv import SetBool, SetBoolResponse
 
-from hri_sync.msg import ActionStart, CaptureData, Decision, Sample
+from constant_samples import publish_constant_samples
+from hri_sync.msg import ActionStart, CaptureData, Decision
 from hri_sync.timing.protocol import Capture
 
 START_SANITY = 0.25          # s, see the docstring
@@ -79,7 +80,7 @@ class ActionClientRound(unittest.TestCase):
         cls.server = actionlib.SimpleActionServer(
             '~count', TwoIntsAction, cls.on_goal, auto_start=False)
         cls.server.start()
-        threading.Thread(target=cls.publish_samples, daemon=True).start()
+        publish_constant_samples({'a': 2.0, 'b': 1.0})
         deadline = time.time() + 90.0
         while time.time() < deadline and not (
                 cls.decision and len(cls.starts) >= 8):
@@ -100,21 +101,6 @@ class ActionClientRound(unittest.TestCase):
     def on_goal(cls, goal):
         cls.rec(goal, 'goals')
         cls.server.set_succeeded(TwoIntsResult(sum=goal.a + goal.b))
-
-    @classmethod
-    def publish_samples(cls):
-        pubs = {c: rospy.Publisher('~%s_samples' % c, Sample, queue_size=10)
-                for c in ('a', 'b')}
-        values = {'a': 2.0, 'b': 1.0}
-        index = 0
-        rate = rospy.Rate(50)
-        while not rospy.is_shutdown():
-            for c, pub in pubs.items():
-                msg = Sample(index=index, value=values[c])
-                msg.header.stamp = rospy.Time.now()
-                pub.publish(msg)
-            index += 1
-            rate.sleep()
 
     def reports(self):
         self.assertIsNotNone(self.capture, 'no capture_data seen')

@@ -27,7 +27,8 @@ from geometry_msgs.msg import Quaternion, Twist
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Log
 
-from hri_sync.msg import Decision, Led, Sample, Sound
+from constant_samples import publish_constant_samples
+from hri_sync.msg import Decision, Led, Sound
 
 # kobuki_msgs/msg/Led.msg and Sound.msg (yujinrobot/kobuki_msgs): their
 # constants and field, as released (comments left out: the md5sum
@@ -72,7 +73,7 @@ class RealBase(unittest.TestCase):
                          if m.name == '/lab1/dj_rob' else None,
                          queue_size=100)
         threading.Thread(target=cls.base, daemon=True).start()
-        threading.Thread(target=cls.publish_samples, daemon=True).start()
+        publish_constant_samples({'a': 2.0, 'b': 1.0})
         cls.wait_round()
 
     @classmethod
@@ -111,20 +112,6 @@ class RealBase(unittest.TestCase):
                 0.0, 0.0, math.sin(p[2] / 2), math.cos(p[2] / 2))
             msg.twist.twist.linear.x, msg.twist.twist.angular.z = v, w
             pub.publish(msg)
-            rate.sleep()
-
-    @classmethod
-    def publish_samples(cls):
-        pubs = {c: rospy.Publisher('~%s_samples' % c, Sample, queue_size=10)
-                for c in ('a', 'b')}
-        index = 0
-        rate = rospy.Rate(50)
-        while not rospy.is_shutdown():
-            for c, value in (('a', 2.0), ('b', 1.0)):
-                msg = Sample(index=index, value=value)
-                msg.header.stamp = rospy.Time.now()
-                pubs[c].publish(msg)
-            index += 1
             rate.sleep()
 
     @classmethod
