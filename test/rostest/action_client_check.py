@@ -20,7 +20,10 @@ process's (unfaked) clock.  Then checks, per action:
   global start), the service request, the goal (a=2, b=3), the
   command's output (its own clock's time, after the node's local_time);
 - the three that cannot begin are FAILED with their reason: a service
-  nobody serves, a program that does not exist, no actionlib server.
+  nobody serves, a program that does not exist, no actionlib server;
+- an action due 1 s before the decision's stamp begins at the decision,
+  LATE with its lateness, and with a max_late of 0.5 s it does not begin
+  (FAILED, 'not run').
 """
 import math
 import os
@@ -48,12 +51,14 @@ STARTED = {'light': ('publish', 'window_start', -0.2),
            'mark': ('service', 'window_start', 0.0),
            'stimulus': ('command', 'window_start', 0.5),
            'count': ('actionlib', 'window_end', 0.0),
-           'cheer_left': ('publish', 'decision', 0.3)}
+           'cheer_left': ('publish', 'decision', 0.3),
+           'late_cue': ('publish', 'decision', -1.0)}
 FAILING = {'missing_service': ('service', 'window_end', 0.0,
                                'nobody_serves_this'),
            'bad_command': ('command', 'window_end', 0.0, 'No such file'),
            'absent_server': ('actionlib', 'window_end', 0.0,
-                             'no actionlib server')}
+                             'no actionlib server'),
+           'stale_cue': ('publish', 'decision', -1.0, 'not run: ')}
 
 
 class ActionClientRound(unittest.TestCase):
@@ -65,14 +70,15 @@ class ActionClientRound(unittest.TestCase):
         os.makedirs(OUT)
         rospy.init_node('action_check')
         cls.lock = threading.Lock()
-        cls.starts, cls.lights, cls.cheers, cls.marks, cls.goals = \
-            [], [], [], [], []
+        cls.starts, cls.lights, cls.cheers, cls.marks, cls.goals, \
+            cls.cues = [], [], [], [], [], []
         cls.capture = cls.decision = None
         sub = rospy.Subscriber
         sub('/actions/action_start', ActionStart, cls.rec, 'starts',
             queue_size=100)
         sub('/action_check/light', PointStamped, cls.rec, 'lights')
         sub('/action_check/cheer', String, cls.rec, 'cheers')
+        sub('/action_check/cue', String, cls.rec, 'cues')
         sub('/capture_data', CaptureData,
             lambda m: setattr(cls, 'capture', m))
         sub('/decision', Decision, lambda m: setattr(cls, 'decision', m))
@@ -83,7 +89,8 @@ class ActionClientRound(unittest.TestCase):
         publish_constant_samples({'a': 2.0, 'b': 1.0})
         deadline = time.time() + 90.0
         while time.time() < deadline and not (
-                cls.decision and len(cls.starts) >= 8):
+                cls.decision and len(cls.starts) >= len(STARTED) +
+                len(FAILING)):
             time.sleep(0.1)
         time.sleep(3.0)              # any report that should not come
 
@@ -132,8 +139,10 @@ class ActionClientRound(unittest.TestCase):
             actual = m.header.stamp.to_sec()
             self.assertAlmostEqual(m.offset, actual - m.scheduled.to_sec(),
                                    delta=1e-6, msg=name)
-            self.assertLess(abs(m.true_time.to_sec() - m.scheduled.to_sec()),
-                            START_SANITY, name)
+            due = m.scheduled.to_sec() + (1.0 if name.endswith('_cue')
+                                          else 0.0)   # see test_5
+            self.assertLess(abs(m.true_time.to_sec() - due), START_SANITY,
+                            name)
             self.assertGreater(m.local_time.to_sec(), 0.0, name)
             if name in STARTED:
                 late = m.offset > m.tolerance
@@ -177,6 +186,18 @@ class ActionClientRound(unittest.TestCase):
             self.assertEqual(r[name].status, ActionStart.FAILED, name)
             self.assertIn(words, r[name].reason, name)
         self.assertFalse(math.isnan(r['bad_command'].offset))
+
+    def test_5_late_says_why_and_max_late_skips(self):
+        r = self.reports()
+        late, stale = r['late_cue'], r['stale_cue']
+        self.assertEqual(late.status, ActionStart.LATE)
+        self.assertGreater(late.offset, 1.0 - START_SANITY)
+        self.assertIn('after its scheduled time (tolerance 5.00 ms)',
+                      late.reason)
+        self.assertIn('max_late 500.0 ms', stale.reason)
+        with self.lock:
+            cues = [m.data for _, m in self.cues]
+        self.assertEqual(cues, ['late'])
 
 
 if __name__ == '__main__':

@@ -22,7 +22,7 @@ import rospy
 from actionlib_msgs.msg import GoalStatus
 
 from hri_sync.robot.actions import ActionFailed
-from hri_sync.ros.outbox import Publisher, Unsendable
+from hri_sync.ros.outbox import Publisher, Unsendable, check_sendable
 from hri_sync.ros.params import stamp
 from hri_sync.timing.vocabulary import Action
 
@@ -43,10 +43,13 @@ def type_class(getter, type_name, what):
 
 
 def filled(cls, fields, what):
-    """An instance of message class ``cls`` with the YAML ``fields``."""
+    """An instance of message class ``cls`` with the YAML ``fields``,
+    serialised once (a value of the wrong type fails now, not when it
+    is due)."""
     msg = cls()
     try:
         genpy.message.fill_message_args(msg, [fields])
+        check_sendable(msg)
     except (genpy.MessageException, ValueError, TypeError, KeyError) as e:
         raise ValueError('%s: fields %r do not fit %s: %s'
                          % (what, fields, cls._type, e))
