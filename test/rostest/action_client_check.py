@@ -36,6 +36,7 @@ import actionlib
 import rospy
 import rostest
 from actionlib.msg import TwoIntsAction, TwoIntsResult
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PointStamped
 from std_msgs.msg import String
 from std_srvs.srv import SetBool, SetBoolResponse
@@ -82,6 +83,8 @@ class ActionClientRound(unittest.TestCase):
         sub('/capture_data', CaptureData,
             lambda m: setattr(cls, 'capture', m))
         sub('/decision', Decision, lambda m: setattr(cls, 'decision', m))
+        cls.diag = None
+        sub('/diagnostics', DiagnosticArray, cls.on_diag)
         rospy.Service('~mark', SetBool, cls.on_mark)
         cls.server = actionlib.SimpleActionServer(
             '~count', TwoIntsAction, cls.on_goal, auto_start=False)
@@ -98,6 +101,12 @@ class ActionClientRound(unittest.TestCase):
     def rec(cls, msg, key):
         with cls.lock:
             getattr(cls, key).append((time.time(), msg))
+
+    @classmethod
+    def on_diag(cls, msg):
+        for s in msg.status:
+            if s.hardware_id == 'actions' and s.name.endswith(': actions'):
+                cls.diag = s
 
     @classmethod
     def on_mark(cls, req):
@@ -198,6 +207,16 @@ class ActionClientRound(unittest.TestCase):
         with self.lock:
             cues = [m.data for _, m in self.cues]
         self.assertEqual(cues, ['late'])
+
+    def test_6_diagnostics_name_the_failed(self):
+        d = self.diag
+        self.assertIsNotNone(d, 'no actions status on /diagnostics')
+        self.assertEqual(d.level, DiagnosticStatus.ERROR)
+        self.assertEqual(d.message, 'last firing failed: absent_server, '
+                         'bad_command, missing_service, stale_cue')
+        values = {kv.key: kv.value for kv in d.values}
+        self.assertEqual(int(values['failed']), len(FAILING))
+        self.assertTrue(values['late_cue'].startswith('late in round 1'))
 
 
 if __name__ == '__main__':

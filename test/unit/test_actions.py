@@ -5,8 +5,10 @@ import math
 import pytest
 
 from hri_sync.robot.actions import (ActionFailed, ActionScheduler,
-                                    ConfigError, Firing, judge,
-                                    parse_action, parse_actions, run_firing)
+                                    ActionTally, ConfigError, Firing,
+                                    StartReport, judge, parse_action,
+                                    parse_actions, run_firing)
+from hri_sync.timing.health import ERROR, OK, WARN
 from hri_sync.timing.vocabulary import Action, Outcome
 
 LIGHT = {'name': 'light', 'at': 'window_start', 'offset': -0.1,
@@ -229,3 +231,29 @@ def test_the_shells_note_on_a_start_is_its_reason():
     report = run_firing(Firing(light, 1, 1001.0), clock.now, clock.wait,
                         lambda a: 'no subscriber', lambda: (0.0, 0.0))
     assert (report.status, report.reason) == (Action.OK, 'no subscriber')
+
+
+def test_the_tally_reports_the_last_firings():
+    light, mark = parse_actions([LIGHT, MARK])
+    tally = ActionTally()
+    assert (tally.health().level, tally.health().message) == (
+        OK, 'no action fired yet')
+
+    def report(action, status, reason='', n=1):
+        tally.record(StartReport(Firing(action, n, 10.0), 10.0002, 0.0,
+                                 0.0, status, reason))
+    report(light, Action.OK)
+    report(mark, Action.LATE, 'began 9 ms after')
+    h = tally.health()
+    assert (h.level, h.message) == (WARN, 'last firing late: mark')
+    report(light, Action.FAILED, 'no subscriber type', 2)
+    h = tally.health()
+    assert (h.level, h.message) == (ERROR, 'last firing failed: light')
+    values = dict(h.values)
+    assert (values['ok'], values['late'], values['failed']) == ('1', '1',
+                                                                '1')
+    assert values['light'] == 'failed in round 2 at +0.20 ms: no ' \
+        'subscriber type'
+    report(light, Action.OK, n=3)
+    report(mark, Action.OK, n=3)
+    assert tally.health().level == OK

@@ -10,6 +10,7 @@ No ROS and no clock of its own: ``nodes/action_client`` is the shell.
   time it is due at (the window start or end, or the decision's stamp,
   plus the action's offset), filtered by the decision's outcome and
   winner.
+- :class:`ActionTally` keeps what they did for /diagnostics.
 - :func:`run_firing` waits for a firing on the injected clock, runs it
   through the shell's ``execute`` and judges its start
   (:class:`StartReport`: OK within the action's tolerance, LATE after
@@ -18,9 +19,12 @@ No ROS and no clock of its own: ``nodes/action_client`` is the shell.
 import math
 import re
 import shlex
+import threading
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, NamedTuple, Optional, Tuple
 
+from hri_sync.timing.health import ERROR, OK, WARN, Health, text
 from hri_sync.timing.vocabulary import Action, Outcome
 
 TOLERANCE = 0.005        # s, default: a start later than this is LATE
@@ -321,3 +325,39 @@ def run_firing(firing, now, wait, execute, host_clocks):
             error = e
     status, reason = judge(firing, actual, error, note or '')
     return StartReport(firing, actual, local, true, status, reason)
+
+
+class ActionTally:
+    """Every report's status, and each action's last report, as a
+    /diagnostics status: ERROR while an action's last firing failed,
+    WARN while one was late, else OK.  Thread-safe."""
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self.counts: Counter = Counter()
+        self.last: Dict[str, StartReport] = {}
+
+    def record(self, report):
+        """Count one StartReport."""
+        with self._lock:
+            self.counts[report.status] += 1
+            self.last[report.firing.action.name] = report
+
+    def health(self):
+        """The Health of the actions' last firings."""
+        with self._lock:
+            counts, last = dict(self.counts), dict(self.last)
+        values = tuple((s, text(counts.get(s, 0))) for s in Action.STATUSES)
+        values += tuple(
+            (name, '%s in round %d at %+.2f ms%s' % (
+                r.status, r.firing.round, r.offset * 1e3,
+                ': ' + r.reason if r.reason else ''))
+            for name, r in sorted(last.items()))
+        for status, level in ((Action.FAILED, ERROR), (Action.LATE, WARN)):
+            names = sorted(n for n, r in last.items() if r.status == status)
+            if names:
+                return Health(level, 'last firing %s: %s' % (
+                    status, ', '.join(names)), values)
+        if not last:
+            return Health(OK, 'no action fired yet', values)
+        return Health(OK, 'last firings on time', values)
