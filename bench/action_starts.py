@@ -233,11 +233,14 @@ def observe(opts, proc):
     while time.time() < deadline and len(obs.decisions) < opts.rounds:
         time.sleep(0.2)
     time.sleep(1.0)
+    figures = obs.figures()
+    # The action server's thread runs until rospy shuts down.
+    rospy.signal_shutdown('done')
     return {'benchmark': 'action_starts', 'rounds_requested': opts.rounds,
             'decisions': len(obs.decisions), 'dur_s': opts.dur,
             'client_clock': opts.client_clock, 'start_spin_s': opts.spin,
             'realtime_priority': opts.realtime_priority,
-            'actions': obs.figures()}
+            'actions': figures}
 
 
 if __name__ == '__main__':
