@@ -88,23 +88,42 @@ class PublishAction:
 
 class ServiceAction:
     """Calls a service with one request; a response with ``success``
-    false (std_srvs' Trigger and SetBool) is a failure too."""
+    false (std_srvs' Trigger and SetBool) is a failure too.  The proxy is
+    persistent (no lookup and connection at each call); a call on a
+    broken connection (the server restarted) is retried once on a new
+    one."""
 
     def __init__(self, spec, now, log):
         what = 'action %s' % spec.name
-        cls = type_class(roslib.message.get_service_class, spec.type, what)
-        self.request = filled(cls._request_class, spec.fields, what)
-        self.proxy = rospy.ServiceProxy(spec.target, cls)
+        self.cls = type_class(roslib.message.get_service_class, spec.type,
+                              what)
+        self.request = filled(self.cls._request_class, spec.fields, what)
+        self.target = spec.target
+        self.proxy = None
+
+    def call(self):
+        if self.proxy is None:
+            self.proxy = rospy.ServiceProxy(self.target, self.cls,
+                                            persistent=True)
+        try:
+            return self.proxy.call(self.request)
+        except (rospy.ServiceException, rospy.ROSException, OSError):
+            self.proxy.close()
+            self.proxy = None
+            raise
 
     def __call__(self, spec):
+        name = rospy.resolve_name(self.target)
         try:
-            response = self.proxy.call(self.request)
+            try:
+                response = self.call()
+            except (rospy.ServiceException, rospy.ROSException, OSError):
+                response = self.call()
         except (rospy.ServiceException, rospy.ROSException, OSError) as e:
-            raise ActionFailed('service %s: %s' % (self.proxy.resolved_name,
-                                                   e))
+            raise ActionFailed('service %s: %s' % (name, e))
         if getattr(response, 'success', True) is False:
             raise ActionFailed('service %s answered success=false: %s' % (
-                self.proxy.resolved_name, getattr(response, 'message', '')))
+                name, getattr(response, 'message', '')))
         return None
 
 
