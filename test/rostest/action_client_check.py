@@ -46,6 +46,8 @@ from hri_sync.msg import ActionStart, CaptureData, Decision
 from hri_sync.timing.protocol import Capture
 
 START_SANITY = 0.25          # s, see the docstring
+ARRIVAL_SANITY = 1.0         # s, from a start to its receiver (transport,
+                             # this process's threads under load)
 COMMAND_SANITY = 60.0        # s, from the command's start to its output
 OUT = '/tmp/action_client_check'
 STARTED = {'light': ('publish', 'window_start', -0.2),
@@ -171,7 +173,7 @@ class ActionClientRound(unittest.TestCase):
                           light.point.y), ('lamp', 1.0, 2.0))
         self.assertAlmostEqual(light.header.stamp.to_sec(),
                                r['light'].header.stamp.to_sec(),
-                               delta=START_SANITY)
+                               delta=START_SANITY)   # both the client's
         self.assertEqual([m.data for _, m in cheers], ['left'])
         self.assertEqual([m.data for _, m in marks], [True])
         self.assertEqual([(g.a, g.b) for _, g in goals], [(2, 3)])
@@ -179,7 +181,7 @@ class ActionClientRound(unittest.TestCase):
                              (goals[0], 'count'), (cheers[0], 'cheer_left')):
             self.assertGreaterEqual(t, r[name].true_time.to_sec() - 0.001,
                                     name)
-            self.assertLess(t - r[name].true_time.to_sec(), START_SANITY,
+            self.assertLess(t - r[name].true_time.to_sec(), ARRIVAL_SANITY,
                             name)
         # The command's own clock, once its interpreter is up (seconds on
         # a loaded machine: only the order and the round are checked).
