@@ -7,7 +7,7 @@ import pytest
 from hri_sync.robot.actions import (ActionFailed, ActionScheduler,
                                     ActionTally, ConfigError, Firing,
                                     StartReport, judge, parse_action,
-                                    parse_actions, run_firing, start_groups)
+                                    parse_actions, run_firing)
 from hri_sync.timing.health import ERROR, OK, WARN
 from hri_sync.timing.vocabulary import Action, Outcome
 
@@ -257,17 +257,3 @@ def test_the_tally_reports_the_last_firings():
     report(light, Action.OK, n=3)
     report(mark, Action.OK, n=3)
     assert tally.health().level == OK
-
-
-def test_firings_due_together_share_a_thread_but_service_calls():
-    light, mark, wave, beep = parse_actions([LIGHT, MARK, WAVE, BEEP])
-    light2 = parse_action(dict(LIGHT, name='light2'))
-    mark2 = parse_action(dict(MARK, name='mark2'))
-    firings = [Firing(beep, 1, 5.0), Firing(mark, 1, 5.0),
-               Firing(wave, 1, 5.0), Firing(light, 1, 5.0),
-               Firing(mark2, 1, 5.0), Firing(light2, 1, 4.0)]
-    groups = [[f.action.name for f in g] for g in start_groups(firings)]
-    assert groups[0] == ['light2']
-    assert sorted(groups[1:]) == [['light', 'wave', 'beep'], ['mark'],
-                                  ['mark2']]
-    assert start_groups([]) == []

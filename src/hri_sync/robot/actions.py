@@ -265,28 +265,6 @@ class ActionScheduler:
                       key=lambda f: f.scheduled)
 
 
-# Order of the kinds within a start group: the quickest to begin first.
-GROUP_ORDER = (Action.PUBLISH, Action.ACTIONLIB, Action.COMMAND)
-
-
-def start_groups(firings):
-    """The firings as groups that one thread each waits for and begins
-    in turn: those due at the same instant share a thread (the quickest
-    kinds first: a publish, then a goal, then a command's fork), so that
-    they do not all spin for the cores at once; a service call blocks
-    until its answer, so each has a thread of its own."""
-    groups: Dict[float, List[Firing]] = {}
-    alone = []
-    for f in firings:
-        if f.action.kind == Action.SERVICE:
-            alone.append([f])
-        else:
-            groups.setdefault(f.scheduled, []).append(f)
-    shared = [sorted(g, key=lambda f: GROUP_ORDER.index(f.action.kind))
-              for g in groups.values()]
-    return sorted(shared + alone, key=lambda g: g[0].scheduled)
-
-
 class StartReport(NamedTuple):
     """How a firing began: ``actual`` (global), ``local`` and ``true``
     (the host's clocks) at the instant, ``status`` and ``reason``."""
