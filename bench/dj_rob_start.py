@@ -17,8 +17,6 @@ import argparse
 import json
 import math
 import os
-import signal
-import subprocess
 import sys
 import tempfile
 import threading
@@ -26,37 +24,11 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__))), 'support'))
-from hri_sync_support.harness import free_port  # noqa: E402
+from hri_sync_support.harness import (  # noqa: E402
+    one_client_launch, percentiles_ms as stats, run_private_launch)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
-LAUNCH = """<launch>
-  <arg name="ntp_port"/>
-  <include file="$(find hri_sync)/launch/timeserver.launch">
-    <arg name="ntp_port" value="$(arg ntp_port)"/>
-  </include>
-  <include file="$(find hri_sync)/launch/server.launch">
-    <arg name="clients" value="a,dj_rob,music"/>
-    <arg name="participants" value="a"/>
-    <arg name="rounds" value="{rounds}"/>
-    <arg name="dur" value="{dur}"/>
-    <arg name="ntp_port" value="$(arg ntp_port)"/>
-    <arg name="required" value="false"/>
-  </include>
-  <node pkg="hri_sync" type="synthetic_sensor" name="reference">
-    <param name="rate" value="50.0"/>
-    <param name="signal" value="sine"/>
-  </node>
-  <include file="$(find hri_sync)/launch/client.launch">
-    <arg name="client_id" value="a"/>
-    <arg name="ntp_port" value="$(arg ntp_port)"/>
-    <arg name="input" value="/reference/samples"/>
-    <arg name="stamp_source" value="arrival"/>
-  </include>
-  {robot}
-  {music}
-</launch>
-"""
 INCLUDE = """<include file="$(find hri_sync)/launch/dj_rob.launch">
     <arg name="robot" value="{robot}"/>
     <arg name="music" value="{music}"/>
@@ -80,18 +52,6 @@ def part(name, clock, robot, music, opts):
                           rt=opts.realtime_priority)
 
 
-def stats(values):
-    vals = sorted(v for v in values if math.isfinite(v))
-    if not vals:
-        return {'n': 0}
-
-    def pct(q):
-        return vals[max(0, min(len(vals) - 1,
-                               math.ceil(q / 100 * len(vals)) - 1))]
-    return {'n': len(vals), 'p50_ms': pct(50) * 1e3, 'p99_ms': pct(99) * 1e3,
-            'max_ms': vals[-1] * 1e3, 'min_ms': vals[0] * 1e3}
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--rounds', type=int, default=10)
@@ -103,30 +63,15 @@ def main():
     ap.add_argument('--realtime-priority', type=int, default=10,
                     help='SCHED_FIFO priority of the start threads; 0: off')
     opts = ap.parse_args()
-    launch = LAUNCH.format(
-        rounds=opts.rounds, dur=opts.dur,
-        robot=part('robot', opts.robot_clock, 'sim', 'false', opts),
-        music=part('music', opts.music_clock, 'none', 'true', opts))
+    launch = one_client_launch(
+        'dj_rob,music', opts.rounds, opts.dur,
+        part('robot', opts.robot_clock, 'sim', 'false', opts) + '\n  ' +
+        part('music', opts.music_clock, 'none', 'true', opts))
     workdir = tempfile.mkdtemp(prefix='dj_rob_bench_')
     path = os.path.join(workdir, 'bench.launch')
     with open(path, 'w') as f:
         f.write(launch)
-    port = free_port()
-    env = dict(os.environ, ROS_MASTER_URI='http://localhost:%d' % port)
-    os.environ['ROS_MASTER_URI'] = env['ROS_MASTER_URI']
-    proc = subprocess.Popen(['roslaunch', '-p', str(port), path,
-                             'ntp_port:=%d' % free_port()], env=env,
-                            stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL,
-                            start_new_session=True)
-    try:
-        result = observe(opts)
-    finally:
-        os.killpg(proc.pid, signal.SIGINT)
-        try:
-            proc.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
+    result = run_private_launch(path, lambda proc: observe(opts))
     print(json.dumps(result, indent=1))
 
 

@@ -231,6 +231,77 @@ def wait_until(what, predicate, timeout, procs=(), poll=0.1):
         time.sleep(poll)
 
 
+def percentiles_ms(values):
+    """n, p50, p99, max and min (ms) of the finite ``values`` (s)."""
+    vals = sorted(v for v in values if math.isfinite(v))
+    if not vals:
+        return {'n': 0}
+
+    def pct(q):
+        return vals[max(0, min(len(vals) - 1,
+                               math.ceil(q / 100 * len(vals)) - 1))]
+    return {'n': len(vals), 'p50_ms': pct(50) * 1e3, 'p99_ms': pct(99) * 1e3,
+            'max_ms': vals[-1] * 1e3, 'min_ms': vals[0] * 1e3}
+
+
+ONE_CLIENT_LAUNCH = """<launch>
+  <arg name="ntp_port"/>
+  <include file="$(find hri_sync)/launch/timeserver.launch">
+    <arg name="ntp_port" value="$(arg ntp_port)"/>
+  </include>
+  <include file="$(find hri_sync)/launch/server.launch">
+    <arg name="clients" value="a,{clients}"/>
+    <arg name="participants" value="a"/>
+    <arg name="rounds" value="{rounds}"/>
+    <arg name="dur" value="{dur}"/>
+    <arg name="ntp_port" value="$(arg ntp_port)"/>
+    <arg name="required" value="false"/>
+  </include>
+  <node pkg="hri_sync" type="synthetic_sensor" name="reference">
+    <param name="rate" value="50.0"/>
+    <param name="signal" value="sine"/>
+  </node>
+  <include file="$(find hri_sync)/launch/client.launch">
+    <arg name="client_id" value="a"/>
+    <arg name="ntp_port" value="$(arg ntp_port)"/>
+    <arg name="input" value="/reference/samples"/>
+    <arg name="stamp_source" value="arrival"/>
+  </include>
+  {body}
+</launch>
+"""
+
+
+def one_client_launch(clients, rounds, dur, body):
+    """A launch file's text: time server, server, one sensor client ``a``
+    (a 50 Hz synthetic sine, the only participant), the other
+    ``clients`` (comma-separated ids) in the server's list, and ``body``
+    (their nodes); arg ``ntp_port``."""
+    return ONE_CLIENT_LAUNCH.format(clients=clients, rounds=rounds, dur=dur,
+                                    body=body)
+
+
+def run_private_launch(path, observe, stop_wait=20.0):
+    """roslaunch ``path`` (ntp_port:= a free port) with a master of its
+    own on a free port (this process's ROS_MASTER_URI points at it), call
+    ``observe(proc)``, then stop the launch (SIGINT, SIGKILL after
+    ``stop_wait`` s); returns what ``observe`` returned."""
+    port = free_port()
+    os.environ['ROS_MASTER_URI'] = 'http://localhost:%d' % port
+    proc = subprocess.Popen(['roslaunch', '-p', str(port), path,
+                             'ntp_port:=%d' % free_port()],
+                            env=dict(os.environ), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
+    try:
+        return observe(proc)
+    finally:
+        os.killpg(proc.pid, signal.SIGINT)
+        try:
+            proc.wait(timeout=stop_wait)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+
+
 def ms(stats):
     """Seconds -> ms in a dict of figures, NaN -> None (valid JSON)."""
     return {k: round(v * 1e3, 4) if math.isfinite(v) else None

@@ -46,8 +46,9 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Log
 
+from constant_samples import publish_constant_samples
 from hri_sync.msg import (ActionStart, Beat, CaptureData, Decision, Led,
-                          Sample, Sound)
+                          Sound)
 from hri_sync.robot.geometry import wrap_degrees, yaw_of
 from hri_sync.robot.kobuki import Limits
 from hri_sync.timing.protocol import Capture
@@ -115,7 +116,8 @@ class DjRobRound(unittest.TestCase):
         sub('/rosout', Log, lambda m: cls.errors.append(m.msg)
             if m.name == '/dj_rob' and m.level >= Log.WARN else None,
             queue_size=100)
-        threading.Thread(target=cls.publish_samples, daemon=True).start()
+        publish_constant_samples({c: float(rospy.get_param(
+            '~%s_value' % c)) for c in ('a', 'b')})
         cls.wait_round()
 
     @classmethod
@@ -139,22 +141,6 @@ class DjRobRound(unittest.TestCase):
         for s in msg.status:
             if s.hardware_id == 'kobuki_sim':
                 cls.diag = {kv.key: kv.value for kv in s.values}
-
-    @classmethod
-    def publish_samples(cls):
-        pubs = {c: rospy.Publisher('~%s_samples' % c, Sample, queue_size=10)
-                for c in ('a', 'b')}
-        values = {c: float(rospy.get_param('~%s_value' % c))
-                  for c in ('a', 'b')}
-        index = 0
-        rate = rospy.Rate(50)
-        while not rospy.is_shutdown():
-            for c, pub in pubs.items():
-                msg = Sample(index=index, value=values[c])
-                msg.header.stamp = rospy.Time.now()
-                pub.publish(msg)
-            index += 1
-            rate.sleep()
 
     @classmethod
     def wait_round(cls):

@@ -85,6 +85,19 @@ def write_unclosed(src, dst, until_ns):
         f.write(struct.pack('<I', 4096)[:3])
 
 
+def appended(store, msgtype, fields):
+    """Zero values of the fields of ``msgtype`` in ``store`` missing from
+    ``fields`` (fields appended to a definition since: ActionStart's)."""
+    zero = {'str': '', 'float': 0.0, 'int': 0, 'bool': False}
+    out = {}
+    for f in dataclasses.fields(store.types[msgtype]):
+        kind = str(f.type)
+        if f.name not in fields and not kind.startswith('ClassVar'):
+            out[f.name] = zero[kind] if kind in zero else \
+                store.types['builtin_interfaces/msg/Time'](0, 0)
+    return out
+
+
 def to_header_shape(src, dst, msg_dir):
     """Copy ``src``, recorded with the definitions before std_msgs/Header
     (hri_sync.tools.bag.PRE_HEADER), to ``dst`` with those of
@@ -124,6 +137,7 @@ def to_header_shape(src, dst, msg_dir):
                     new.types['builtin_interfaces/msg/Time'](0, 0)
                 fields['header'] = new.types['std_msgs/msg/Header'](
                     seq=0, stamp=stamp, frame_id='')
+                fields.update(appended(new, c.msgtype, fields))
                 raw = new.serialize_ros1(new.types[c.msgtype](**fields),
                                          c.msgtype)
                 converted += 1

@@ -7,6 +7,7 @@ the session: orphans of later tests are re-parented to it, which is
 harmless).  Waits poll until a condition holds, with generous limits that
 only stop a broken test; no duration is asserted.
 """
+import math
 import os
 import random
 import shutil
@@ -252,3 +253,23 @@ def test_run_bounded_turns_sigterm_into_an_interrupt(signals_restored):
                                            LIMIT)
     assert status == 130 and stopped == [1]
     assert failures == [('interrupted', 'interrupted by SIGTERM')]
+
+
+def test_percentiles_in_ms_skip_what_is_not_finite():
+    percentiles_ms = harness.percentiles_ms
+    assert percentiles_ms([math.nan]) == {'n': 0}
+    p = percentiles_ms([0.001 * k for k in range(1, 101)] + [math.nan])
+    assert p['n'] == 100
+    assert (p['p50_ms'], p['p99_ms'], p['max_ms'], p['min_ms']) == \
+        pytest.approx((50.0, 99.0, 100.0, 1.0))
+
+
+def test_one_client_launch_lists_the_clients():
+    import xml.etree.ElementTree as ET
+    root = ET.fromstring(harness.one_client_launch('dj_rob,music', 3, 2.5,
+                                           '<node name="x"/>'))
+    server = root.findall('include')[1]
+    args = {a.get('name'): a.get('value') for a in server.findall('arg')}
+    assert (args['clients'], args['rounds'], args['dur']) == (
+        'a,dj_rob,music', '3', '2.5')
+    assert root.find('node[@name="x"]') is not None

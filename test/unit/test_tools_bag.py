@@ -24,6 +24,20 @@ def capture_time(path, round_n):
     return times[round_n - 1]
 
 
+def test_a_definition_only_appended_to_is_read_as_it_is():
+    still = os.path.join(BAGS, 'session_still.bag')
+    with Reader(still) as r:
+        digests = {c.msgtype.replace('/msg/', '/'): c.digest
+                   for c in r.connections}
+    ours = bag.current_md5sums()
+    for kind, md5 in bag.APPENDED.items():
+        assert digests[kind] == md5 != ours[kind], kind
+    c = bag.read_bag(still)
+    assert not c.old_types
+    start = c.messages['/dj_rob/action_start'][0].msg
+    assert start.action == 'dance' and not hasattr(start, 'status')
+
+
 def test_session_bag_reads_whole():
     c = bag.read_bag(SESSION)
     assert not c.old_types

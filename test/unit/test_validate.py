@@ -66,7 +66,8 @@ def good(msg_type):
         'hri_sync/ActionStart': dict(
             header=hdr(NOW - 0.99), round=5, client_id='dj_rob',
             action='dance', scheduled=NOW - 1.0, offset=0.01,
-            true_time=NOW - 0.99),
+            true_time=NOW - 0.99, kind='', event='', status='', reason='',
+            tolerance=0.0, local_time=0.0),
         'hri_sync/Beat': dict(header=hdr(NOW), round=5, index=4,
                               bar_beat=0, bpm=120.0),
         'hri_sync/Led': dict(value=1),
@@ -433,8 +434,18 @@ def test_robot_messages():
              'covariance': [0.0] * 36}
     assert rejected('nav_msgs/Odometry', pose=bad_q).reason == 'malformed'
     assert rejected('hri_sync/Beat', bpm=0.0).reason == 'out_of_range'
-    assert rejected('hri_sync/ActionStart', action='sing').reason == \
+    assert rejected('hri_sync/ActionStart', action='').reason == \
+        'name_empty'
+    assert rejected('hri_sync/ActionStart', kind='sing').reason == \
         'unknown_value'
+    assert rejected('hri_sync/ActionStart', status='late').reason == \
+        'no_reason'
+    assert rejected('hri_sync/ActionStart', tolerance=-1.0).reason == \
+        'out_of_range'
+    v.check('hri_sync/ActionStart', dict(
+        good('hri_sync/ActionStart'), action='light_on', kind='publish',
+        event='decision', status='failed', reason='no such topic type',
+        tolerance=0.005, local_time=NOW), CTX)
 
 
 def test_stamp_order_rejects_a_repeated_stamp_only():

@@ -27,7 +27,8 @@ def words(cls):
 
 @pytest.mark.parametrize('cls, msg', [(v.ResultStatus, 'ClientResult'),
                                       (v.Outcome, 'Decision'),
-                                      (v.RoundState, 'RoundStatus')])
+                                      (v.RoundState, 'RoundStatus'),
+                                      (v.Action, 'ActionStart')])
 def test_each_word_is_its_message_constant(cls, msg):
     assert words(cls) == msg_constants(msg)
     assert set(cls.ALL) == set(msg_constants(msg).values())
@@ -48,8 +49,10 @@ def sources():
     return [p for p in paths if not p.endswith('vocabulary.py')]
 
 
-FIELDS = {'status', 'outcome', 'state'}
-VALUES = set(v.ResultStatus.ALL + v.Outcome.ALL + v.RoundState.ALL)
+# (ActionStart's events are not scanned: LSL markers name their own.)
+FIELDS = {'status', 'outcome', 'state', 'kind'}
+VALUES = set(v.ResultStatus.ALL + v.Outcome.ALL + v.RoundState.ALL
+             + v.Action.KINDS + v.Action.STATUSES)
 
 
 def field_of(node):

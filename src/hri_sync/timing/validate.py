@@ -29,8 +29,8 @@ import re
 from dataclasses import dataclass, field
 from typing import Any, Callable, Collection, Optional
 
-from hri_sync.timing.vocabulary import (NUM_JOINTS, Outcome, ResultStatus,
-                                        RoundState)
+from hri_sync.timing.vocabulary import (NUM_JOINTS, Action, Outcome,
+                                        ResultStatus, RoundState)
 
 TIME_LIMIT = 2.0 ** 32      # rospy times hold uint32 seconds
 NAME_RE = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
@@ -581,17 +581,28 @@ class StampOrder:
 # --- the robot's messages ---------------------------------------------------
 
 def action_start(*, header: Any, round: Any, client_id: Any, action: Any,
-                 scheduled: Any, offset: Any, true_time: Any,
-                 ctx: Context) -> None:
-    """~action_start of DJ Rob and the music: when an action began
-    (header.stamp, global)."""
+                 scheduled: Any, offset: Any, true_time: Any, kind: Any,
+                 event: Any, status: Any, reason: Any, tolerance: Any,
+                 local_time: Any, ctx: Context) -> None:
+    """~action_start of DJ Rob, the music and action_client: when an
+    action began (header.stamp, global).  Empty kind and status: not
+    judged (DJ Rob's, the music's)."""
     header_time(header, ctx)
     round_number(round, ctx)
     client_name(client_id, 'client_id', ctx)
-    choice(action, 'action', ('dance', 'music'))
+    name(action, 'action', ctx)
     time_near(scheduled, 'scheduled', ctx)
     number(offset, 'offset', -ctx.limits.max_dur, ctx.limits.max_dur)
     time_value(true_time, 'true_time')
+    choice(kind, 'kind', ('',) + Action.KINDS)
+    choice(event, 'event', ('',) + Action.EVENTS)
+    choice(status, 'status', ('',) + Action.STATUSES)
+    text(reason, 'reason', ctx)
+    if status in (Action.LATE, Action.FAILED) and not reason:
+        raise Rejected('no_reason', 'status %s without a reason' % status,
+                       'reason')
+    number(tolerance, 'tolerance', 0.0, ctx.limits.max_dur)
+    time_value(local_time, 'local_time', optional=True)
 
 
 def beat(*, header: Any, round: Any, index: Any, bar_beat: Any, bpm: Any,

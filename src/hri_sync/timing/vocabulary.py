@@ -41,6 +41,27 @@ class RoundState:
     ALL = (SYNCING, CAPTURING, ABORTED)
 
 
+class Action:
+    """``ActionStart``: its built-in actions, kinds, events, statuses."""
+
+    DANCE = 'dance'
+    MUSIC = 'music'
+    PUBLISH = 'publish'
+    SERVICE = 'service'
+    ACTIONLIB = 'actionlib'
+    COMMAND = 'command'
+    WINDOW_START = 'window_start'
+    WINDOW_END = 'window_end'
+    DECISION = 'decision'
+    OK = 'ok'
+    LATE = 'late'
+    FAILED = 'failed'
+    KINDS = (PUBLISH, SERVICE, ACTIONLIB, COMMAND)
+    EVENTS = (WINDOW_START, WINDOW_END, DECISION)
+    STATUSES = (OK, LATE, FAILED)
+    ALL = (DANCE, MUSIC) + KINDS + EVENTS + STATUSES
+
+
 # The DM's ~on_missing: decide over the results present, or abort.
 ON_MISSING = ('partial', 'abort')
 
