@@ -45,6 +45,7 @@ add_library(hri_sync_tracker_core STATIC
   src/tracker/render.cpp
   src/tracker/scene.cpp
   src/tracker/depth_tracker.cpp
+  src/tracker/multi_tracker.cpp
   src/tracker/pose_fit.cpp
   src/tracker/clock_map.cpp)
 set_target_properties(hri_sync_tracker_core PROPERTIES POSITION_INDEPENDENT_CODE ON)

@@ -52,6 +52,28 @@ struct Segmentation {
   bool found = false;
   std::string reason;            ///< why nothing was found
 };
+/// A connected body of points off the floor and the walls (neighbours whose
+/// depths differ by less than 5 cm + 2 cm/m), with its extent: heights above
+/// the floor (lo, hi), x and z (m).
+struct Blob {
+  std::vector<int> cells;
+  Vec3 centroid;
+  double lo = 1e9, hi = -1e9, xmin = 1e9, xmax = -1e9, zmin = 1e9, zmax = -1e9;
+};
+std::vector<Blob> blobs(const PointGrid& g, const Plane& floor, const std::vector<Plane>& walls);
+/// Whether a part may be a person: 0.5-2.5 m tall, at most 2.2 m wide and 1.6 m
+/// deep, at least 40 cells, and not flat (walls, cabinets, doors are).
+bool personSized(const PointGrid& g, const Blob& p);
+/// How much a person-sized part looks like the user: with no previous
+/// centroid, its size weighted by how close its top is to 1.7 m; with one,
+/// its size over (0.1 m + its distance from it), 0 beyond 0.8 m.
+double personScore(const Blob& p, const Vec3* prev_centroid);
+/// Whether frag is a small piece of user cut off by occlusion or by the floor
+/// (a foot, a hand): at most a third of its size, within 0.9 m across the floor.
+bool isFragmentOf(const Blob& frag, const Blob& user);
+/// The segmentation of parts[user] with the given fragments joined (n: grid cells).
+Segmentation partSegmentation(int n, const std::vector<Blob>& parts, int user, const std::vector<int>& fragments);
+
 /// The user: the connected body of points off the floor that looks most like a
 /// standing person (or lies nearest prev_centroid when given).
 /// walls: background planes (fitWalls) whose points are removed first.
@@ -190,6 +212,12 @@ class DepthTracker {
   ~DepthTracker();
   /// One depth frame (millimetres) taken at time t (s, device clock).
   SkeletonEstimate update(const uint16_t* depth_mm, double t);
+  /// The stages after segmentation on a user segmented elsewhere (the
+  /// multi-user tracker's): the grid, the user and the room's floor.
+  SkeletonEstimate follow(const PointGrid& g, const Segmentation& seg, const Plane& floor, double t);
+  /// The user is not in this frame: the next frame starts from no previous pose
+  /// (the bone lengths are kept).
+  void lose();
   const BodyModel& model() const { return model_; }
   const Plane& floor() const { return floor_; }
   const std::vector<Plane>& walls() const { return walls_; }
@@ -210,6 +238,7 @@ class DepthTracker {
   void fit(const PointGrid& g, const Segmentation& seg, Joints* j, std::array<float, NUM_JOINTS>* conf);
   Joints smooth(const Joints& j, double t);
   LabelMemory memory() const;
+  SkeletonEstimate follow(const PointGrid& g, const Segmentation& seg, double t);
 
   Camera cam_;
   TrackerParams params_;

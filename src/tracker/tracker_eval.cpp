@@ -130,7 +130,7 @@ int main(int argc, char** argv) {
     }
     if (spec.used) {
       spec.scene.legacy_background = background;
-      if (spec.scene.bystander != "none") {
+      if (spec.scene.needsWalk()) {
         std::string wpath = spec.bystander_track;
         if (wpath.empty()) {
           size_t slash = track_path.rfind('/');
@@ -139,7 +139,7 @@ int main(int argc, char** argv) {
         walk = Track::load(wpath);
       }
       scene = std::make_unique<Scene>(track, spec.body, spec.scene, spec.noise,
-                                      spec.scene.bystander != "none" ? &walk : nullptr, spec.seed);
+                                      spec.scene.needsWalk() ? &walk : nullptr, spec.seed);
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tracker_eval: --scene: %s\n", e.what());
