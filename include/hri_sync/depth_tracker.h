@@ -37,8 +37,10 @@ Plane fitFloor(const PointGrid& g, uint32_t seed = 7);
 /// behind a person (walls, a door, a cupboard front): up to max_planes planes
 /// whose normal is within 30 degrees of horizontal (across the floor's normal),
 /// each holding more than 1.5 m^2 of surface and spanning more than 1 m both
-/// across and up, which no person does. Points within planeMargin of one are
-/// background.
+/// across and up, which no person does, and hiding what is behind it (at most
+/// 25 % of the cells within its image box show something behind it or no
+/// return: people standing side by side at one depth make a plane as large
+/// but not a wall). Points within planeMargin of one are background.
 std::vector<Plane> fitWalls(const PointGrid& g, const Plane& floor, uint32_t seed = 11, int max_planes = 3);
 /// How far (m) a point at depth z may lie off a plane it belongs to: 3 cm plus
 /// the Kinect v1 depth step and noise (~1.25 steps of 2.85e-3 z^2).

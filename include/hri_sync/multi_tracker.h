@@ -19,7 +19,8 @@ struct MultiParams {
   double regain_speed = 1.0;  ///< m/s a lost user's gate grows by while it is lost
   double max_gate = 2.0;      ///< m, the largest gate of a lost user
   double lost_timeout = 3.0;  ///< s a lost user's id is kept for its return
-  double new_user_top = 1.0;  ///< m: a new user besides a tracked one reaches this high
+  double new_user_top = 1.0;  ///< m: a new user beside a tracked one reaches this high
+  int new_user_cells = 150;   ///< grid cells a new user beside a tracked one covers at least
   double same_person = 0.45;  ///< m across the floor: closer to a user is a piece of them
 };
 

@@ -133,6 +133,30 @@ bool randomPlane(const PointGrid& g, const std::vector<int>& cand, std::mt19937*
   return true;
 }
 
+// The share of the grid cells within the image box of a plane's points (the
+// candidates not in rest) that show something behind it (more than two margins)
+// or no return: a wall hides what is behind it; people standing side by side
+// at one depth, whose fronts can make a plane as large, do not.
+double seeThrough(const PointGrid& g, const Plane& plane, const std::vector<int>& cand, const std::vector<int>& rest) {
+  std::vector<uint8_t> off(g.width * g.height, 0);
+  for (int i : rest) off[i] = 1;
+  int gx0 = g.width, gx1 = -1, gy0 = g.height, gy1 = -1;
+  for (int i : cand) {
+    if (off[i]) continue;
+    gx0 = std::min(gx0, i % g.width); gx1 = std::max(gx1, i % g.width);
+    gy0 = std::min(gy0, i / g.width); gy1 = std::max(gy1, i / g.width);
+  }
+  int cells = 0, through = 0;
+  for (int y = gy0; y <= gy1; ++y) {
+    for (int x = gx0; x <= gx1; ++x) {
+      const int i = y * g.width + x;
+      ++cells;
+      through += !g.ok(i) || plane.height(g.points[i]) < -2 * planeMargin(g.points[i].z);
+    }
+  }
+  return cells ? double(through) / cells : 1.0;
+}
+
 }  // namespace
 
 PointGrid makeGrid(const uint16_t* depth_mm, const Camera& cam, int step) {
@@ -220,6 +244,7 @@ std::vector<Plane> fitWalls(const PointGrid& g, const Plane& floor, uint32_t see
       y0 = std::min(y0, p.dot(up)); y1 = std::max(y1, p.dot(up));
     }
     if (x1 - x0 < 1.0 || y1 - y0 < 1.0) break;  // a large plane no person could be
+    if (seeThrough(g, best, cand, rest) > 0.25) break;  // people side by side, not a wall
     best.found = true;
     walls.push_back(best);
     cand.swap(rest);

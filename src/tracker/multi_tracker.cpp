@@ -51,6 +51,9 @@ std::vector<int> MultiTracker::associate(const std::vector<Blob>& parts, const s
     std::stable_sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.score > b.score; });
     for (const Pair& p : pairs) {
       if (taken_by[p.user] >= 0 || used[p.part]) continue;
+      bool piece = false;  // a body beside one already taken is a piece of that user (split by an occluder)
+      for (int q : taken_by) piece |= q >= 0 && acrossFloor(parts[q].centroid, parts[p.part].centroid) < multi_.same_person;
+      if (piece) continue;
       taken_by[p.user] = p.part;
       used[p.part] = 1;
     }
@@ -77,7 +80,10 @@ void MultiTracker::admit(const std::vector<Blob>& parts, const std::vector<int>&
     }
     // Beside a user, only a body tall enough to be a standing person (not a
     // chair or a table) is someone new, and not a piece of that user.
-    if (active > 0 && (near || parts[k].hi < multi_.new_user_top)) continue;
+    if (active > 0 && (near || parts[k].hi < multi_.new_user_top ||
+                       static_cast<int>(parts[k].cells.size()) < multi_.new_user_cells)) {
+      continue;
+    }
     if (active >= multi_.max_users) continue;
     if (static_cast<int>(users_.size()) >= multi_.max_users) {  // room: forget the longest lost
       size_t oldest = users_.size();
