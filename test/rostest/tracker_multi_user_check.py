@@ -12,11 +12,23 @@ import unittest
 
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray
-from hri_sync.msg import ClockState, Skeleton
+
+from tracker_partial_view_check import listen
 
 PKG = 'hri_sync'
 TORSO = 2
+
+
+class _Values:
+    """The statuses as dicts of their values (and 'message'), read live."""
+
+    def __init__(self, statuses):
+        self.statuses = statuses
+
+    def __iter__(self):
+        for s in list(self.statuses):
+            yield dict([('message', s.message)] +
+                       [(kv.key, kv.value) for kv in s.values])
 
 
 class TrackerMultiUserTest(unittest.TestCase):
@@ -24,22 +36,11 @@ class TrackerMultiUserTest(unittest.TestCase):
     def test_every_user_published_and_counted(self):
         client = rospy.get_param('~client_id')
         people = int(rospy.get_param('~people'))
-        diags, skeletons = [], []
-        rospy.Subscriber('/diagnostics', DiagnosticArray,
-                         lambda m: diags.extend(
-                             dict([('message', s.message)] +
-                                  [(kv.key, kv.value) for kv in s.values])
-                             for s in m.status
-                             if s.name.startswith(client + '/')))
-        rospy.Subscriber('/%s/skeleton' % client, Skeleton, skeletons.append)
-        pub = rospy.Publisher('/%s/clock_state' % client, ClockState,
-                              queue_size=1, latch=True)
-        pub.publish(ClockState(client_id=client, ok=True,
-                               local_ref=time.time(), offset=0.0,
-                               drift=0.0, uncertainty=0.001, samples=4))
+        statuses, skeletons = listen(client)
+        diags = _Values(statuses)
         deadline = time.time() + 60.0
         while time.time() < deadline and not rospy.is_shutdown() and not [
-                d for d in list(diags)
+                d for d in diags
                 if d.get('tracked_users') == str(people)
                 and d.get('global_clock') == 'ok']:
             time.sleep(0.1)
