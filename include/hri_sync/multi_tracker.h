@@ -15,7 +15,7 @@ namespace hri_sync {
 
 struct MultiParams {
   int max_users = 4;          ///< users tracked at once (1-4)
-  double gate = 0.8;          ///< m a user's centroid may move from one frame to the next
+  double gate = 0.8;          ///< m a user's centroid may move along the floor from one frame to the next
   double regain_speed = 1.0;  ///< m/s a lost user's gate grows by while it is lost
   double max_gate = 2.0;      ///< m, the largest gate of a lost user
   double lost_timeout = 3.0;  ///< s a lost user's id is kept for its return
@@ -65,6 +65,9 @@ class MultiTracker {
   /// New users for the people nobody took (ids counting up), while there is room.
   void admit(const std::vector<Blob>& parts, const std::vector<int>& people, double t,
              std::vector<int>* taken_by);
+  /// The distance from a to b along the floor (heights left out: the visible
+  /// part of a half-hidden person moves up or down, the person does not).
+  double acrossFloor(const Vec3& a, const Vec3& b) const;
   /// Per user, the small parts that join it (isFragmentOf; the nearest user's).
   std::vector<std::vector<int>> fragments(const std::vector<Blob>& parts, const std::vector<int>& taken_by) const;
 

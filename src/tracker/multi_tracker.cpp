@@ -6,16 +6,16 @@
 
 namespace hri_sync {
 
-namespace {
-
-double acrossFloor(const Vec3& a, const Vec3& b) { return std::hypot(a.x - b.x, a.z - b.z); }
-
-}  // namespace
-
 MultiTracker::MultiTracker(const Camera& cam, TrackerParams params, MultiParams multi)
     : cam_(cam), params_(params), multi_(multi) {
   if (multi_.max_users < 1 || multi_.max_users > 4) throw std::invalid_argument("max_users must be 1-4");
   if (params_.grid_step <= 0) params_.grid_step = std::max(1, cam.width / 160);
+}
+
+double MultiTracker::acrossFloor(const Vec3& a, const Vec3& b) const {
+  const Vec3 up = floor_.found ? floor_.n : Vec3(0, 1, 0);
+  const Vec3 d = a - b;
+  return (d - up * d.dot(up)).norm();
 }
 
 void MultiTracker::reset() {
@@ -44,7 +44,7 @@ std::vector<int> MultiTracker::associate(const std::vector<Blob>& parts, const s
                                     : std::min(multi_.max_gate, multi_.gate + multi_.regain_speed * (t - user.last_seen));
       for (int k : people) {
         if (used[k]) continue;
-        const double d = (parts[k].centroid - user.centroid).norm();
+        const double d = acrossFloor(parts[k].centroid, user.centroid);
         if (d <= gate) pairs.push_back({parts[k].cells.size() / (0.1 + d), u, k});
       }
     }
