@@ -162,7 +162,8 @@ def matrix(exe, track, args):
             for k in ('mean_error_m', 'hands_p95_error_m',
                       'seen_hands_p95_error_m', 'tracked_share',
                       'tracked_share_after_calibration',
-                      'first_tracked_frame', 'fps', 'frames', 'resolution'):
+                      'first_tracked_frame', 'fps', 'frames', 'resolution',
+                      'mean_tracked_users'):
                 cell[k] = r[k]
             cell['met'] = judge(cell)
             print(json.dumps(cell), file=sys.stderr, flush=True)
