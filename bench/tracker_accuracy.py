@@ -96,10 +96,11 @@ TARGETS = {'mean_error_m': 0.10, 'hands_p95_error_m': 0.25,
 
 
 def run_eval(exe, track, res, seconds, direct, scene='', noise=None,
-             background=False):
-    """One tracker_eval run; its JSON result (SystemExit on failure)."""
+             background=False, users=0):
+    """One tracker_eval run; its JSON result (SystemExit on failure).
+    users: 0 the single-user tracker, 1-4 the node's multi-user tracker."""
     cmd = [exe, '--track', track, '--res', res,
-           '--background', '1' if background else '0']
+           '--background', '1' if background else '0', '--users', str(users)]
     if noise is not None:
         cmd += ['--noise', str(noise)]
     if scene:
@@ -152,7 +153,8 @@ def matrix(exe, track, args):
     cells = []
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
         futures = [pool.submit(run_eval, exe, track, args.res, args.seconds,
-                               True, keys) for _, _, _, keys in jobs]
+                               True, keys, None, False, args.users)
+                   for _, _, _, keys in jobs]
         for (body, scene, noise, keys), fut in zip(jobs, futures):
             r = fut.result()
             cell = {'body': body, 'body_height_m': r['body_height_m'],
@@ -160,7 +162,8 @@ def matrix(exe, track, args):
             for k in ('mean_error_m', 'hands_p95_error_m',
                       'seen_hands_p95_error_m', 'tracked_share',
                       'tracked_share_after_calibration',
-                      'first_tracked_frame', 'fps', 'frames', 'resolution'):
+                      'first_tracked_frame', 'fps', 'frames', 'resolution',
+                      'mean_tracked_users'):
                 cell[k] = r[k]
             cell['met'] = judge(cell)
             print(json.dumps(cell), file=sys.stderr, flush=True)
@@ -232,6 +235,10 @@ def main():
     ap.add_argument('--jobs', type=int, default=1,
                     help='--matrix cells run at once')
     ap.add_argument('--markdown', help='--matrix: also write the table here')
+    ap.add_argument('--users', type=int, default=0,
+                    help='0: the single-user tracker; 1-4: the multi-user '
+                         'tracker the node runs (scored on the user nearest '
+                         'the person)')
     ap.add_argument('--table', metavar='RESULT.json',
                     help='print the markdown table of a saved --matrix '
                          'result and exit')
@@ -252,7 +259,7 @@ def main():
         if args.matrix:
             commit = git_commit()  # before the run: the code measured
             result = {'motion': os.path.basename(args.motion),
-                      'still': args.still,
+                      'still': args.still, 'users': args.users,
                       'commit': commit, 'targets': TARGETS,
                       'through_openni': False,
                       'cells': matrix(exe, track, args)}
@@ -263,7 +270,7 @@ def main():
             result = run_eval(exe, track, args.res, args.seconds,
                               args.direct, args.scene,
                               None if args.scene else args.noise,
-                              args.background)
+                              args.background, args.users)
             result['motion'] = os.path.basename(args.motion)
             result['still'] = args.still
             result['through_openni'] = not args.direct

@@ -45,6 +45,7 @@ add_library(hri_sync_tracker_core STATIC
   src/tracker/render.cpp
   src/tracker/scene.cpp
   src/tracker/depth_tracker.cpp
+  src/tracker/multi_tracker.cpp
   src/tracker/pose_fit.cpp
   src/tracker/clock_map.cpp)
 set_target_properties(hri_sync_tracker_core PROPERTIES POSITION_INDEPENDENT_CODE ON)
@@ -117,6 +118,12 @@ if(CATKIN_ENABLE_TESTING)
   set_target_properties(virtual_kinect_gtest PROPERTIES
     BUILD_RPATH ${HRI_SYNC_OPENNI2_DEVEL}
     RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/${CATKIN_PACKAGE_BIN_DESTINATION})
+  # Several users (issue 18 item 3). Run by test/rostest/multi_tracker_gtest.test.
+  catkin_add_gtest(multi_tracker_gtest test/unit/multi_tracker_gtest.cpp)
+  target_link_libraries(multi_tracker_gtest hri_sync_tracker_core)
+  target_compile_definitions(multi_tracker_gtest PRIVATE HRI_SYNC_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+  set_target_properties(multi_tracker_gtest PROPERTIES
+    RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/${CATKIN_PACKAGE_BIN_DESTINATION})
   add_custom_target(hri_sync_tracker_tests ALL)
-  add_dependencies(hri_sync_tracker_tests tracker_gtest virtual_kinect_gtest VirtualKinect)
+  add_dependencies(hri_sync_tracker_tests tracker_gtest virtual_kinect_gtest multi_tracker_gtest VirtualKinect)
 endif()

@@ -37,8 +37,10 @@ Plane fitFloor(const PointGrid& g, uint32_t seed = 7);
 /// behind a person (walls, a door, a cupboard front): up to max_planes planes
 /// whose normal is within 30 degrees of horizontal (across the floor's normal),
 /// each holding more than 1.5 m^2 of surface and spanning more than 1 m both
-/// across and up, which no person does. Points within planeMargin of one are
-/// background.
+/// across and up, which no person does, and hiding what is behind it (at most
+/// 25 % of the cells within its image box show something behind it or no
+/// return: people standing side by side at one depth make a plane as large
+/// but not a wall). Points within planeMargin of one are background.
 std::vector<Plane> fitWalls(const PointGrid& g, const Plane& floor, uint32_t seed = 11, int max_planes = 3);
 /// How far (m) a point at depth z may lie off a plane it belongs to: 3 cm plus
 /// the Kinect v1 depth step and noise (~1.25 steps of 2.85e-3 z^2).
@@ -52,6 +54,28 @@ struct Segmentation {
   bool found = false;
   std::string reason;            ///< why nothing was found
 };
+/// A connected body of points off the floor and the walls (neighbours whose
+/// depths differ by less than 5 cm + 2 cm/m), with its extent: heights above
+/// the floor (lo, hi), x and z (m).
+struct Blob {
+  std::vector<int> cells;
+  Vec3 centroid;
+  double lo = 1e9, hi = -1e9, xmin = 1e9, xmax = -1e9, zmin = 1e9, zmax = -1e9;
+};
+std::vector<Blob> blobs(const PointGrid& g, const Plane& floor, const std::vector<Plane>& walls);
+/// Whether a part may be a person: 0.5-2.5 m tall, at most 2.2 m wide and 1.6 m
+/// deep, at least 40 cells, and not flat (walls, cabinets, doors are).
+bool personSized(const PointGrid& g, const Blob& p);
+/// How much a person-sized part looks like the user: with no previous
+/// centroid, its size weighted by how close its top is to 1.7 m; with one,
+/// its size over (0.1 m + its distance from it), 0 beyond 0.8 m.
+double personScore(const Blob& p, const Vec3* prev_centroid);
+/// Whether frag is a small piece of user cut off by occlusion or by the floor
+/// (a foot, a hand): at most a third of its size, within 0.9 m across the floor.
+bool isFragmentOf(const Blob& frag, const Blob& user);
+/// The segmentation of parts[user] with the given fragments joined (n: grid cells).
+Segmentation partSegmentation(int n, const std::vector<Blob>& parts, int user, const std::vector<int>& fragments);
+
 /// The user: the connected body of points off the floor that looks most like a
 /// standing person (or lies nearest prev_centroid when given).
 /// walls: background planes (fitWalls) whose points are removed first.
@@ -190,6 +214,12 @@ class DepthTracker {
   ~DepthTracker();
   /// One depth frame (millimetres) taken at time t (s, device clock).
   SkeletonEstimate update(const uint16_t* depth_mm, double t);
+  /// The stages after segmentation on a user segmented elsewhere (the
+  /// multi-user tracker's): the grid, the user and the room's floor.
+  SkeletonEstimate follow(const PointGrid& g, const Segmentation& seg, const Plane& floor, double t);
+  /// The user is not in this frame: the next frame starts from no previous pose
+  /// (the bone lengths are kept).
+  void lose();
   const BodyModel& model() const { return model_; }
   const Plane& floor() const { return floor_; }
   const std::vector<Plane>& walls() const { return walls_; }
@@ -210,6 +240,7 @@ class DepthTracker {
   void fit(const PointGrid& g, const Segmentation& seg, Joints* j, std::array<float, NUM_JOINTS>* conf);
   Joints smooth(const Joints& j, double t);
   LabelMemory memory() const;
+  SkeletonEstimate follow(const PointGrid& g, const Segmentation& seg, double t);
 
   Camera cam_;
   TrackerParams params_;

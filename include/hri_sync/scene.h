@@ -91,6 +91,11 @@ struct SceneOptions {
   double bystander_offset = 0.8;   ///< walk: m behind (+) or in front (-) of the person;
                                    ///< stand: m to the side (+x right, -x left)
   BodyShape bystander_shape = BodyShape::preset("short_broad");
+  int crowd = 0;                   ///< more people (0-3), on the bystander's track (multi-user tests)
+  std::string crowd_motion = "stand";  ///< stand (in a row beside the person) or walk (across the room)
+  double crowd_spacing = 0.9;      ///< stand: m between neighbours along x; walk: m between walking lanes
+  /// Whether the scene needs the walk track (a bystander or a crowd).
+  bool needsWalk() const { return bystander != "none" || crowd > 0; }
   /// Throws std::invalid_argument when a value is out of its documented range.
   void validate() const;
 };
@@ -109,6 +114,7 @@ struct SceneFrame {
   Joints truth;                    ///< the person's joints, sensor frame (OpenNI axes)
   bool has_bystander = false;
   Joints bystander_truth;          ///< the bystander's joints, sensor frame
+  std::vector<Joints> crowd_truth; ///< the crowd's joints (SceneOptions::crowd), sensor frame
 };
 
 /// A scene: a person moving as a track, with a body shape, in a room, seen by
@@ -133,7 +139,11 @@ class Scene {
   void collect(double t, Surfaces* s, SceneFrame* out) const;
 
   BodyRig person_;
-  std::vector<BodyRig> bystander_;  ///< zero or one
+  /// The joints (room frame) of extra person k at t: the bystander (k = 0)
+  /// when there is one, then the crowd.
+  Joints extraPose(size_t k, double t) const;
+
+  std::vector<BodyRig> bystander_;  ///< the bystander (if any), then the crowd
   SceneOptions opt_;
   KinectNoise noise_;
   uint32_t seed_;

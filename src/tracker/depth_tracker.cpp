@@ -133,6 +133,30 @@ bool randomPlane(const PointGrid& g, const std::vector<int>& cand, std::mt19937*
   return true;
 }
 
+// The share of the grid cells within the image box of a plane's points (the
+// candidates not in rest) that show something behind it (more than two margins)
+// or no return: a wall hides what is behind it; people standing side by side
+// at one depth, whose fronts can make a plane as large, do not.
+double seeThrough(const PointGrid& g, const Plane& plane, const std::vector<int>& cand, const std::vector<int>& rest) {
+  std::vector<uint8_t> off(g.width * g.height, 0);
+  for (int i : rest) off[i] = 1;
+  int gx0 = g.width, gx1 = -1, gy0 = g.height, gy1 = -1;
+  for (int i : cand) {
+    if (off[i]) continue;
+    gx0 = std::min(gx0, i % g.width); gx1 = std::max(gx1, i % g.width);
+    gy0 = std::min(gy0, i / g.width); gy1 = std::max(gy1, i / g.width);
+  }
+  int cells = 0, through = 0;
+  for (int y = gy0; y <= gy1; ++y) {
+    for (int x = gx0; x <= gx1; ++x) {
+      const int i = y * g.width + x;
+      ++cells;
+      through += !g.ok(i) || plane.height(g.points[i]) < -2 * planeMargin(g.points[i].z);
+    }
+  }
+  return cells ? double(through) / cells : 1.0;
+}
+
 }  // namespace
 
 PointGrid makeGrid(const uint16_t* depth_mm, const Camera& cam, int step) {
@@ -220,6 +244,7 @@ std::vector<Plane> fitWalls(const PointGrid& g, const Plane& floor, uint32_t see
       y0 = std::min(y0, p.dot(up)); y1 = std::max(y1, p.dot(up));
     }
     if (x1 - x0 < 1.0 || y1 - y0 < 1.0) break;  // a large plane no person could be
+    if (seeThrough(g, best, cand, rest) > 0.25) break;  // people side by side, not a wall
     best.found = true;
     walls.push_back(best);
     cand.swap(rest);
@@ -227,11 +252,7 @@ std::vector<Plane> fitWalls(const PointGrid& g, const Plane& floor, uint32_t see
   return walls;
 }
 
-// Over 80 lines: one flood fill of the points off the floor into connected
-// bodies and the choice among them, which share the per-body statistics.
-Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* prev_centroid,
-                         const std::vector<Plane>& walls) {
-  Segmentation seg;
+std::vector<Blob> blobs(const PointGrid& g, const Plane& floor, const std::vector<Plane>& walls) {
   const int n = g.width * g.height;
   std::vector<int> comp(n, -1);
   std::vector<uint8_t> cand(n, 0);
@@ -243,16 +264,11 @@ Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* pre
     if (wall) continue;
     cand[i] = 1;
   }
-  struct Part {
-    std::vector<int> cells;
-    Vec3 centroid;
-    double lo = 1e9, hi = -1e9, xmin = 1e9, xmax = -1e9, zmin = 1e9, zmax = -1e9;
-  };
-  std::vector<Part> parts;
+  std::vector<Blob> parts;
   std::vector<int> stack;
   for (int s = 0; s < n; ++s) {
     if (!cand[s] || comp[s] >= 0) continue;
-    Part part;
+    Blob part;
     comp[s] = static_cast<int>(parts.size());
     stack.assign(1, s);
     while (!stack.empty()) {
@@ -277,43 +293,64 @@ Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* pre
     part.centroid = part.centroid * (1.0 / part.cells.size());
     parts.push_back(std::move(part));
   }
-  // The user: tall as a person, no wider than arms spread, not a wall.
-  int best = -1;
-  double best_score = 0;
-  for (size_t k = 0; k < parts.size(); ++k) {
-    const Part& p = parts[k];
-    double tall = p.hi - p.lo;
-    if (p.cells.size() < 40 || tall < 0.5 || p.hi > 2.5 || p.xmax - p.xmin > 2.2 || p.zmax - p.zmin > 1.6) continue;
-    if (thickness(g, p.cells, p.centroid) < 0.025) continue;  // flat: a wall, a cabinet, a door
-    double score;
-    if (prev_centroid) {
-      double dist = (p.centroid - *prev_centroid).norm();
-      if (dist > 0.8) continue;
-      score = p.cells.size() / (0.1 + dist);
-    } else {
-      score = p.cells.size() * std::exp(-std::fabs(p.hi - 1.7) / 0.3);
-    }
-    if (score > best_score) { best_score = score; best = static_cast<int>(k); }
+  return parts;
+}
+
+bool personSized(const PointGrid& g, const Blob& p) {
+  // Tall as a person, no wider than arms spread, not a wall.
+  if (p.cells.size() < 40 || p.hi - p.lo < 0.5 || p.hi > 2.5 || p.xmax - p.xmin > 2.2 || p.zmax - p.zmin > 1.6) {
+    return false;
   }
-  if (best < 0) {
-    seg.reason = parts.empty() ? "no points off the floor" : "no person-sized object in view";
-    return seg;
-  }
+  return thickness(g, p.cells, p.centroid) >= 0.025;  // flat: a wall, a cabinet, a door
+}
+
+double personScore(const Blob& p, const Vec3* prev_centroid) {
+  if (!prev_centroid) return p.cells.size() * std::exp(-std::fabs(p.hi - 1.7) / 0.3);
+  const double dist = (p.centroid - *prev_centroid).norm();
+  return dist > 0.8 ? 0.0 : p.cells.size() / (0.1 + dist);
+}
+
+bool isFragmentOf(const Blob& frag, const Blob& user) {
+  if (frag.cells.size() > user.cells.size() / 3) return false;
+  const Vec3 off = frag.centroid - user.centroid;
+  return std::hypot(off.x, off.z) < 0.9 && frag.hi < user.hi + 0.3 && frag.lo > user.lo - 0.1;
+}
+
+Segmentation partSegmentation(int n, const std::vector<Blob>& parts, int user,
+                              const std::vector<int>& fragments) {
+  Segmentation seg;
   seg.mask.assign(n, 0);
-  const Part& u = parts[best];
+  const Blob& u = parts[user];
   seg.cells = u.cells;
-  // Fragments cut off by occlusion or by the floor (a foot, a hand) join the user.
-  for (size_t k = 0; k < parts.size(); ++k) {
-    if (static_cast<int>(k) == best || parts[k].cells.size() > u.cells.size() / 3) continue;
-    Vec3 off = parts[k].centroid - u.centroid;
-    if (std::hypot(off.x, off.z) < 0.9 && parts[k].hi < u.hi + 0.3 && parts[k].lo > u.lo - 0.1)
-      seg.cells.insert(seg.cells.end(), parts[k].cells.begin(), parts[k].cells.end());
-  }
+  for (int k : fragments) seg.cells.insert(seg.cells.end(), parts[k].cells.begin(), parts[k].cells.end());
   for (int i : seg.cells) seg.mask[i] = 1;
   seg.centroid = u.centroid;
   seg.height = u.hi;
   seg.found = true;
   return seg;
+}
+
+Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* prev_centroid,
+                         const std::vector<Plane>& walls) {
+  const std::vector<Blob> parts = blobs(g, floor, walls);
+  int best = -1;
+  double best_score = 0;
+  for (size_t k = 0; k < parts.size(); ++k) {
+    if (!personSized(g, parts[k])) continue;
+    const double score = personScore(parts[k], prev_centroid);
+    if (score > best_score) { best_score = score; best = static_cast<int>(k); }
+  }
+  if (best < 0) {
+    Segmentation seg;
+    seg.reason = parts.empty() ? "no points off the floor" : "no person-sized object in view";
+    return seg;
+  }
+  // Fragments cut off by occlusion or by the floor (a foot, a hand) join the user.
+  std::vector<int> fragments;
+  for (size_t k = 0; k < parts.size(); ++k) {
+    if (static_cast<int>(k) != best && isFragmentOf(parts[k], parts[best])) fragments.push_back(static_cast<int>(k));
+  }
+  return partSegmentation(g.width * g.height, parts, best, fragments);
 }
 
 std::string partialView(const PointGrid& g, const Segmentation& seg, const Plane& floor) {
@@ -792,14 +829,26 @@ Joints DepthTracker::smooth(const Joints& j, double t) {
 }
 
 SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
-  SkeletonEstimate out;
   PointGrid g = makeGrid(depth_mm, cam_, params_.grid_step);
   Segmentation seg = segment(g);
   if (!seg.found) {
-    have_prev_ = have_fit_ = false;
+    lose();
+    SkeletonEstimate out;
     out.state = "searching: " + seg.reason;
     return out;
   }
+  return follow(g, seg, t);
+}
+
+void DepthTracker::lose() { have_prev_ = have_fit_ = false; }
+
+SkeletonEstimate DepthTracker::follow(const PointGrid& g, const Segmentation& seg, const Plane& floor, double t) {
+  floor_ = floor;
+  return follow(g, seg, t);
+}
+
+SkeletonEstimate DepthTracker::follow(const PointGrid& g, const Segmentation& seg, double t) {
+  SkeletonEstimate out;
   out.user_cells = static_cast<int>(seg.cells.size());
   const std::string partial = partialView(g, seg, floor_);
   if (!partial.empty()) {  // no skeleton made up for the unseen part; calibration waits

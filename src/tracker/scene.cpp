@@ -13,6 +13,8 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kHeadTop = 0.145;   // head top above the head joint (m), before scaling
 constexpr double kTrackFloor = -1.0;  // floor y of the track frame
+// The crowd's body shapes, crowd member 1, 2, 3 (SceneOptions::crowd).
+const char* const kCrowdBodies[3] = {"tall_slim", "average", "loose_clothes"};
 
 // Counter-based random numbers: the same (seed, frame, pixel, stream) gives the
 // same number whatever order pixels are visited in.
@@ -217,6 +219,11 @@ void SceneOptions::validate() const {
   }
   checkRange("bystander_offset", bystander_offset, -3.0, 3.0);
   bystander_shape.validate();
+  checkRange("crowd", crowd, 0, 3);
+  if (crowd_motion != "stand" && crowd_motion != "walk") {
+    throw std::invalid_argument("crowd_motion must be stand or walk, not '" + crowd_motion + "'");
+  }
+  checkRange("crowd_spacing", crowd_spacing, 0.3, 2.0);
 }
 
 struct Scene::Surfaces {
@@ -264,9 +271,10 @@ Scene::Scene(const Track& person, const BodyShape& shape, const SceneOptions& op
     furniture_.push_back({{fx - 0.225, 0.46, fz + 0.19}, {fx + 0.225, 0.92, fz + 0.225}});
     for (double sx : {-0.2, 0.2}) for (double sz : {-0.2, 0.2}) leg(fx + sx, fz + sz, 0.42);
   }
-  if (opt_.bystander != "none") {
+  if (opt_.needsWalk()) {
     if (bystander_motion == nullptr) throw std::invalid_argument("a bystander needs a motion (a walk track)");
-    bystander_.emplace_back(*bystander_motion, opt_.bystander_shape);
+    if (opt_.bystander != "none") bystander_.emplace_back(*bystander_motion, opt_.bystander_shape);
+    for (int k = 0; k < opt_.crowd; ++k) bystander_.emplace_back(*bystander_motion, BodyShape::preset(kCrowdBodies[k]));
     Vec3 c;
     int m = 0;
     for (const Joints& j : bystander_motion->frames()) { c += (j[L_HIP] + j[R_HIP]) * 0.5; ++m; }
@@ -286,6 +294,34 @@ Joints Scene::truth(double t) const {
   return j;
 }
 
+// Extra person k: the bystander (walk: lane 0 crossing along +x; stand: at
+// bystander_offset to the side), then crowd member c = 1, 2, 3: stand: in the
+// walk's first pose at +s, -s, +2s (s = crowd_spacing) beside the person;
+// walk: in lane bystander_offset + c s behind the person, crossing along -x,
+// +x, -x (so it meets the bystander or its neighbour half way).
+Joints Scene::extraPose(size_t k, double t) const {
+  const bool is_bystander = opt_.bystander != "none" && k == 0;
+  const int c = static_cast<int>(k) + (opt_.bystander != "none" ? 0 : 1);  // crowd number, 0: bystander
+  const bool walk = is_bystander ? opt_.bystander == "walk" : opt_.crowd_motion == "walk";
+  const BodyRig& rig = bystander_[k];
+  Joints b = rig.pose(walk ? t : 0.0);
+  // The walk's path is centred on its mean hip position; a standing person on their own hips.
+  const Vec3 centre = walk ? walk_centre_ : (b[L_HIP] + b[R_HIP]) * 0.5;
+  const double dir = c % 2 == 1 ? -1.0 : 1.0;  // the crowd's odd lanes walk towards -x
+  const double slot = c == 0 ? opt_.bystander_offset : (c % 2 == 1 ? 1.0 : -1.0) * ((c + 1) / 2) * opt_.crowd_spacing;
+  const double lane = opt_.bystander_offset + c * opt_.crowd_spacing;
+  for (Vec3& p : b) {
+    Vec3 r = p - Vec3(centre.x, 0, centre.z);
+    if (walk) {  // the walk (towards the sensor) turned to cross the room along x
+      r = Vec3(-r.z * dir, r.y, r.x * dir);
+      p = r + Vec3(person_centre_.x, -kTrackFloor, person_centre_.z + lane);
+    } else {
+      p = r + Vec3(person_centre_.x + slot, -kTrackFloor, person_centre_.z);
+    }
+  }
+  return b;
+}
+
 void Scene::collect(double t, Surfaces* s, SceneFrame* out) const {
   auto addBody = [&](const BodyRig& rig, const Joints& room, uint8_t label) {
     std::vector<Capsule> caps;
@@ -301,24 +337,16 @@ void Scene::collect(double t, Surfaces* s, SceneFrame* out) const {
   for (Vec3& p : room) p += Vec3(0, -kTrackFloor, 0);
   addBody(person_, room, LABEL_PERSON);
   for (int k = 0; k < NUM_JOINTS; ++k) out->truth[k] = toSensor(room[k]);
-  out->has_bystander = !bystander_.empty();
-  if (!bystander_.empty()) {
-    const BodyRig& rig = bystander_[0];
-    const bool walk = opt_.bystander == "walk";
-    Joints b = rig.pose(walk ? t : 0.0);
-    // The walk's path is centred on its mean hip position; a standing bystander on their own hips.
-    Vec3 centre = walk ? walk_centre_ : (b[L_HIP] + b[R_HIP]) * 0.5;
-    for (Vec3& p : b) {
-      Vec3 r = p - Vec3(centre.x, 0, centre.z);
-      if (walk) {  // the walk (towards the sensor) turned to cross the room along +x
-        r = Vec3(-r.z, r.y, r.x);
-        p = r + Vec3(person_centre_.x, -kTrackFloor, person_centre_.z + opt_.bystander_offset);
-      } else {
-        p = r + Vec3(person_centre_.x + opt_.bystander_offset, -kTrackFloor, person_centre_.z);
-      }
-    }
-    addBody(rig, b, LABEL_BYSTANDER);
-    for (int k = 0; k < NUM_JOINTS; ++k) out->bystander_truth[k] = toSensor(b[k]);
+  const bool has_bystander = opt_.bystander != "none";
+  out->has_bystander = has_bystander;
+  out->crowd_truth.clear();
+  for (size_t k = 0; k < bystander_.size(); ++k) {
+    Joints b = extraPose(k, t);
+    addBody(bystander_[k], b, LABEL_BYSTANDER);
+    Joints sensor;
+    for (int i = 0; i < NUM_JOINTS; ++i) sensor[i] = toSensor(b[i]);
+    if (has_bystander && k == 0) out->bystander_truth = sensor;
+    else out->crowd_truth.push_back(sensor);
   }
   // Planes, as n.p = h in the sensor frame.
   auto plane = [&](const Vec3& n_room, double h_room, uint8_t label, double albedo) {
@@ -568,7 +596,7 @@ bool flag(const std::string& key, const std::string& value) {
 
 const char* sceneKeys() {
   return "body, height, girth, limbs, arms, legs, clothing, clothes_albedo, wall, furniture, furniture_x, "
-         "bystander, bystander_offset, bystander_body, bystander_track, sensor_height, tilt, noise=kinect1, "
+         "bystander, bystander_offset, bystander_body, bystander_track, crowd, crowd_motion, crowd_spacing, sensor_height, tilt, noise=kinect1, "
          "shadow, holes, baseline, projector, min_range, max_range, seed";
 }
 
@@ -594,6 +622,12 @@ bool applySceneKey(const std::string& key, const std::string& value, SceneSpec* 
   } else if (key == "bystander_offset") { s.bystander_offset = number(key, value);
   } else if (key == "bystander_body") { s.bystander_shape = BodyShape::preset(value);
   } else if (key == "bystander_track") { spec->bystander_track = value;
+  } else if (key == "crowd") {
+    const double v = number(key, value);
+    if (v < 0 || v > 3 || v != std::floor(v)) throw std::invalid_argument("crowd must be 0, 1, 2 or 3, not " + value);
+    s.crowd = static_cast<int>(v);
+  } else if (key == "crowd_motion") { s.crowd_motion = value;
+  } else if (key == "crowd_spacing") { s.crowd_spacing = number(key, value);
   } else if (key == "sensor_height") { s.sensor_height = number(key, value);
   } else if (key == "tilt") { s.tilt_deg = number(key, value);
   } else if (key == "noise") {

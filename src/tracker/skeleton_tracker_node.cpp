@@ -11,6 +11,8 @@
 //              before, its frames could only be withheld)
 // ~frame_timeout  s without frames before the sensor is reported lost (1.0)
 // ~reopen_period  s between attempts to reopen a lost or unopenable device (3.0)
+// ~max_users   users tracked at once (depth backend, 1-4, default 4); each tracked
+//              user is published with its own stable user_id (docs/tracker.md, "Several users")
 // After a ROS master restart it ends with status 75 (include/hri_sync/master_watch.h)
 // so that roslaunch's respawn registers it with the new master.
 #include <OpenNI.h>
@@ -34,6 +36,7 @@
 #include "hri_sync/clock_map.h"
 #include "hri_sync/depth_tracker.h"
 #include "hri_sync/master_watch.h"
+#include "hri_sync/multi_tracker.h"
 #include "hri_sync/nite_backend.h"
 
 namespace hri_sync {
@@ -69,6 +72,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     pnh_.param("loop", loop_, false);
     pnh_.param("frame_timeout", frame_timeout_, 1.0);
     pnh_.param("reopen_period", reopen_period_, 3.0);
+    pnh_.param("max_users", max_users_, 4);
     is_file_ = device_uri_.size() > 4 && device_uri_.compare(device_uri_.size() - 4, 4, ".oni") == 0;
     skeleton_pub_ = nh_.advertise<hri_sync::Skeleton>("skeleton", 30);
     diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
@@ -77,6 +81,9 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     watcher_ = std::thread(&TrackerNode::watchMaster, this);
     if (backend_name_ != "depth" && backend_name_ != "nite") {
       setError("unknown ~backend '" + backend_name_ + "' (use depth or nite)");
+      fatal_ = true;
+    } else if (max_users_ < 1 || max_users_ > 4) {
+      setError("~max_users must be 1 to 4, not " + std::to_string(max_users_));
       fatal_ = true;
     }
   }
@@ -167,6 +174,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
       pnh_.setParam("loop", loop_);
       pnh_.setParam("frame_timeout", frame_timeout_);
       pnh_.setParam("reopen_period", reopen_period_);
+      pnh_.setParam("max_users", max_users_);
       master_restarted_ = true;
       ros::shutdown();
       return;
@@ -278,7 +286,9 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     device_ = std::move(dev);
     depth_ = std::move(depth);
     nite_ = std::move(nite);
-    tracker_ = std::make_unique<DepthTracker>(cam);
+    MultiParams multi;
+    multi.max_users = max_users_;
+    tracker_ = std::make_unique<MultiTracker>(cam, TrackerParams(), multi);
     mapper_.reset();
     lost_ = false;
     total_frames_ = total;
@@ -300,16 +310,28 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     if (depth_) { depth_->stop(); depth_->destroy(); depth_.reset(); }
     if (device_) { device_->close(); device_.reset(); }
     tracker_.reset();
+    users_ = MultiEstimate();
+  }
+
+  /// NiTE's one user as the multi-user tracker's output (user id 1).
+  static MultiEstimate single(const SkeletonEstimate& est) {
+    MultiEstimate m;
+    m.state = est.state;
+    if (!est.tracked) return m;
+    m.users.push_back({1, est, Vec3()});
+    m.tracked_users = 1;
+    m.people_in_view = 1;
+    return m;
   }
 
   void handleFrame() {
-    SkeletonEstimate est;
+    MultiEstimate est;
     double arrival = 0;  // local: the fit uses the earliest arrivals only
     unsigned long long device_us = 0;
     int index = 0;
     if (nite_) {
       try {
-        est = nite_->read(&device_us, &index);
+        est = single(nite_->read(&device_us, &index));
         arrival = localNow();
       } catch (const std::exception& e) {
         setError(e.what());
@@ -348,17 +370,22 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     fps_window_.push_back(device_s);
     while (fps_window_.size() > 1 && fps_window_.back() - fps_window_.front() > 2.0) fps_window_.pop_front();
     state_ = est.state;
-    tracked_ += est.tracked;
-    if (!est.tracked) return;
-    if (!clock_.ready) { ++withheld_; return; }
-    if (!mapper_.ready()) { ++withheld_; return; }
-
-    hri_sync::Skeleton msg;
+    users_ = est;
+    tracked_ += est.tracked_users > 0;
+    if (est.tracked_users == 0) return;
+    if (!clock_.ready || !mapper_.ready()) { ++withheld_; return; }
     const double global = clock_.model.toGlobal(mapper_.toLocal(device_s));
+    for (const UserEstimate& u : est.users) {
+      if (u.estimate.tracked) publishSkeleton(u.user_id, u.estimate, global, device_s);
+    }
+  }
+
+  void publishSkeleton(uint32_t user_id, const SkeletonEstimate& est, double global, double device_s) {
+    hri_sync::Skeleton msg;
     msg.header.stamp.fromSec(global);
     msg.header.frame_id = frame_id_;
     msg.client_id = client_id_;
-    msg.user_id = 1;
+    msg.user_id = user_id;
     msg.device_stamp.fromSec(device_s);
     for (int k = 0; k < NUM_JOINTS; ++k) {
       msg.positions[k].x = est.joints[k].x;
@@ -369,6 +396,15 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     }
     skeleton_pub_.publish(msg);
     ++published_;
+  }
+
+  /// The tracked users' ids, "1 3" (mu_ held).
+  std::string userIds() const {
+    std::string ids;
+    for (const UserEstimate& u : users_.users) {
+      if (u.estimate.tracked) ids += (ids.empty() ? "" : " ") + std::to_string(u.user_id);
+    }
+    return ids;
   }
 
   void publishDiagnostics(const ros::WallTimerEvent&) {
@@ -397,7 +433,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
         s.message = "not tracking: " + state_;
       } else {
         s.level = diagnostic_msgs::DiagnosticStatus::OK;
-        s.message = "tracking";
+        s.message = users_.tracked_users > 1 ? "tracking " + std::to_string(users_.tracked_users) + " users" : "tracking";
       }
       auto kv = [&s](const std::string& k, const std::string& v) {
         diagnostic_msgs::KeyValue p;
@@ -415,6 +451,12 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
       kv("withheld_no_clock", std::to_string(withheld_));
       kv("failed_opens", std::to_string(open_failures_));
       kv("tracking_state", state_);
+      kv("tracked_users", std::to_string(users_.tracked_users));
+      kv("tracked_user_ids", userIds());
+      kv("people_in_view", std::to_string(users_.people_in_view));
+      kv("lost_users", std::to_string(users_.lost_users));
+      kv("max_users", std::to_string(nite_ ? 1 : max_users_));
+      kv("user_ids_issued", std::to_string(tracker_ ? tracker_->idsIssued() : 0));
       kv("global_clock", clock_.ready ? "ok" : clock_.reason);
       kv("device_clock_offset_s", fmt(mapper_.offset(), 6));
       kv("device_clock_drift_ppm", fmt(mapper_.drift() * 1e6, 1));
@@ -432,6 +474,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
   std::string device_uri_, backend_name_, client_id_, frame_id_;
   bool loop_ = false, is_file_ = false;
   double frame_timeout_ = 1.0, reopen_period_ = 3.0;
+  int max_users_ = 4;
   std::atomic<bool> lost_{false};
   std::atomic<bool> fatal_{false};
   std::atomic<bool> stop_watch_{false}, master_restarted_{false};
@@ -441,11 +484,12 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
   std::unique_ptr<openni::Device> device_;
   std::unique_ptr<openni::VideoStream> depth_;
   std::unique_ptr<NiteBackend> nite_;
-  std::unique_ptr<DepthTracker> tracker_;
+  std::unique_ptr<MultiTracker> tracker_;
   DeviceClockMapper mapper_;
   ClockStatus clock_;
   std::string state_ = "starting", error_, error_kind_, resolution_ = "?";
   std::deque<double> fps_window_;
+  MultiEstimate users_;  // the last frame's users
   int total_frames_ = 0, last_index_ = 0;
   double last_frame_local_ = 0, opened_local_ = 0, open_logged_ = 0;
   unsigned long open_failures_ = 0;  // since the last successful open

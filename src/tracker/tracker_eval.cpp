@@ -3,7 +3,7 @@
 // error against the motion's true joints, the tracked share and the speed.
 //   tracker_eval --track FILE.track [--res 320x240] [--seconds S] [--background 0|1]
 //                [--noise SIGMA] [--scene KEY=V&KEY=V...] [--direct] [--step N] [--dump FILE]
-//                [--snapshot N]
+//                [--snapshot N] [--users N]
 // --scene: the virtual Kinect's scene keys (body, wall, bystander, noise=kinect1, ...;
 // docs/tracker.md); the truth is then the rendered (reshaped) body's joints.
 // --snapshot N writes frame N's depth (uint16 mm) and pixel labels (uint8) to
@@ -12,6 +12,9 @@
 // --dump writes per frame: index, tracked, 15 estimated and 15 true joints, 15 confidences,
 // the extremity count and the extremities.
 // --direct renders in-process instead of through OpenNI (same renderer).
+// --users N (1-4): the multi-user tracker the node runs (MultiTracker, N users at
+// most), scored on the tracked user whose torso is nearest the person's (as a
+// participant zone picks them); 0 (default): the single-user DepthTracker.
 #include <OpenNI.h>
 
 #include <algorithm>
@@ -25,6 +28,7 @@
 
 #include "hri_sync/body.h"
 #include "hri_sync/depth_tracker.h"
+#include "hri_sync/multi_tracker.h"
 #include "hri_sync/render.h"
 #include "hri_sync/scene.h"
 
@@ -75,6 +79,40 @@ void account(Stats* s, const SkeletonEstimate& est, const Joints& truth) {
     if (est.confidence[k] >= 0.5f) s->hands_seen.push_back(s->err[k].back());
 }
 
+// The tracker under test: the single-user DepthTracker or the multi-user one.
+class Runner {
+ public:
+  Runner(const Camera& cam, const TrackerParams& params, int users) {
+    if (users <= 0) {
+      single_ = std::make_unique<DepthTracker>(cam, params);
+      return;
+    }
+    MultiParams mp;
+    mp.max_users = users;
+    multi_ = std::make_unique<MultiTracker>(cam, params, mp);
+  }
+  SkeletonEstimate update(const uint16_t* depth, double t, const Joints& truth) {
+    if (single_) return single_->update(depth, t);
+    const MultiEstimate m = multi_->update(depth, t);
+    users_ += m.tracked_users;
+    SkeletonEstimate best;
+    best.state = m.state;
+    double nearest = 1e9;
+    for (const UserEstimate& u : m.users) {
+      const double d = (u.estimate.joints[TORSO] - truth[TORSO]).norm();
+      if (u.estimate.tracked && d < nearest) { nearest = d; best = u.estimate; }
+    }
+    return best;
+  }
+  double height() const { return single_ ? single_->model().height : -1.0; }
+  long trackedUsers() const { return users_; }  ///< summed over frames
+
+ private:
+  std::unique_ptr<DepthTracker> single_;
+  std::unique_ptr<MultiTracker> multi_;
+  long users_ = 0;
+};
+
 }  // namespace
 
 // Over 80 lines: a command-line driver (arguments, the frame loop, the JSON
@@ -85,6 +123,7 @@ int main(int argc, char** argv) {
   double seconds = 0, noise = 0.0015;
   std::string scene_query;
   bool direct = false, background = false;
+  int users = 0;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -100,6 +139,7 @@ int main(int argc, char** argv) {
     else if (a == "--direct") direct = true;
     else if (a == "--step") params.grid_step = std::stoi(next());
     else if (a == "--snapshot") g_snapshot = std::stoi(next());
+    else if (a == "--users") users = std::stoi(next());
     else if (a == "--dump") g_dump = std::fopen(next().c_str(), "w");
     else { std::fprintf(stderr, "tracker_eval: unknown argument %s\n", a.c_str()); return 2; }
   }
@@ -130,7 +170,7 @@ int main(int argc, char** argv) {
     }
     if (spec.used) {
       spec.scene.legacy_background = background;
-      if (spec.scene.bystander != "none") {
+      if (spec.scene.needsWalk()) {
         std::string wpath = spec.bystander_track;
         if (wpath.empty()) {
           size_t slash = track_path.rfind('/');
@@ -139,7 +179,7 @@ int main(int argc, char** argv) {
         walk = Track::load(wpath);
       }
       scene = std::make_unique<Scene>(track, spec.body, spec.scene, spec.noise,
-                                      spec.scene.bystander != "none" ? &walk : nullptr, spec.seed);
+                                      spec.scene.needsWalk() ? &walk : nullptr, spec.seed);
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tracker_eval: --scene: %s\n", e.what());
@@ -151,7 +191,8 @@ int main(int argc, char** argv) {
   cam.height = res == "640x480" ? 480 : 240;
   const int fps = 30;
   const int total = static_cast<int>(seconds * fps);
-  DepthTracker tracker(cam, params);
+  if (users < 0 || users > 4) { std::fprintf(stderr, "tracker_eval: --users must be 0-4\n"); return 2; }
+  Runner tracker(cam, params, users);
   Stats st;
 
   if (direct) {
@@ -183,7 +224,7 @@ int main(int argc, char** argv) {
         }
       }
       double c0 = threadCpu();
-      SkeletonEstimate est = tracker.update(depth.data(), t);
+      SkeletonEstimate est = tracker.update(depth.data(), t, truth);
       st.cpu += threadCpu() - c0;
       account(&st, est, truth);
     }
@@ -223,10 +264,11 @@ int main(int argc, char** argv) {
         if (last_index && idx > last_index + 1) st.dropped += idx - last_index - 1;
         last_index = idx;
         double t = (idx - 1) / static_cast<double>(fps);  // the virtual Kinect's motion time
+        const Joints truth = truthAt(t);
         double c0 = threadCpu();
-        SkeletonEstimate est = tracker.update(static_cast<const uint16_t*>(f.getData()), f.getTimestamp() * 1e-6);
+        SkeletonEstimate est = tracker.update(static_cast<const uint16_t*>(f.getData()), f.getTimestamp() * 1e-6, truth);
         st.cpu += threadCpu() - c0;
-        account(&st, est, truthAt(t));
+        account(&st, est, truth);
       }
       depth.stop();
       depth.destroy();
@@ -256,12 +298,14 @@ int main(int argc, char** argv) {
               "\"seen_hands_p95_error_m\": %.4f, \"seen_hands_share\": %.4f, \"tracked_share\": %.4f, "
               "\"tracked_share_after_calibration\": %.4f, \"first_tracked_frame\": %d, "
               "\"fps\": %.1f, \"frames\": %d, \"dropped_frames\": %d, \"resolution\": \"%dx%d\", "
-              "\"height_m\": %.3f, \"body\": \"%s\", \"body_height_m\": %.3f, \"scene\": \"%s\"}\n",
+              "\"height_m\": %.3f, \"body\": \"%s\", \"body_height_m\": %.3f, \"scene\": \"%s\", "
+              "\"users\": %d, \"mean_tracked_users\": %.3f}\n",
               mean, joints.c_str(), pct(hands, 0.95), pct(st.hands_seen, 0.95),
               hands.empty() ? 0.0 : double(st.hands_seen.size()) / hands.size(), st.frames ? double(st.tracked) / st.frames : 0.0,
               st.first_tracked >= 0 ? double(st.tracked) / (st.frames - st.first_tracked) : 0.0, st.first_tracked,
               st.cpu > 0 ? st.frames / st.cpu : 0.0, st.frames, st.dropped, cam.width, cam.height,
-              tracker.model().height, scene ? spec.body.name.c_str() : "model",
-              scene ? spec.body.height : 0.0, scene_query.c_str());
+              tracker.height(), scene ? spec.body.name.c_str() : "model",
+              scene ? spec.body.height : 0.0, scene_query.c_str(), users,
+              st.frames ? double(tracker.trackedUsers()) / st.frames : 0.0);
   return st.frames > 0 ? 0 : 1;
 }

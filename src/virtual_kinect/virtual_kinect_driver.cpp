@@ -12,7 +12,8 @@
 // Scene keys (docs/tracker.md, "Virtual Kinect scenes"): body=average|short_broad|tall_slim|
 //   loose_clothes|dark_clothes|model, height, girth, limbs, arms, legs, clothing, clothes_albedo,
 //   wall=GAP_M|none, furniture=none|table|chair, furniture_x, bystander=none|walk|stand,
-//   bystander_offset, bystander_body, bystander_track=PATH, sensor_height, tilt (deg),
+//   bystander_offset, bystander_body, bystander_track=PATH, crowd=0..3, crowd_motion=stand|walk,
+//   crowd_spacing, sensor_height, tilt (deg),
 //   noise=kinect1, shadow, holes, baseline, projector=+x|-x, min_range, max_range, seed.
 //   Any of them renders the scene (hri_sync::Scene) instead of the capsule body;
 //   noise=SIGMA (Gaussian) is the capsule renderer's only and cannot be mixed with them.
@@ -125,7 +126,7 @@ VirtualConfig parseUri(const std::string& uri) {
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(std::string("virtual kinect: ") + e.what());
     }
-    if (c.scene.scene.bystander != "none" && c.scene.bystander_track.empty()) {
+    if (c.scene.scene.needsWalk() && c.scene.bystander_track.empty()) {
       size_t slash = c.path.rfind('/');
       c.scene.bystander_track = (slash == std::string::npos ? std::string(".") : c.path.substr(0, slash)) +
                                 "/cmu_131_01_walk.track";
@@ -412,7 +413,7 @@ class VirtualDriver : public oni::driver::DriverBase {
   std::shared_ptr<const hri_sync::Scene> makeScene(const VirtualConfig& cfg, const std::shared_ptr<const Track>& track) {
     if (!cfg.scene.used) return nullptr;
     std::shared_ptr<const Track> walk;
-    if (cfg.scene.scene.bystander != "none") walk = load(cfg.scene.bystander_track);
+    if (cfg.scene.scene.needsWalk()) walk = load(cfg.scene.bystander_track);
     try {
       return std::make_shared<const hri_sync::Scene>(*track, cfg.scene.body, cfg.scene.scene, cfg.scene.noise,
                                                      walk.get(), cfg.scene.seed);

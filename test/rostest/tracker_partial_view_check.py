@@ -18,21 +18,27 @@ PKG = 'hri_sync'
 LEGS = (11, 12, 13, 14)     # knees and feet (hri_sync.dance_off.joints order)
 
 
+def listen(client):
+    """Collects the tracker's statuses and skeletons, and gives it a valid
+    global clock (a latched ClockState, offset 0): the two lists filled."""
+    diags, skeletons = [], []
+    rospy.Subscriber('/diagnostics', DiagnosticArray,
+                     lambda m: diags.extend(
+                         s for s in m.status
+                         if s.name.startswith(client + '/')))
+    rospy.Subscriber('/%s/skeleton' % client, Skeleton, skeletons.append)
+    pub = rospy.Publisher('/%s/clock_state' % client, ClockState,
+                          queue_size=1, latch=True)
+    pub.publish(ClockState(client_id=client, ok=True,
+                           local_ref=time.time(), offset=0.0,
+                           drift=0.0, uncertainty=0.001, samples=4))
+    return diags, skeletons
+
+
 class TrackerPartialViewTest(unittest.TestCase):
 
     def test_partial_view_is_said_and_no_legs_invented(self):
-        client = rospy.get_param('~client_id')
-        diags, skeletons = [], []
-        rospy.Subscriber('/diagnostics', DiagnosticArray,
-                         lambda m: diags.extend(
-                             s for s in m.status
-                             if s.name.startswith(client + '/')))
-        rospy.Subscriber('/%s/skeleton' % client, Skeleton, skeletons.append)
-        pub = rospy.Publisher('/%s/clock_state' % client, ClockState,
-                              queue_size=1, latch=True)
-        pub.publish(ClockState(client_id=client, ok=True,
-                               local_ref=time.time(), offset=0.0,
-                               drift=0.0, uncertainty=0.001, samples=4))
+        diags, skeletons = listen(rospy.get_param('~client_id'))
         deadline = time.time() + 40.0
         while time.time() < deadline and not rospy.is_shutdown() and not any(
                 'partial view' in s.message for s in list(diags)):

@@ -324,6 +324,43 @@ TEST(Scene, BystanderAndFurnitureAreLabelled) {
   EXPECT_THROW(Scene(stillTrack(), BodyShape::preset("average"), o, KinectNoise()), std::invalid_argument);
 }
 
+// The crowd (multi-user tests): crowd members stand at +s, -s, +2s beside the
+// person, or walk their lanes in opposite directions; each has its truth and
+// bystander-labelled pixels; bad crowd keys are refused.
+TEST(Scene, CrowdStandsInARowOrWalksAcross) {
+  Track walk = Track::load(std::string(HRI_SYNC_SOURCE_DIR) + "/data/motion/cmu_131_01_walk.track");
+  SceneOptions o;
+  o.crowd = 3;
+  o.crowd_spacing = 0.8;
+  Scene row(stillTrack(), BodyShape::preset("average"), o, KinectNoise(), &walk);
+  SceneFrame f = renderOnce(row);
+  EXPECT_FALSE(f.has_bystander);
+  ASSERT_EQ(f.crowd_truth.size(), 3u);
+  const double side[3] = {0.8, -0.8, 1.6};
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(f.crowd_truth[c][TORSO].x - f.truth[TORSO].x, side[c], 0.25) << "crowd " << c + 1;
+  }
+  EXPECT_GT(std::count(f.label.begin(), f.label.end(), LABEL_BYSTANDER), 3 * 500);
+  o = SceneOptions();
+  o.bystander = "walk";
+  o.crowd = 1;
+  o.crowd_motion = "walk";
+  Scene cross(stillTrack(), BodyShape::preset("average"), o, KinectNoise(), &walk);
+  SceneFrame a, z;
+  cross.render(0.5, 0, Camera(), &a);
+  cross.render(7.5, 1, Camera(), &z);
+  // The bystander walks towards +x, the crowd member towards -x, in a lane 0.9 m farther.
+  EXPECT_GT(z.bystander_truth[TORSO].x - a.bystander_truth[TORSO].x, 1.0);
+  EXPECT_LT(z.crowd_truth[0][TORSO].x - a.crowd_truth[0][TORSO].x, -1.0);
+  SceneSpec spec;
+  EXPECT_THROW(applySceneKey("crowd", "4", &spec), std::invalid_argument);
+  EXPECT_THROW(applySceneKey("crowd", "1.5", &spec), std::invalid_argument);
+  o.crowd_motion = "run";
+  EXPECT_THROW(Scene(stillTrack(), BodyShape::preset("average"), o, KinectNoise(), &walk), std::invalid_argument);
+  o.crowd_motion = "stand";
+  EXPECT_THROW(Scene(stillTrack(), BodyShape::preset("average"), o, KinectNoise()), std::invalid_argument);
+}
+
 TEST(Scene, BadKeysGiveClearErrors) {
   SceneSpec spec;
   auto message = [&](const char* k, const char* v) -> std::string {
