@@ -84,10 +84,10 @@ def run(n, opts):
     port = free_port()
     os.environ['ROS_MASTER_URI'] = 'http://localhost:%d' % port
     load = os.getloadavg()[0]
+    log = open(path + '.log', 'w')
     proc = subprocess.Popen(['roslaunch', '-p', str(port), path,
                              'ntp_port:=%d' % free_port()],
-                            stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL,
+                            stdout=log, stderr=subprocess.STDOUT,
                             start_new_session=True)
     try:
         result = observe(ids.split(','), opts)
@@ -97,7 +97,8 @@ def run(n, opts):
             proc.wait(timeout=30)
         except subprocess.TimeoutExpired:
             os.killpg(proc.pid, signal.SIGKILL)
-    result.update(robots=n, load_average_1min=[load, os.getloadavg()[0]])
+    result.update(robots=n, load_average_1min=[load, os.getloadavg()[0]],
+                  log=log.name)
     return result
 
 
@@ -128,6 +129,8 @@ def observe(robots, opts):
         'rounds_requested': opts.rounds,
         'rounds_started': len(watch.captures),
         'rounds_decided': len(watch.decisions),
+        'outcomes': sorted({(d.outcome, d.reason[:120]) for d in
+                            watch.decisions.values()}),
         'rounds_missing_a_robot': {str(k): v for k, v in missing.items()},
         'start_skew_true': distribution(list(skews.values()), 1e3),
         'start_offset_true': distribution(offsets, 1e3),

@@ -29,12 +29,18 @@ publish zero now and end the motion.  The conditions, each with its
 
 The first three are states: while one holds, :meth:`check` keeps
 returning it (``Trip.new`` only the first time) and no motion may start;
-the decision trips are events, once per round.  Every trip is counted.
+the decision trips are events, once per round.  Every trip is counted
+(``health``).  Thread-safe: the inputs come from ROS callbacks while the
+node's runner thread checks.
 """
 import math
+import threading
 from collections import Counter, deque
 from dataclasses import dataclass
-from typing import NamedTuple, Optional
+from typing import NamedTuple
+
+from hri_sync.timing.health import ERROR, OK, WARN, Health
+from hri_sync.timing.vocabulary import MAX_UNCERTAINTY
 
 CLOCK_DEAD, ODOM_STALE, BASE_LAGGING = 'clock_dead', 'odom_stale', \
     'base_lagging'
@@ -49,7 +55,7 @@ class SafetyConfig:
     params); a threshold <= 0 turns its check off."""
 
     clock_max_age: float = 12.0       # s since the last good sync
-    max_uncertainty: float = 0.005    # s, the clock's error bound
+    max_uncertainty: float = MAX_UNCERTAINTY   # s, the clock's bound
     odom_max_age: float = 0.5         # s without odometry while moving
     max_lag: float = 0.5              # s the base may lag its commands
     linear_tolerance: float = 0.1     # m/s
@@ -93,9 +99,10 @@ class Watchdog:
         self.decided = set()
         self.declared_missing = set()
         self.trips = Counter()
+        self._lock = threading.RLock()
 
     # --- inputs ----------------------------------------------------------
-    def on_command(self, linear, angular):
+    def _on_command(self, linear, angular):
         """A velocity command about to be published (after ``check``)."""
         now = self.clock()
         moving = linear != 0.0 or angular != 0.0
@@ -108,7 +115,7 @@ class Watchdog:
         while len(self.commands) > 1 and self.commands[1][0] <= horizon:
             self.commands.popleft()
 
-    def on_odom(self, linear, angular):
+    def _on_odom(self, linear, angular):
         """An odometry velocity, received now: is the base following?"""
         now = self.clock()
         self.last_odom = now
@@ -133,11 +140,11 @@ class Watchdog:
                 ' odometry %.2f m/s %.2f rad/s matches none of the last '
                 '%.2f s' % (linear, angular, c.max_lag))
 
-    def expect_decision(self, round_id, window_end):
+    def _expect_decision(self, round_id, window_end):
         """Round ``round_id``'s window ends at global ``window_end``."""
         self.windows[round_id] = window_end
 
-    def on_decision(self, round_id, now, stamp=None):
+    def _on_decision(self, round_id, now, stamp=None):
         """A decision received at global ``now`` (its own global
         ``stamp``, None: unknown): None if it may be acted on, else the
         ``decision_stale`` Trip (refuse it)."""
@@ -160,7 +167,7 @@ class Watchdog:
         return None
 
     # --- judgement -------------------------------------------------------
-    def check(self, global_now=None):
+    def _check(self, global_now=None):
         """The Trip in force now, or None: a state (``new`` only the first
         time), else a decision missing (once per round; needs the global
         ``global_now``)."""
@@ -219,6 +226,46 @@ class Watchdog:
                 else 'last odometry %.2f s ago' % (now - self.last_odom))
         return Trip(ODOM_STALE, since + c.odom_max_age, 'moving without '
                     'odometry: %s (limit %.2f s)' % (what, c.odom_max_age))
+
+    def on_command(self, linear, angular):
+        """A velocity command about to be published (after ``check``)."""
+        with self._lock:
+            self._on_command(linear, angular)
+
+    def on_odom(self, linear, angular):
+        """An odometry velocity, received now: is the base following?"""
+        with self._lock:
+            self._on_odom(linear, angular)
+
+    def expect_decision(self, round_id, window_end):
+        """Round ``round_id``'s window ends at global ``window_end``."""
+        with self._lock:
+            self._expect_decision(round_id, window_end)
+
+    def on_decision(self, round_id, now, stamp=None):
+        """See ``_on_decision``."""
+        with self._lock:
+            return self._on_decision(round_id, now, stamp)
+
+    def check(self, global_now=None):
+        """See ``_check``."""
+        with self._lock:
+            return self._check(global_now)
+
+    def health(self):
+        """The safety stops for /diagnostics: ERROR while a state trip
+        holds, WARN once any stop happened, else OK; counts per reason."""
+        with self._lock:
+            state, trips = self.state, dict(self.trips)
+        if state is not None:
+            level, message = ERROR, 'base stopped: %s' % state.detail
+        elif trips:
+            level, message = WARN, 'safety stops so far: %s' % ', '.join(
+                '%s %d' % kv for kv in sorted(trips.items()))
+        else:
+            level, message = OK, 'no safety stop'
+        return Health(level, message, tuple(
+            (reason, str(trips.get(reason, 0))) for reason in REASONS))
 
     def _count(self, trip):
         self.trips[trip.reason] += 1
