@@ -27,36 +27,10 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__))), 'support'))
 from hri_sync_support.harness import free_port  # noqa: E402
+from hri_sync_support.round_launch import round_launch  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
-LAUNCH = """<launch>
-  <arg name="ntp_port"/>
-  <include file="$(find hri_sync)/launch/timeserver.launch">
-    <arg name="ntp_port" value="$(arg ntp_port)"/>
-  </include>
-  <include file="$(find hri_sync)/launch/server.launch">
-    <arg name="clients" value="a,dj_rob,music"/>
-    <arg name="participants" value="a"/>
-    <arg name="rounds" value="{rounds}"/>
-    <arg name="dur" value="{dur}"/>
-    <arg name="ntp_port" value="$(arg ntp_port)"/>
-    <arg name="required" value="false"/>
-  </include>
-  <node pkg="hri_sync" type="synthetic_sensor" name="reference">
-    <param name="rate" value="50.0"/>
-    <param name="signal" value="sine"/>
-  </node>
-  <include file="$(find hri_sync)/launch/client.launch">
-    <arg name="client_id" value="a"/>
-    <arg name="ntp_port" value="$(arg ntp_port)"/>
-    <arg name="input" value="/reference/samples"/>
-    <arg name="stamp_source" value="arrival"/>
-  </include>
-  {robot}
-  {music}
-</launch>
-"""
 INCLUDE = """<include file="$(find hri_sync)/launch/dj_rob.launch">
     <arg name="robot" value="{robot}"/>
     <arg name="music" value="{music}"/>
@@ -103,10 +77,9 @@ def main():
     ap.add_argument('--realtime-priority', type=int, default=10,
                     help='SCHED_FIFO priority of the start threads; 0: off')
     opts = ap.parse_args()
-    launch = LAUNCH.format(
-        rounds=opts.rounds, dur=opts.dur,
-        robot=part('robot', opts.robot_clock, 'sim', 'false', opts),
-        music=part('music', opts.music_clock, 'none', 'true', opts))
+    launch = round_launch('dj_rob,music', opts.rounds, opts.dur, '\n'.join((
+        part('robot', opts.robot_clock, 'sim', 'false', opts),
+        part('music', opts.music_clock, 'none', 'true', opts))))
     workdir = tempfile.mkdtemp(prefix='dj_rob_bench_')
     path = os.path.join(workdir, 'bench.launch')
     with open(path, 'w') as f:

@@ -34,42 +34,16 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__))), 'support'))
 from hri_sync_support.harness import free_port  # noqa: E402
+from hri_sync_support.round_launch import round_launch  # noqa: E402
 
 CLOCKS = '+1.7s x1.0002;-2.3s x0.9997;+0.6s x1.00015;-0.9s x0.99985'
-LAUNCH = """<launch>
-  <arg name="ntp_port"/>
-  <include file="$(find hri_sync)/launch/timeserver.launch">
-    <arg name="ntp_port" value="$(arg ntp_port)"/>
-  </include>
-  <include file="$(find hri_sync)/launch/server.launch">
-    <arg name="clients" value="a,{ids}"/>
-    <arg name="participants" value="a"/>
-    <arg name="rounds" value="{rounds}"/>
-    <arg name="dur" value="{dur}"/>
-    <arg name="round_pause" value="1.0"/>
-    <arg name="min_expressiveness" value="1e9"/>
-    <arg name="ntp_port" value="$(arg ntp_port)"/>
-    <arg name="required" value="false"/>
-  </include>
-  <node pkg="hri_sync" type="synthetic_sensor" name="reference">
-    <param name="rate" value="50.0"/>
-    <param name="signal" value="sine"/>
-  </node>
-  <include file="$(find hri_sync)/launch/client.launch">
-    <arg name="client_id" value="a"/>
-    <arg name="ntp_port" value="$(arg ntp_port)"/>
-    <arg name="input" value="/reference/samples"/>
-    <arg name="stamp_source" value="arrival"/>
-  </include>
-  <include file="$(find hri_sync)/launch/robots.launch">
+ROBOTS = """  <include file="$(find hri_sync)/launch/robots.launch">
     <arg name="n" value="{n}"/>
     <arg name="clocks" value="{clocks}"/>
     <arg name="ntp_port" value="$(arg ntp_port)"/>
     <arg name="start_spin" value="{spin}"/>
     <arg name="realtime_priority" value="{rt}"/>
-  </include>
-</launch>
-"""
+  </include>"""
 
 
 def run(n, opts):
@@ -78,9 +52,10 @@ def run(n, opts):
     path = os.path.join(tempfile.mkdtemp(prefix='robots_unison_'),
                         'bench.launch')
     with open(path, 'w') as f:
-        f.write(LAUNCH.format(ids=ids, n=n, rounds=opts.rounds,
-                              dur=opts.dur, clocks=opts.clocks,
-                              spin=opts.spin, rt=opts.realtime_priority))
+        f.write(round_launch(ids, opts.rounds, opts.dur, ROBOTS.format(
+            n=n, clocks=opts.clocks, spin=opts.spin,
+            rt=opts.realtime_priority), round_pause=1.0,
+            min_expressiveness='1e9'))
     port = free_port()
     os.environ['ROS_MASTER_URI'] = 'http://localhost:%d' % port
     load = os.getloadavg()[0]
