@@ -103,7 +103,6 @@ class Watchdog:
 
     # --- inputs ----------------------------------------------------------
     def _on_command(self, linear, angular):
-        """A velocity command about to be published (after ``check``)."""
         now = self.clock()
         moving = linear != 0.0 or angular != 0.0
         if moving and self.moving_since is None:
@@ -116,7 +115,6 @@ class Watchdog:
             self.commands.popleft()
 
     def _on_odom(self, linear, angular):
-        """An odometry velocity, received now: is the base following?"""
         now = self.clock()
         self.last_odom = now
         c = self.config
@@ -141,20 +139,16 @@ class Watchdog:
                 '%.2f s' % (linear, angular, c.max_lag))
 
     def _expect_decision(self, round_id, window_end):
-        """Round ``round_id``'s window ends at global ``window_end``."""
         self.windows[round_id] = window_end
 
     def _on_decision(self, round_id, now, stamp=None):
-        """A decision received at global ``now`` (its own global
-        ``stamp``, None: unknown): None if it may be acted on, else the
-        ``decision_stale`` Trip (refuse it)."""
         timeout = self.config.decision_timeout
-        end = self.windows.get(round_id)
+        end = self.windows.pop(round_id, None)   # judged once
         missed = round_id in self.declared_missing
         self.decided.add(round_id)
-        if timeout <= 0 or end is None:
+        if timeout <= 0 or (end is None and not missed):
             return None
-        late = now - (end + timeout)
+        late = -math.inf if end is None else now - (end + timeout)
         old = None if stamp is None else now - stamp - timeout
         if missed or late > 0 or (old is not None and old > 0):
             why = ('after its round was declared without one' if missed
@@ -168,9 +162,6 @@ class Watchdog:
 
     # --- judgement -------------------------------------------------------
     def _check(self, global_now=None):
-        """The Trip in force now, or None: a state (``new`` only the first
-        time), else a decision missing (once per round; needs the global
-        ``global_now``)."""
         now = self.clock()
         trip = self._clock_trip(now) or self._odom_trip(now) or self.lagging
         if trip is not None:
@@ -183,9 +174,9 @@ class Watchdog:
             return None
         for round_id, end in sorted(self.windows.items()):
             due = end + self.config.decision_timeout
-            if (round_id not in self.decided and global_now > due
-                    and round_id not in self.declared_missing):
+            if round_id not in self.decided and global_now > due:
                 self.declared_missing.add(round_id)
+                del self.windows[round_id]
                 return self._count(Trip(
                     DECISION_MISSING, due, 'no decision for round %d %.1f s '
                     'after its window ended' % (round_id,
@@ -243,12 +234,16 @@ class Watchdog:
             self._expect_decision(round_id, window_end)
 
     def on_decision(self, round_id, now, stamp=None):
-        """See ``_on_decision``."""
+        """A decision received at global ``now`` (its own global
+        ``stamp``, None: unknown): None if it may be acted on, else the
+        ``decision_stale`` Trip (refuse it)."""
         with self._lock:
             return self._on_decision(round_id, now, stamp)
 
     def check(self, global_now=None):
-        """See ``_check``."""
+        """The Trip in force now, or None: a state (``new`` only the first
+        time), else a decision missing (once per round; needs the global
+        ``global_now``)."""
         with self._lock:
             return self._check(global_now)
 
