@@ -6,21 +6,27 @@ One second into DJ Rob's dance it injects ~fault:
   its last good sync is at most one period before the kill, and its
   clock is dead ~clock_max_age s after that sync;
 - odom: kobuki_sim frozen (SIGSTOP; SIGCONT at the end): no odometry
-  while the robot dances.
+  while the robot dances;
+- decision: the decision module frozen (SIGSTOP) until the robot has
+  declared the decision missing, then let go (SIGCONT): whatever it
+  decides then is stale.
 Then it checks, by the robot's stamps and the order of what arrives (no
 bound on how fast this loaded machine is):
 - a hri_sync/SafetyStop on /dj_rob/safety_stop with the fault's reason,
   in the round being danced (a dead clock also refuses the winner
-  gesture after the window: a second stop, same reason);
+  gesture after the window: a second stop, same reason; a decision that
+  comes after it was declared missing: decision_stale);
 - its onset is the fault's: for the clock, exactly the last good sync
   (the local_ref of the robot's last clock_state, on the same host
   clock) + clock_max_age, and that sync came before the kill (+ one
   resync period); for the odometry, the robot's last odometry receipt +
   odom_max_age, after the freeze began (and not later than the freeze
-  plus the odometry period and delivery);
+  plus the odometry period and delivery); for the decision, the window
+  end + decision_timeout;
 - the last moving command was cleared by a check no later than the onset,
   and the zero went out after it (last_moving <= onset <= stopped);
-- on the wire, until the window ends: a zero command arrives after the
+- on the wire, until the window ends (for the decision: ever, and no
+  motion after the window, no gesture): a zero command arrives after the
   last moving one, and the moving commands after the fault are at most
   one per 20 ms command period until the onset, plus DELIVERY_SLACK s
   of them in flight (a robot that went on dancing would send some 300
@@ -78,7 +84,10 @@ class RobotSafety(unittest.TestCase):
         if not wait_for(lambda: cls.starts, 120.0):
             return None
         time.sleep(INJECT_AFTER)
-        if cls.fault == 'timeserver':
+        if cls.fault == 'decision':
+            pid = [node_pid('/decision_module')]
+            sig = signal.SIGSTOP
+        elif cls.fault == 'timeserver':
             ts = node_pid('/time_server')
             pid = [p for p, info in descendants(ts).items()
                    if info.ppid == ts and info.name == 'chronyd']
@@ -94,6 +103,7 @@ class RobotSafety(unittest.TestCase):
         time.sleep(2.0)              # what follows the stop
         if sig == signal.SIGSTOP:
             os.kill(pid[0], signal.SIGCONT)
+            time.sleep(4.0)          # a decision, now stale
         return t
 
     def stop(self):
@@ -112,11 +122,15 @@ class RobotSafety(unittest.TestCase):
                       s.reason, s.round, s.detail,
                       (s.onset - self.injected) * 1e3,
                       (s.stopped - s.onset) * 1e3)
-        expect = (SafetyStop.CLOCK_DEAD if self.fault == 'timeserver'
-                  else SafetyStop.ODOM_STALE)
+        expect, later = {
+            'timeserver': (SafetyStop.CLOCK_DEAD, {SafetyStop.CLOCK_DEAD}),
+            'odom': (SafetyStop.ODOM_STALE, set()),
+            'decision': (SafetyStop.DECISION_MISSING,
+                         {SafetyStop.DECISION_STALE})}[self.fault]
         self.assertEqual(s.reason, expect, s.detail)
         with self.lock:
-            self.assertEqual({m.reason for _, m in self.stops}, {expect})
+            others = {m.reason for _, m in self.stops[1:]}
+        self.assertLessEqual(others, later)
         self.assertEqual(s.round, dance.round)
         self.assertEqual(s.client_id, 'dj_rob')
         self.assertAlmostEqual(s.deadline, PERIOD)
@@ -132,6 +146,10 @@ class RobotSafety(unittest.TestCase):
                             'the last good sync came after the kill')
             self.assertGreater(refs[-1], self.injected - RESYNC - 0.5,
                                'no sync in the period before the kill')
+        elif self.fault == 'decision':
+            with self.lock:
+                end = self.starts[0][1].scheduled.to_sec() + 8.0
+            self.assertAlmostEqual(s.onset, end + 5.0, places=2)
         else:
             limit = rospy.get_param('~odom_max_age')
             last_odom = s.onset - limit
@@ -146,9 +164,14 @@ class RobotSafety(unittest.TestCase):
         _, s = self.stop()
         with self.lock:
             end = self.starts[0][1].scheduled.to_sec() + 8.0
-            cmds = [(t, c) for t, c in self.cmds if t < end - 0.1]
+            cmds = [(t, c) for t, c in self.cmds
+                    if t < end - 0.1 or self.fault == 'decision']
         moving = [t for t, c in cmds if c != (0.0, 0.0)]
         self.assertTrue(moving)
+        if self.fault == 'decision':
+            self.assertLess(moving[-1], end + 0.5, 'moved after the window')
+            self.assertEqual(cmds[-1][1], (0.0, 0.0))
+            return
         self.assertTrue(any(c == (0.0, 0.0) and t >= moving[-1]
                             for t, c in cmds), 'no zero after the last '
                         'moving command')
