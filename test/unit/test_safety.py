@@ -208,3 +208,75 @@ def test_the_reasons_are_the_safety_stop_message_constants():
     with open(path) as f:
         constants = re.findall(r'^string [A-Z_]+=(\w+)', f.read(), re.M)
     assert sorted(constants) == sorted(REASONS)
+
+
+def dance_on_a_base(delay=0.0, stuck=False, **config):
+    """DJ Rob's 8 s dance (turns of 30 deg, steps of 7 cm, moves that
+    start and end at rest) commanded at 50 Hz to the base model, which
+    gets each command ``delay`` s late (or is ``stuck``); the odometry
+    (velocity and pose) comes each tick.  The first trip, or None."""
+    from hri_sync.robot import choreography as ch
+    from hri_sync.robot.kobuki import KobukiBase, Limits
+    dog, clock, box = make(**config)
+    plan = ch.dance(8.0, (math.radians(30), math.radians(-30)), Limits(),
+                    0.5, 0.15, 2, 0.9, 0.0, 0.0)
+    base = KobukiBase(start=clock.t)
+    for _ in range(50):                 # at rest for a second
+        clock.t += 0.02
+        dog.on_odom(0.0, 0.0, (0.0, 0.0, 0.0))
+    start, queue = clock.t, []
+    for k in range(int(9.0 / 0.02)):
+        box['model'].local_ref = clock.t           # a fresh clock
+        trip = dog.check()
+        if trip is not None:
+            return trip
+        twist = plan.twist(k * 0.02) if k * 0.02 < plan.duration else (0, 0)
+        dog.on_command(*twist)
+        queue.append((clock.t + delay, twist))
+        clock.t = start + (k + 1) * 0.02
+        while queue and queue[0][0] <= clock.t and not stuck:
+            t, (v, w) = queue.pop(0)
+            base.step(t)
+            base.command(v, w, t)
+        s = base.step(clock.t)
+        dog.on_odom(s.linear, s.angular, (s.x, s.y, s.theta))
+    return None
+
+
+def test_a_base_following_the_dance_never_trips():
+    assert dance_on_a_base() is None
+    assert dance_on_a_base(delay=0.3) is None    # within max_lag
+
+
+def test_a_stuck_base_in_the_dance_trips_by_either_test():
+    by_velocity = dance_on_a_base(stuck=True, heading_tolerance=0,
+                                  path_tolerance=0)
+    by_pose = dance_on_a_base(stuck=True, linear_tolerance=1e9,
+                              angular_tolerance=1e9)
+    both = dance_on_a_base(stuck=True)
+    assert {by_velocity.reason, by_pose.reason, both.reason} == \
+        {BASE_LAGGING}
+    assert 'matches no command' in by_velocity.detail
+    assert 'deg off the commands' in by_pose.detail
+    # the dance starts at 1001: the pose test sees the first step missed
+    # (7 cm, in the first second), the velocity test the first turn
+    assert 1001.5 < both.onset == by_pose.onset < 1002.5
+    assert 1003.0 < by_velocity.onset < 1004.5
+    # a base more than max_lag behind
+    assert dance_on_a_base(delay=1.0).reason == BASE_LAGGING
+
+
+def test_the_pose_test_catches_a_base_that_misses_short_moves():
+    """Small moves that start and end at rest, below the velocity
+    tolerances: only the turn they add up to shows a stuck base."""
+    dog, clock, _ = make(angular_tolerance=0.5, heading_tolerance=0.2)
+    dog.on_command(0.0, 0.0)
+    clock.t += 0.6
+    dog.on_odom(0.0, 0.0, (0.0, 0.0, 0.0))          # anchored at rest
+    trip = None
+    for k in range(200):                            # 0.4 rad/s, 4 s
+        trip = trip or dog.check()
+        dog.on_command(0.0, 0.4 * math.sin(math.pi * (k % 50) / 50) ** 2)
+        clock.t += 0.02
+        dog.on_odom(0.0, 0.0, (0.0, 0.0, 0.0))
+    assert trip.reason == BASE_LAGGING and 'deg off' in trip.detail

@@ -17,11 +17,16 @@ publish zero now and end the motion.  The conditions, each with its
 - ``odom_stale``: while the robot moves (a non-zero command in the last
   ``odom_max_age`` s), no odometry came for ``odom_max_age`` s (onset =
   the last receipt, or the first moving command, + ``odom_max_age``);
-- ``base_lagging``: an odometry velocity that matches none of the
-  commands in force during the ``max_lag`` s before its receipt (within
-  ``linear_tolerance`` m/s and ``angular_tolerance`` rad/s): the base does
-  not follow its command stream (stuck, slipping, a smoother or mux in
-  the way; onset: that receipt);
+- ``base_lagging``: the base does not follow its command stream (stuck,
+  slipping, a smoother or mux in the way, rolling on its own; onset: the
+  receipt of the odometry that shows it): an odometry velocity that
+  matches none of the commands in force during the ``max_lag`` s before
+  its receipt (within ``linear_tolerance`` m/s and ``angular_tolerance``
+  rad/s), or an odometry pose whose turn or path since the robot last
+  rested differs by more than ``heading_tolerance`` rad or
+  ``path_tolerance`` m from every point the commands (integrated) reached
+  during those ``max_lag`` s (:class:`Tracking`: the velocity test alone
+  passes a stuck base in short moves that start and end at rest);
 - ``decision_missing``: no decision for a round whose window ended
   ``decision_timeout`` s ago (global; onset = window end + timeout);
 - ``decision_stale``: a decision received after that, or whose own stamp
@@ -39,6 +44,7 @@ from collections import Counter, deque
 from dataclasses import dataclass
 from typing import NamedTuple
 
+from hri_sync.robot.geometry import wrap_angle
 from hri_sync.timing.health import ERROR, OK, WARN, Health
 from hri_sync.timing.vocabulary import MAX_UNCERTAINTY
 
@@ -60,11 +66,14 @@ class SafetyConfig:
     max_lag: float = 0.5              # s the base may lag its commands
     linear_tolerance: float = 0.1     # m/s
     angular_tolerance: float = 0.5    # rad/s
+    heading_tolerance: float = 0.2    # rad, of the turn since rest
+    path_tolerance: float = 0.05      # m, of the path since rest
     decision_timeout: float = 5.0     # s after the window end
 
     def __post_init__(self):
         for name in ('clock_max_age', 'max_uncertainty', 'odom_max_age',
                      'max_lag', 'linear_tolerance', 'angular_tolerance',
+                     'heading_tolerance', 'path_tolerance',
                      'decision_timeout'):
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or math.isnan(value):
@@ -83,6 +92,76 @@ class Trip(NamedTuple):
     new: bool = True
 
 
+class Tracking:
+    """The motion the commands ask for (their integral: path along the
+    heading, m, and turn, rad) against the motion the odometry poses show,
+    both since the robot last rested (``anchor``: told to stop at least
+    ``max_lag`` s before, and still)."""
+
+    def __init__(self):
+        self.t = None               # time of the last command
+        self.v = self.w = 0.0       # the command in force
+        self.path = self.turn = 0.0
+        self.history = deque()      # (t, path, turn) at each command
+        self.pose = None            # the last odometry (x, y, yaw)
+        self.odom = (0.0, 0.0)      # its path and turn, integrated
+        self.anchor = None          # (commanded, odometry) at the rest
+
+    def command(self, now, linear, angular, keep):
+        """A command at ``now``; history kept ``keep`` s back."""
+        if self.t is not None:
+            dt = now - self.t
+            self.path += self.v * dt
+            self.turn += self.w * dt
+        self.t, self.v, self.w = now, linear, angular
+        self.history.append((now, self.path, self.turn))
+        while len(self.history) > 1 and self.history[1][0] <= now - keep:
+            self.history.popleft()
+
+    def commanded(self, t):
+        """(path, turn) the commands reached at ``t``."""
+        if self.t is None:
+            return 0.0, 0.0
+        if t >= self.t:
+            return (self.path + self.v * (t - self.t),
+                    self.turn + self.w * (t - self.t))
+        for (t0, p0, a0), (t1, p1, a1) in zip(
+                reversed(list(self.history)[:-1]), reversed(self.history)):
+            if t0 <= t:
+                f = (t - t0) / (t1 - t0) if t1 > t0 else 1.0
+                return p0 + f * (p1 - p0), a0 + f * (a1 - a0)
+        return self.history[0][1:]
+
+    def odometry(self, now, pose, at_rest, keep):
+        """An odometry ``pose`` (x, y, yaw) received at ``now``; at rest
+        (commanded and measured) it anchors.  Returns the error (path m,
+        turn rad) against the commands of the last ``keep`` s, or None
+        without an anchor."""
+        x, y, yaw = pose
+        if self.pose is not None:
+            px, py, pyaw = self.pose
+            mid = pyaw + wrap_angle(yaw - pyaw) / 2.0
+            self.odom = (self.odom[0] + (x - px) * math.cos(mid)
+                         + (y - py) * math.sin(mid),
+                         self.odom[1] + wrap_angle(yaw - pyaw))
+        self.pose = (x, y, yaw)
+        if at_rest:
+            self.anchor = (self.commanded(now), self.odom)
+            return 0.0, 0.0
+        if self.anchor is None:
+            return None
+        (cp, ct), (op, ot) = self.anchor
+        times = [now - keep] + [h[0] for h in self.history
+                                if h[0] > now - keep] + [now]
+        points = [self.commanded(t) for t in times]
+
+        def miss(value, reached):
+            lo, hi = min(reached), max(reached)
+            return max(lo - value, value - hi, 0.0)
+        return (miss(self.odom[0] - op, [p - cp for p, _ in points]),
+                miss(self.odom[1] - ot, [a - ct for _, a in points]))
+
+
 class Watchdog:
     """Judges the base's inputs against a ``SafetyConfig``."""
 
@@ -92,8 +171,10 @@ class Watchdog:
         self.clock_model = clock_model
         self.commands = deque()      # (local time, linear, angular)
         self.moving_since = None     # local time of the first non-zero
+        self.resting_since = clock()  # of the first zero (or the start)
         self.last_odom = None        # local receipt time
         self.lagging = None          # Trip of the last lagging odometry
+        self.tracking = Tracking()
         self.state = None            # the state Trip in force
         self.windows = {}            # round -> window end (global)
         self.decided = set()
@@ -105,20 +186,26 @@ class Watchdog:
     def _on_command(self, linear, angular):
         now = self.clock()
         moving = linear != 0.0 or angular != 0.0
-        if moving and self.moving_since is None:
-            self.moving_since = now
-        elif not moving:
+        if moving:
+            self.resting_since = None
+            if self.moving_since is None:
+                self.moving_since = now
+        else:
             self.moving_since = None
+            if self.resting_since is None:
+                self.resting_since = now
         self.commands.append((now, linear, angular))
+        self.tracking.command(now, linear, angular,
+                              max(self.config.max_lag, 0.0))
         horizon = now - max(self.config.max_lag, 0.0)
         while len(self.commands) > 1 and self.commands[1][0] <= horizon:
             self.commands.popleft()
 
-    def _on_odom(self, linear, angular):
+    def _on_odom(self, linear, angular, pose=None):
         now = self.clock()
         self.last_odom = now
         c = self.config
-        if c.max_lag <= 0 or not self.commands:
+        if c.max_lag <= 0:
             return
         start = now - c.max_lag
         while len(self.commands) > 1 and self.commands[1][0] <= start:
@@ -126,17 +213,33 @@ class Watchdog:
         # The commands in force since ``start``; before the first one the
         # base was told nothing: at rest.
         candidates = list(self.commands)
-        if candidates[0][0] > start:
+        if not candidates or candidates[0][0] > start:
             candidates.append((start, 0.0, 0.0))
-        if any(abs(linear - v) <= c.linear_tolerance
-               and abs(angular - w) <= c.angular_tolerance
-               for _, v, w in candidates):
+        why = None
+        if self.commands and not any(abs(linear - v) <= c.linear_tolerance
+                   and abs(angular - w) <= c.angular_tolerance
+                   for _, v, w in candidates):
+            why = ('odometry %.2f m/s %.2f rad/s matches no command of the '
+                   'last %.2f s' % (linear, angular, c.max_lag))
+        if pose is not None:
+            # At rest: told to stop max_lag ago (not a move's end at a
+            # single zero), and still.
+            at_rest = (self.resting_since is not None
+                       and now - self.resting_since >= c.max_lag
+                       and abs(linear) <= c.linear_tolerance
+                       and abs(angular) <= c.angular_tolerance)
+            miss = self.tracking.odometry(now, pose, at_rest, c.max_lag)
+            if miss is not None and why is None and (
+                    miss[0] > c.path_tolerance > 0
+                    or miss[1] > c.heading_tolerance > 0):
+                why = ('its path and turn since rest are %.3f m and %.1f '
+                       'deg off the commands of the last %.2f s'
+                       % (miss[0], math.degrees(miss[1]), c.max_lag))
+        if why is None:
             self.lagging = None
         elif self.lagging is None:
-            self.lagging = Trip(
-                BASE_LAGGING, now, 'the base does not follow its commands:'
-                ' odometry %.2f m/s %.2f rad/s matches none of the last '
-                '%.2f s' % (linear, angular, c.max_lag))
+            self.lagging = Trip(BASE_LAGGING, now, 'the base does not follow '
+                                'its commands: ' + why)
 
     def _expect_decision(self, round_id, window_end):
         self.windows[round_id] = window_end
@@ -223,10 +326,11 @@ class Watchdog:
         with self._lock:
             self._on_command(linear, angular)
 
-    def on_odom(self, linear, angular):
-        """An odometry velocity, received now: is the base following?"""
+    def on_odom(self, linear, angular, pose=None):
+        """An odometry velocity and ``pose`` (x, y, yaw; None: velocity
+        only), received now: is the base following?"""
         with self._lock:
-            self._on_odom(linear, angular)
+            self._on_odom(linear, angular, pose)
 
     def expect_decision(self, round_id, window_end):
         """Round ``round_id``'s window ends at global ``window_end``."""
