@@ -255,7 +255,7 @@ ONE_CLIENT_LAUNCH = """<launch>
     <arg name="rounds" value="{rounds}"/>
     <arg name="dur" value="{dur}"/>
     <arg name="ntp_port" value="$(arg ntp_port)"/>
-    <arg name="required" value="false"/>
+    <arg name="required" value="false"/>{server}
   </include>
   <node pkg="hri_sync" type="synthetic_sensor" name="reference">
     <param name="rate" value="50.0"/>
@@ -272,26 +272,32 @@ ONE_CLIENT_LAUNCH = """<launch>
 """
 
 
-def one_client_launch(clients, rounds, dur, body):
-    """A launch file's text: time server, server, one sensor client ``a``
-    (a 50 Hz synthetic sine, the only participant), the other
+def one_client_launch(clients, rounds, dur, body, **server_args):
+    """A launch file's text: time server, server (with more server.launch
+    args ``server_args``, e.g. ``round_pause=1.0``), one sensor client
+    ``a`` (a 50 Hz synthetic sine, the only participant), the other
     ``clients`` (comma-separated ids) in the server's list, and ``body``
     (their nodes); arg ``ntp_port``."""
+    server = ''.join('\n    <arg name="%s" value="%s"/>' % kv
+                     for kv in sorted(server_args.items()))
     return ONE_CLIENT_LAUNCH.format(clients=clients, rounds=rounds, dur=dur,
-                                    body=body)
+                                    server=server, body=body)
 
 
-def run_private_launch(path, observe, stop_wait=20.0):
+def run_private_launch(path, observe, stop_wait=20.0, log=None):
     """roslaunch ``path`` (ntp_port:= a free port) with a master of its
     own on a free port (this process's ROS_MASTER_URI points at it), call
     ``observe(proc)``, then stop the launch (SIGINT, SIGKILL after
-    ``stop_wait`` s); returns what ``observe`` returned."""
+    ``stop_wait`` s); returns what ``observe`` returned.  The launch's
+    output goes to the file object ``log``, or nowhere."""
     port = free_port()
     os.environ['ROS_MASTER_URI'] = 'http://localhost:%d' % port
+    out = log if log is not None else subprocess.DEVNULL
     proc = subprocess.Popen(['roslaunch', '-p', str(port), path,
                              'ntp_port:=%d' % free_port()],
-                            env=dict(os.environ), stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, start_new_session=True)
+                            env=dict(os.environ), stdout=out,
+                            stderr=subprocess.STDOUT if log is not None
+                            else subprocess.DEVNULL, start_new_session=True)
     try:
         return observe(proc)
     finally:

@@ -16,8 +16,9 @@ def test_default_senders_follow_the_launch_files():
     s = Senders()
     assert s.names('cm') == {'/control_module'}
     assert s.names('dm') == {'/decision_module'}
-    assert s.names('cpm', 'left') == {'/left/cpm', '/left'}
+    assert s.names('cpm', 'left') == {'/left/cpm', '/left', '/left/robot'}
     assert s.names('dpm', 'right') == {'/right/dpm'}
+    assert '/robot1/kobuki_sim' in s.names('base', 'robot1')
     assert s.names('sensor', 'left') == {'/left/sensor', '/left/tracker'}
 
 
@@ -28,13 +29,14 @@ def test_senders_overridden_per_role_and_per_client():
     assert s.names('cm') == {'/server/cm'}
     assert s.names('cm', 'c') == {'/control_module', '/delay_sync_time'}
     assert s.names('cpm', 'dj_rob') == {'/robot'}
-    assert s.names('cpm', 'left') == {'/left/cpm', '/left'}
+    assert s.names('cpm', 'left') == {'/left/cpm', '/left', '/left/robot'}
 
 
 def test_senders_are_relative_to_the_system_namespace():
     s = Senders(ns='/lab1/')
     assert s.names('cm') == {'/lab1/control_module'}
-    assert s.names('cpm', 'left') == {'/lab1/left/cpm', '/lab1/left'}
+    assert s.names('cpm', 'left') == {'/lab1/left/cpm', '/lab1/left',
+                                      '/lab1/left/robot'}
     assert s.names('sensor', 'right') == {'/lab1/right/sensor',
                                           '/lab1/right/tracker'}
     assert s.names('robot') == {'/lab1/dj_rob'}

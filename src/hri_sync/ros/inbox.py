@@ -38,13 +38,15 @@ DEFAULT_ROLES = {
     'cm': ['control_module'],
     'dm': ['decision_module'],
     # A client's CPM: client.launch's, or a node that is the whole client
-    # (turtlebot_gesture as dj_rob, music_player as music).
-    'cpm': ['{client}/cpm', '{client}'],
+    # (turtlebot_gesture as dj_rob, music_player as music, or as robot in
+    # the client's namespace: robots.launch's robot1/robot).
+    'cpm': ['{client}/cpm', '{client}', '{client}/robot'],
     'dpm': ['{client}/dpm'],
     # A client's ClientResult: its DPM's, or its CPM's for a late window.
     'result': ['{client}/dpm', '{client}/cpm', '{client}'],
     'sensor': ['{client}/sensor', '{client}/tracker'],
-    'base': ['kobuki_sim', 'mobile_base', 'mobile_base_nodelet_manager'],
+    'base': ['kobuki_sim', 'mobile_base', 'mobile_base_nodelet_manager',
+             '{client}/kobuki_sim'],
     'robot': ['dj_rob'],
 }
 

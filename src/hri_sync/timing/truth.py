@@ -81,8 +81,12 @@ def wait_until(now: Callable, target: float, spin: float = 0.003,
                stop: Callable = lambda: False) -> float | None:
     """Block until ``now() >= target`` (both in the same clock, s).
 
-    Sleeps until ``spin`` s before the target, then spins.  Returns how
-    late it returned (s, >= 0), or None if ``stop()`` became true first.
+    Sleeps until ``spin`` s before the target, then spins, yielding the
+    CPU at each turn (``os.sched_yield``): several real-time threads
+    spinning for the same instant (robots in unison) then take turns on
+    the cores instead of the first ones holding them past the target.
+    Returns how late it returned (s, >= 0), or None if ``stop()`` became
+    true first.
     """
     while True:
         remaining = target - now()
@@ -92,3 +96,5 @@ def wait_until(now: Callable, target: float, spin: float = 0.003,
             return None
         if remaining > spin:
             time.sleep(min(remaining - spin, 0.1))
+        else:
+            os.sched_yield()
