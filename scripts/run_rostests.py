@@ -12,8 +12,9 @@ namespace of its own (loopback only), so the tests' masters, NTP servers
 and node ports never meet, whatever ports they hard-code; the namespace
 and every process left in it are removed when the test ends.  Not root,
 the tests run one after another on this host's network (-j is ignored).
-The longest tests (by the durations of the last run, kept in
-.ws/test_logs/durations.json) start first.
+The longest tests start first: by the durations of the last run, kept in
+.ws/test_logs/durations.json, or on a fresh clone by those of a run on
+this project's machine (TEST_DIR/durations.json, refreshed by hand).
 
 Each test's full output goes to .ws/test_logs/<name>.log; a failing
 test's tail is printed.  The last line is 'rostest: N passed, N failed';
@@ -196,11 +197,13 @@ def main():
         remove_stale_netns()
     runner = Runner(root, isolate)
     durations_file = os.path.join(runner.logs, 'durations.json')
-    try:
-        with open(durations_file) as f:
-            durations = json.load(f)
-    except (OSError, ValueError):
-        durations = {}
+    durations = {}
+    for path in (os.path.join(test_dir, 'durations.json'), durations_file):
+        try:
+            with open(path) as f:
+                durations.update(json.load(f))
+        except (OSError, ValueError):
+            pass
     files.sort(key=lambda f: -durations.get(
         os.path.splitext(os.path.basename(f))[0], 60.0))
     print('rostest: %d files, %d at once%s' % (
