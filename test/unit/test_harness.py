@@ -273,3 +273,12 @@ def test_one_client_launch_lists_the_clients():
     assert (args['clients'], args['rounds'], args['dur']) == (
         'a,dj_rob,music', '3', '2.5')
     assert root.find('node[@name="x"]') is not None
+
+
+def test_one_client_launch_passes_server_args():
+    import xml.etree.ElementTree as ET
+    root = ET.fromstring(harness.one_client_launch(
+        'robot1', 2, 6.0, '', round_pause=1.0, min_expressiveness='1e9'))
+    server = root.findall('include')[1]
+    args = {a.get('name'): a.get('value') for a in server.findall('arg')}
+    assert (args['round_pause'], args['min_expressiveness']) == ('1.0', '1e9')
