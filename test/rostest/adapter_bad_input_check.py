@@ -49,7 +49,10 @@ def marker_array(t, frame='depth_camera_link', body=0, drop=(), bad=None,
 
 
 def tf_frames(t, parent='openni_depth_frame', user=1, count=NUM_JOINTS):
-    msgs = []
+    """One frame's transforms in one message: they arrive together, so a
+    loaded machine cannot split a frame in two (the adapter's grouping of
+    transforms sent one by one is adapter_openni_tf's test)."""
+    transforms = []
     for child, xyz in openni_transforms(user, pose())[:count]:
         tr = TransformStamped()
         tr.header.stamp = rospy.Time.from_sec(t)
@@ -58,8 +61,8 @@ def tf_frames(t, parent='openni_depth_frame', user=1, count=NUM_JOINTS):
         (tr.transform.translation.x, tr.transform.translation.y,
          tr.transform.translation.z) = xyz
         tr.transform.rotation.w = 1.0
-        msgs.append(TFMessage(transforms=[tr]))
-    return msgs
+        transforms.append(tr)
+    return [TFMessage(transforms=transforms)]
 
 
 class AdapterBadInput(unittest.TestCase):

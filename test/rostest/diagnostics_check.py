@@ -126,10 +126,11 @@ class DiagnosticsCheck(unittest.TestCase):
                       and v['drift_ppm'] != 'nan',
                       'synced within its limit')
             self.seen(node + ': rounds',
+                      # (a status before round 1 has no last_round)
                       lambda level, msg, v, hw: level == DiagnosticStatus.OK
-                      and v['last_round'] == '1'
-                      and v['last_outcome'] == 'scheduled'
-                      and v['late_count'] == '0',
+                      and v.get('last_round') == '1'
+                      and v.get('last_outcome') == 'scheduled'
+                      and v.get('late_count') == '0',
                       'with round 1 scheduled')
 
     def test_the_unreachable_client_says_error_and_why(self):

@@ -8,7 +8,8 @@ and the decision is over the others, flagged as partial.
 the ACKs (sync_time went through the same delay) and exceeds it, so every
 client captures.
 
-Load only delays messages more, so the checks hold on a loaded machine:
+Load only delays messages more, so the checks hold on a loaded machine
+(a client whose starved sensor dropped frames may be partial, not late):
 c's lateness is at least the delay minus STR_AFT (less the clocks'
 reported uncertainties), and below a bound that only a wrong unit or
 sign would break; rounds are awaited, not timed.
@@ -51,7 +52,7 @@ class LateCheck(unittest.TestCase):
             res = r['results'][delayed]
             for c in clients:
                 if c != delayed:
-                    self.assertEqual(r['results'][c].status, 'ok')
+                    self.assertCaptured(r['results'][c])
             if expect == 'late':
                 self.assertLess(r['capture'].str_aft, delay)
                 self.assertEqual(res.status, 'late')
@@ -67,7 +68,17 @@ class LateCheck(unittest.TestCase):
                               r['decision'].reason)
             else:
                 self.assertGreater(r['capture'].str_aft, delay)
-                self.assertEqual(res.status, 'ok')
+                self.assertCaptured(res)
+
+    def assertCaptured(self, res):
+        """Captured in step: ok, or partial only for frames its sensor
+        dropped (a starved 50 Hz sensor on a loaded machine), never late."""
+        if res.status == 'partial':
+            self.assertGreater(res.frames_dropped, 0, res.client_id)
+            rospy.loginfo('%s: partial, %d frames dropped by its sensor',
+                          res.client_id, res.frames_dropped)
+        else:
+            self.assertEqual(res.status, 'ok', res.client_id)
 
 
 if __name__ == '__main__':

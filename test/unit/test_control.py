@@ -360,17 +360,31 @@ def test_bad_params_raise_protocol_error(kw, message):
 
 def test_clients_wait_waits_for_silent_clients():
     w = ClientsWait(['a', 'b', 'c'])
+    w.on_links({'a', 'b', 'c'})
     assert not w.settled and w.waiting() == ['a', 'b', 'c']
     w.on_state('a', True)
     w.on_state('b', True)
     assert w.waiting() == ['c']          # c never reported: a slow start
     assert w.describe(w.waiting()) == 'c (no clock_state yet)'
     w.on_state('c', True)
-    assert w.settled and w.unsynced() == []
+    assert w.settled and w.unsynced() == [] and w.unready() == []
+
+
+def test_clients_wait_waits_for_the_cpms_links():
+    w = ClientsWait(['a', 'music'])
+    w.on_state('a', True)
+    w.on_state('music', True)
+    w.on_links({'a'})                    # music's CPM not connected yet
+    assert w.waiting() == ['music'] and w.unready() == ['music']
+    assert w.describe(['music']) == \
+        'music (its CPM not connected to sync_time and sync_ack)'
+    w.on_links({'a', 'music'})
+    assert w.settled
 
 
 def test_clients_wait_settles_on_repeated_failures_only():
     w = ClientsWait(['a', 'c'], failures=2)
+    w.on_links({'a'})
     w.on_state('a', True)
     w.on_state('c', False, 'time server unreachable')
     assert w.waiting() == ['c']          # one failure may be transient
@@ -382,6 +396,7 @@ def test_clients_wait_settles_on_repeated_failures_only():
 
 def test_clients_wait_a_success_resets_the_failures():
     w = ClientsWait(['c'], failures=2)
+    w.on_links({'c'})
     w.on_state('c', False, 'timeout')
     w.on_state('c', True)
     w.on_state('c', False, '')
@@ -391,6 +406,44 @@ def test_clients_wait_a_success_resets_the_failures():
     assert w.waiting() == ['c']
 
 
+def test_clients_wait_waits_for_the_participants_dpms():
+    w = ClientsWait(['a', 'b', 'dj_rob'], dpms=['a', 'b', 'ghost'])
+    w.on_links({'a', 'b', 'dj_rob'})
+    for c in ('a', 'b', 'dj_rob'):
+        w.on_state(c, True)
+    assert w.waiting() == ['a', 'b']     # clocks fine, DPMs not heard yet
+    assert w.describe(['a']) == 'a (no dpm_state from its DPM yet)'
+    w.on_dpm('a')
+    assert w.waiting() == ['b'] and w.unready() == ['b']
+    w.on_dpm('b')
+    assert w.settled and w.unready() == []
+
+
+def test_clients_wait_a_failed_clock_settles_without_its_dpm():
+    w = ClientsWait(['a'], failures=1, dpms=['a'])
+    assert w.describe(['a']) == 'a (no clock_state yet)'
+    w.on_state('a', False, 'time server unreachable')
+    assert w.settled                     # it will NACK for its clock
+    assert w.unready() == ['a'] and w.unsynced() == ['a']
+
+
 def test_clients_wait_refuses_zero_failures():
     with pytest.raises(ValueError):
         ClientsWait(['a'], failures=0)
+
+
+def test_clients_wait_can_stop_waiting_for_links():
+    w = ClientsWait(['c'], dpms=['c'])
+    w.on_state('c', True)
+    w.on_dpm('c')
+    assert w.waiting() == ['c']          # reached through a relay
+    w.require_links = False
+    assert w.settled and w.unlinked() == ['c']
+
+
+def test_clients_wait_says_whom_it_waits_for_besides_links():
+    w = ClientsWait(['a', 'b'])
+    w.on_state('a', True)
+    assert w.waiting(links=False) == ['b'] and w.waiting() == ['a', 'b']
+    w.on_state('b', True)
+    assert w.waiting(links=False) == [] and w.waiting() == ['a', 'b']

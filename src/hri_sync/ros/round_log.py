@@ -6,6 +6,7 @@ import rospy
 
 from hri_sync.msg import CaptureData, ClientResult, Decision, SyncAck
 from hri_sync.ros.names import client_topic, protocol_topic
+from hri_sync.tools.round_summary import frames_brought
 from hri_sync.timing.protocol import Capture
 
 
@@ -87,12 +88,12 @@ class RoundLog:
             self._pending = {}
 
     def missing_captured(self, n):
-        """Clients of round ``n`` whose result used more samples than
+        """Clients of round ``n`` whose result used more frames than
         their captured topic has brought so far (a DPM republishes a
         window's last samples after its result)."""
         self.assign_captured()
         with self.lock:
             r = self.round(n)
             return [c for c in self.captured_clients if c in r['results']
-                    and len(r['captured'].get(c, [])) <
+                    and frames_brought(r['captured'].get(c, [])) <
                     r['results'][c].frames]

@@ -306,19 +306,32 @@ class ControlSession:
 class ClientsWait:
     """What the CM waits for before round 1: every client settled.
 
-    A client is settled once its clock_state is usable, or once it
-    reported ``failures`` failed clock syncs in a row (its time server is
-    unreachable: waiting longer would not help, and the round lets it
-    NACK with its reason).  A client that has reported nothing yet (a
-    node still starting on a loaded machine) is waited for.  Feed
-    ``on_state`` each clock_state: ``usable`` and the reason when not.
+    A client is settled once its clock_state is usable, its CPM is
+    linked (connected to the CM's sync_time and sync_ack: a sync order
+    sent before would be lost, and the round aborted for a missing ACK)
+    and, for a client in ``dpms`` (a participant: its CPM ACKs only with
+    a live DPM), its DPM's heartbeat has been heard; or once it reported
+    ``failures``
+    failed clock syncs in a row (its time server is unreachable: waiting
+    longer would not help, and the round lets it NACK with its reason).
+    A client that has reported nothing yet (a node still starting on a
+    loaded machine) is waited for.  Feed ``on_state`` each clock_state:
+    ``usable`` and the reason when not; ``on_dpm`` each heartbeat;
+    ``on_links`` the clients whose CPM is linked now.
     """
 
-    def __init__(self, clients: list[str], failures: int = 2) -> None:
+    def __init__(self, clients: list[str], failures: int = 2,
+                 dpms: list[str] | tuple[str, ...] = ()) -> None:
         if failures < 1:
             raise ValueError('failures must be >= 1')
         self.clients = list(clients)
         self.failures = failures
+        self.dpms = set(dpms) & set(self.clients)
+        self.heard: set[str] = set()  # clients whose DPM beat was heard
+        self.linked: set[str] = set()  # clients whose CPM is connected
+        # False once links are no longer waited for (a CPM reached
+        # through a relay or bridge, which the CM cannot see).
+        self.require_links = True
         self.usable: set[str] = set()
         self.failed: Counter[str] = Counter()  # failed reports in a row
         self.reason: dict[str, str] = {}  # client -> its last reason
@@ -336,21 +349,57 @@ class ClientsWait:
             self.failed[client] += 1
             self.reason[client] = reason or 'no reason given'
 
+    def on_dpm(self, client: str) -> None:
+        """A heartbeat of ``client``'s DPM."""
+        self.heard.add(client)
+
     @property
     def settled(self) -> bool:
-        """True once every client is usable or failed ``failures`` times."""
+        """True once every client is settled (see the class)."""
         return not self.waiting()
 
-    def waiting(self) -> list[Any]:
-        """The clients not settled yet, in order."""
-        return [c for c in self.clients if c not in self.usable
-                and self.failed[c] < self.failures]
+    def on_links(self, clients: set[str] | frozenset[str]) -> None:
+        """The clients whose CPM is connected both ways now."""
+        self.linked = set(clients)
+
+    def _dpm_waited(self, client: str) -> bool:
+        return client in self.dpms and client not in self.heard
+
+    def _ready(self, client: str, links: bool) -> bool:
+        return (not links or client in self.linked) \
+            and not self._dpm_waited(client)
+
+    def unlinked(self) -> list[Any]:
+        """The clients whose CPM is not linked now, in order."""
+        return [c for c in self.clients if c not in self.linked]
+
+    def waiting(self, links: bool | None = None) -> list[Any]:
+        """The clients not settled yet, in order; ``links`` False: as if
+        links were not waited for (default: ``require_links``)."""
+        links = self.require_links if links is None else links
+        return [c for c in self.clients
+                if (c not in self.usable and self.failed[c] < self.failures)
+                or (c in self.usable and not self._ready(c, links))]
 
     def unsynced(self) -> list[Any]:
         """The clients without a usable clock, in order."""
         return [c for c in self.clients if c not in self.usable]
 
+    def unready(self) -> list[Any]:
+        """The clients whose CPM is not linked or whose DPM (of one in
+        ``dpms``) was never heard, in order."""
+        return [c for c in self.clients
+                if not self._ready(c, self.require_links)]
+
     def describe(self, clients: list[str]) -> str:
-        """'c (its last reason or: no clock_state yet)' for ``clients``."""
-        return ', '.join('%s (%s)' % (c, self.reason.get(c) or
-                                      'no clock_state yet') for c in clients)
+        """'c (why it is waited for)' for ``clients``: its clock's last
+        reason, no clock_state yet, its CPM not linked, or no dpm_state
+        yet."""
+        def why(c: str) -> str:
+            if c in self.usable:
+                if self.require_links and c not in self.linked:
+                    return 'its CPM not connected to sync_time and sync_ack'
+                return ('no dpm_state from its DPM yet'
+                        if self._dpm_waited(c) else 'ready')
+            return self.reason.get(c) or 'no clock_state yet'
+        return ', '.join('%s (%s)' % (c, why(c)) for c in clients)

@@ -60,3 +60,10 @@ def round_report(n, acks, capture, results, captured, decision):
     else:
         lines.append('  decision: none received')
     return '\n'.join(lines), timings
+
+
+def frames_brought(samples):
+    """How many frames the captured ``samples`` [(global stamp, ...)]
+    hold: their distinct stamps (a tracker's frame with a bystander in
+    view is two skeletons of one stamp; a result counts frames)."""
+    return len({s[0] for s in samples})
