@@ -50,12 +50,24 @@ class MarkersCheck(unittest.TestCase):
         rospy.Subscriber('/skeleton_markers', MarkerArray, cls.on_markers)
         rospy.Subscriber('/decision', Decision, cls.on_decision)
         deadline = time.monotonic() + rospy.get_param('~timeout')
+        # A label may be published just before skeleton_markers hears
+        # the decision and reach us just after we did: wait for the
+        # winner's label to change (or the timeout).
         while time.monotonic() < deadline and not rospy.is_shutdown():
             with cls.lock:
                 if all((c, Marker.TEXT_VIEW_FACING) in cls.after
-                       for c in cls.dancers):
+                       for c in cls.dancers) and cls.winner_labelled():
                     break
             time.sleep(0.1)
+
+    @classmethod
+    def winner_labelled(cls):
+        d = cls.decision
+        if d is None or d.outcome != Decision.WINNER:
+            return True
+        label = cls.after.get((d.clients[d.winner - 1],
+                               Marker.TEXT_VIEW_FACING))
+        return label is not None and label.text.endswith(': WINNER')
 
     @classmethod
     def on_markers(cls, msg):
