@@ -177,12 +177,16 @@ class FuzzDanceOff(unittest.TestCase):
         def mine(items, senders):
             with self.lock:
                 return [m for t, c, m in items if t >= t0 and c in senders]
-        wait_for(lambda: mine(self.decisions, {'/decision_module'}), 10.0)
+        dpms = {'/%s/dpm' % c for c in self.participants}
+        # Every result comes before its decision, but on a connection of
+        # its own: a loaded checker may read it after.  Wait for both.
+        wait_for(lambda: mine(self.decisions, {'/decision_module'}) and {
+            m.client_id for m in mine(self.results, dpms)} >= set(
+                self.participants), 10.0)
         decisions = mine(self.decisions, {'/decision_module'})
         self.assertTrue(decisions, '%s round: no decision from the DM'
                         % name)
-        results = {m.client_id: m for m in mine(
-            self.results, {'/%s/dpm' % c for c in self.participants})}
+        results = {m.client_id: m for m in mine(self.results, dpms)}
         return decisions[-1], results
 
     def nodes(self):
