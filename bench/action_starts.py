@@ -28,7 +28,8 @@ from collections import Counter
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__))), 'support'))
 from hri_sync_support.harness import (  # noqa: E402
-    one_client_launch, percentiles_ms as stats, run_private_launch)
+    add_start_args, one_client_launch, percentiles_ms as stats,
+    run_private_launch)
 
 INCLUDE = """<include file="$(find hri_sync)/launch/actions.launch">
     <arg name="actions" value="{actions}"/>
@@ -83,10 +84,7 @@ def main():
     ap.add_argument('--rounds', type=int, default=10)
     ap.add_argument('--dur', type=float, default=2.0)
     ap.add_argument('--client-clock', default='')
-    ap.add_argument('--spin', type=float, default=0.01,
-                    help='start_spin of action_client, s')
-    ap.add_argument('--realtime-priority', type=int, default=10,
-                    help='SCHED_FIFO priority of the start threads; 0: off')
+    add_start_args(ap, 'action_client')
     opts = ap.parse_args()
     path = launch_file(opts, tempfile.mkdtemp(prefix='action_bench_'))
     result = run_private_launch(path, lambda proc: observe(opts, proc))

@@ -25,7 +25,8 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__))), 'support'))
 from hri_sync_support.harness import (  # noqa: E402
-    one_client_launch, percentiles_ms as stats, run_private_launch)
+    add_start_args, one_client_launch, percentiles_ms as stats,
+    run_private_launch)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -58,10 +59,7 @@ def main():
     ap.add_argument('--dur', type=float, default=3.0)
     ap.add_argument('--robot-clock', default='')
     ap.add_argument('--music-clock', default='')
-    ap.add_argument('--spin', type=float, default=0.01,
-                    help='start_spin of both nodes, s')
-    ap.add_argument('--realtime-priority', type=int, default=10,
-                    help='SCHED_FIFO priority of the start threads; 0: off')
+    add_start_args(ap, 'both nodes')
     opts = ap.parse_args()
     launch = one_client_launch(
         'dj_rob,music', opts.rounds, opts.dur,

@@ -24,9 +24,7 @@ line is one JSON object; exit status as bench/sync_skew.py's.
 import argparse
 import os
 import random
-import socket
 import sys
-import tempfile
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -121,17 +119,9 @@ class Run:
 def main():
     args = parse_args()
     started = time.monotonic()
-    logdir = tempfile.mkdtemp(prefix='hri_sync_lsl_compare_')
-    master_uri = 'http://127.0.0.1:%d' % harness.free_port(socket.SOCK_STREAM)
-    ntp_port = harness.free_port(socket.SOCK_DGRAM)
-    env = dict(os.environ, ROS_MASTER_URI=master_uri, ROS_LOG_DIR=logdir,
-               ROS_HOME=logdir, PYTHONUNBUFFERED='1', ROS_HOSTNAME='localhost',
-               PYTHONPATH=os.pathsep.join(
-                   [os.path.join(os.path.dirname(HERE), 'support')]
-                   + sys.path[1:]))
-    env.pop('ROS_IP', None)
-    os.environ['ROS_LOG_DIR'] = logdir
-    os.environ['ROS_HOSTNAME'] = 'localhost'
+    logdir, env, ntp_port = skew_bench.local_env(
+        'hri_sync_lsl_compare_',
+        [os.path.join(os.path.dirname(HERE), 'support')] + sys.path[1:])
     procs = harness.Processes(logdir, env, log)
     bench = skew_bench.SkewBench('lsl_compare_bench', args, procs, log,
                                  skew_bench.time_budget(args) + 60.0)

@@ -33,7 +33,7 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__))), 'support'))
 from hri_sync_support.harness import (  # noqa: E402
-    one_client_launch, run_private_launch)
+    add_start_args, one_client_launch, run_private_launch)
 
 CLOCKS = '+1.7s x1.0002;-2.3s x0.9997;+0.6s x1.00015;-0.9s x0.99985'
 ROBOTS = """  <include file="$(find hri_sync)/launch/robots.launch">
@@ -113,10 +113,7 @@ def main():
     ap.add_argument('--clocks', default=CLOCKS,
                     help="faketime specs, ';'-separated, one per robot in "
                     "turn; none: the host clock")
-    ap.add_argument('--spin', type=float, default=0.01,
-                    help='start_spin of the robots, s')
-    ap.add_argument('--realtime-priority', type=int, default=10,
-                    help='SCHED_FIFO priority of the start threads; 0: off')
+    add_start_args(ap, 'the robots')
     ap.add_argument('--one', type=int, default=0, help=argparse.SUPPRESS)
     opts = ap.parse_args()
     if opts.one:        # one N in a process of its own (one rospy node)

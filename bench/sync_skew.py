@@ -27,9 +27,7 @@ says what failed), 2 when the setup failed, 130 when interrupted.
 import argparse
 import os
 import random
-import socket
 import sys
-import tempfile
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(
@@ -76,15 +74,7 @@ def run(bench, ntp_port):
 def main():
     args = parse_args()
     started = time.monotonic()
-    logdir = tempfile.mkdtemp(prefix='hri_sync_bench_')
-    master_uri = 'http://127.0.0.1:%d' % harness.free_port(socket.SOCK_STREAM)
-    ntp_port = harness.free_port(socket.SOCK_DGRAM)
-    env = dict(os.environ, ROS_MASTER_URI=master_uri, ROS_LOG_DIR=logdir,
-               ROS_HOME=logdir, PYTHONUNBUFFERED='1')
-    env.pop('ROS_IP', None)
-    env['ROS_HOSTNAME'] = 'localhost'
-    os.environ['ROS_LOG_DIR'] = logdir
-    os.environ['ROS_HOSTNAME'] = 'localhost'
+    logdir, env, ntp_port = skew_bench.local_env('hri_sync_bench_')
     procs = harness.Processes(logdir, env, log)
     bench = skew_bench.SkewBench('sync_skew_bench', args, procs, log,
                                  skew_bench.time_budget(args))

@@ -272,6 +272,16 @@ ONE_CLIENT_LAUNCH = """<launch>
 """
 
 
+def add_start_args(parser, whose):
+    """--spin and --realtime-priority: how ``whose`` start threads wait
+    for a start (the launch args start_spin and realtime_priority)."""
+    parser.add_argument('--spin', type=float, default=0.01,
+                        help='start_spin of %s, s' % whose)
+    parser.add_argument('--realtime-priority', type=int, default=10,
+                        help='SCHED_FIFO priority of the start threads; '
+                        '0: off')
+
+
 def one_client_launch(clients, rounds, dur, body, **server_args):
     """A launch file's text: time server, server (with more server.launch
     args ``server_args``, e.g. ``round_pause=1.0``), one sensor client

@@ -17,7 +17,9 @@ import json
 import os
 import random
 import shutil
+import socket
 import sys
+import tempfile
 import time
 from xmlrpc.client import ServerProxy
 
@@ -99,6 +101,23 @@ def check_args(p, args):
             p.error("--str-aft must be a number of seconds > 0 or 'auto'")
     if args.seed is None:
         args.seed = random.SystemRandom().randrange(1 << 31)
+
+
+def local_env(prefix, pythonpath=None):
+    """A bench on this host with a master of its own: (logdir, the
+    environment of the processes it starts, a free NTP port).  This
+    process's ROS_LOG_DIR and ROS_HOSTNAME follow; ``pythonpath``: the
+    children's PYTHONPATH entries, or inherited."""
+    logdir = tempfile.mkdtemp(prefix=prefix)
+    master_uri = 'http://127.0.0.1:%d' % harness.free_port(socket.SOCK_STREAM)
+    env = dict(os.environ, ROS_MASTER_URI=master_uri, ROS_LOG_DIR=logdir,
+               ROS_HOME=logdir, PYTHONUNBUFFERED='1', ROS_HOSTNAME='localhost')
+    if pythonpath is not None:
+        env['PYTHONPATH'] = os.pathsep.join(pythonpath)
+    env.pop('ROS_IP', None)
+    os.environ['ROS_LOG_DIR'] = logdir
+    os.environ['ROS_HOSTNAME'] = 'localhost'
+    return logdir, env, harness.free_port(socket.SOCK_DGRAM)
 
 
 def time_budget(args):
