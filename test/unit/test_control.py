@@ -360,7 +360,7 @@ def test_bad_params_raise_protocol_error(kw, message):
 
 def test_clients_wait_waits_for_silent_clients():
     w = ClientsWait(['a', 'b', 'c'])
-    w.on_links({'a', 'b', 'c'})
+    w.on_links({'a', 'b', 'c'}, 0.0)
     assert not w.settled and w.waiting() == ['a', 'b', 'c']
     w.on_state('a', True)
     w.on_state('b', True)
@@ -374,17 +374,17 @@ def test_clients_wait_waits_for_the_cpms_links():
     w = ClientsWait(['a', 'music'])
     w.on_state('a', True)
     w.on_state('music', True)
-    w.on_links({'a'})                    # music's CPM not connected yet
+    w.on_links({'a'}, 0.0)                    # music's CPM not connected yet
     assert w.waiting() == ['music'] and w.unready() == ['music']
     assert w.describe(['music']) == \
         'music (its CPM not connected to sync_time and sync_ack)'
-    w.on_links({'a', 'music'})
+    w.on_links({'a', 'music'}, 0.0)
     assert w.settled
 
 
 def test_clients_wait_settles_on_repeated_failures_only():
     w = ClientsWait(['a', 'c'], failures=2)
-    w.on_links({'a'})
+    w.on_links({'a'}, 0.0)
     w.on_state('a', True)
     w.on_state('c', False, 'time server unreachable')
     assert w.waiting() == ['c']          # one failure may be transient
@@ -396,7 +396,7 @@ def test_clients_wait_settles_on_repeated_failures_only():
 
 def test_clients_wait_a_success_resets_the_failures():
     w = ClientsWait(['c'], failures=2)
-    w.on_links({'c'})
+    w.on_links({'c'}, 0.0)
     w.on_state('c', False, 'timeout')
     w.on_state('c', True)
     w.on_state('c', False, '')
@@ -408,7 +408,7 @@ def test_clients_wait_a_success_resets_the_failures():
 
 def test_clients_wait_waits_for_the_participants_dpms():
     w = ClientsWait(['a', 'b', 'dj_rob'], dpms=['a', 'b', 'ghost'])
-    w.on_links({'a', 'b', 'dj_rob'})
+    w.on_links({'a', 'b', 'dj_rob'}, 0.0)
     for c in ('a', 'b', 'dj_rob'):
         w.on_state(c, True)
     assert w.waiting() == ['a', 'b']     # clocks fine, DPMs not heard yet
@@ -433,12 +433,16 @@ def test_clients_wait_refuses_zero_failures():
 
 
 def test_clients_wait_can_stop_waiting_for_links():
-    w = ClientsWait(['c'], dpms=['c'])
+    w = ClientsWait(['c'], dpms=['c'], link_timeout=10.0)
+    assert w.on_links(set(), 100.0) == []   # nothing heard yet
     w.on_state('c', True)
     w.on_dpm('c')
+    assert w.on_links(set(), 101.0) == []   # only its link waited for
+    assert w.on_links(set(), 110.9) == []
     assert w.waiting() == ['c']          # reached through a relay
-    w.require_links = False
+    assert w.on_links(set(), 111.0) == ['c']   # said once
     assert w.settled and w.unlinked() == ['c']
+    assert w.on_links(set(), 112.0) == []
 
 
 def test_clients_wait_says_whom_it_waits_for_besides_links():

@@ -317,11 +317,14 @@ class ClientsWait:
     A client that has reported nothing yet (a node still starting on a
     loaded machine) is waited for.  Feed ``on_state`` each clock_state:
     ``usable`` and the reason when not; ``on_dpm`` each heartbeat;
-    ``on_links`` the clients whose CPM is linked now.
+    ``on_links`` the clients whose CPM is linked now.  Links are waited
+    for ``link_timeout`` s at most once nothing else is (a CPM reached
+    through a relay or bridge never shows as linked).
     """
 
     def __init__(self, clients: list[str], failures: int = 2,
-                 dpms: list[str] | tuple[str, ...] = ()) -> None:
+                 dpms: list[str] | tuple[str, ...] = (),
+                 link_timeout: float = 10.0) -> None:
         if failures < 1:
             raise ValueError('failures must be >= 1')
         self.clients = list(clients)
@@ -329,9 +332,9 @@ class ClientsWait:
         self.dpms = set(dpms) & set(self.clients)
         self.heard: set[str] = set()  # clients whose DPM beat was heard
         self.linked: set[str] = set()  # clients whose CPM is connected
-        # False once links are no longer waited for (a CPM reached
-        # through a relay or bridge, which the CM cannot see).
-        self.require_links = True
+        self.link_timeout = link_timeout
+        self.require_links = True  # False once link_timeout has passed
+        self._links_only_since: float | None = None
         self.usable: set[str] = set()
         self.failed: Counter[str] = Counter()  # failed reports in a row
         self.reason: dict[str, str] = {}  # client -> its last reason
@@ -358,9 +361,23 @@ class ClientsWait:
         """True once every client is settled (see the class)."""
         return not self.waiting()
 
-    def on_links(self, clients: set[str] | frozenset[str]) -> None:
-        """The clients whose CPM is connected both ways now."""
+    def on_links(self, clients: set[str] | frozenset[str],
+                 now: float) -> list[Any]:
+        """The clients whose CPM is connected both ways at ``now`` (any
+        monotonic clock); returns the unlinked clients once, when links
+        stop being waited for, else []."""
         self.linked = set(clients)
+        if not self.require_links:
+            return []
+        if self.waiting(links=False):
+            self._links_only_since = None
+            return []
+        if self._links_only_since is None:
+            self._links_only_since = now
+        if now - self._links_only_since < self.link_timeout:
+            return []
+        self.require_links = False
+        return self.unlinked()
 
     def _dpm_waited(self, client: str) -> bool:
         return client in self.dpms and client not in self.heard
