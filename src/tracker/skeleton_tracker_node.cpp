@@ -375,6 +375,11 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     if (est.tracked_users == 0) return;
     if (!clock_.ready || !mapper_.ready()) { ++withheld_; return; }
     const double global = clock_.model.toGlobal(mapper_.toLocal(device_s));
+    // The device clock map moves down after late arrivals: a frame it now
+    // maps at or before the last one published is withheld, so the
+    // stamps go forward (docs/tracker.md).
+    if (global <= last_global_) { ++withheld_back_; return; }
+    last_global_ = global;
     for (const UserEstimate& u : est.users) {
       if (u.estimate.tracked) publishSkeleton(u.user_id, u.estimate, global, device_s);
     }
@@ -449,6 +454,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
       kv("skeletons_published", std::to_string(published_));
       kv("dropped_frames", std::to_string(dropped_));
       kv("withheld_no_clock", std::to_string(withheld_));
+      kv("withheld_stamp_back", std::to_string(withheld_back_));
       kv("failed_opens", std::to_string(open_failures_));
       kv("tracking_state", state_);
       kv("tracked_users", std::to_string(users_.tracked_users));
@@ -492,8 +498,10 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
   MultiEstimate users_;  // the last frame's users
   int total_frames_ = 0, last_index_ = 0;
   double last_frame_local_ = 0, opened_local_ = 0, open_logged_ = 0;
+  double last_global_ = 0;  // the last published stamp (global s)
   unsigned long open_failures_ = 0;  // since the last successful open
   unsigned long frames_ = 0, tracked_ = 0, published_ = 0, dropped_ = 0, withheld_ = 0;
+  unsigned long withheld_back_ = 0;  // frames whose stamp would go back
 };
 
 }  // namespace

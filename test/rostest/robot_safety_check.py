@@ -17,8 +17,8 @@ bound on how fast this loaded machine is):
   gesture after the window: a second stop, same reason; a decision that
   comes after it was declared missing: decision_stale);
 - its onset is the fault's: for the clock, exactly the last good sync
-  (the local_ref of the robot's last clock_state, on the same host
-  clock) + clock_max_age, and that sync came before the kill (+ one
+  (the local_ref of the last ok clock_state received before the onset,
+  on the same host clock) + clock_max_age, and that sync came before the kill (+ one
   resync period); for the odometry, the robot's last odometry receipt +
   odom_max_age, after the freeze began (and not later than the freeze
   plus the odometry period and delivery); for the decision, the window
@@ -139,8 +139,14 @@ class RobotSafety(unittest.TestCase):
         _, s = self.stop()
         if self.fault == 'timeserver':
             limit = rospy.get_param('~clock_max_age')
+            # The robot could act only on a sync it had published before
+            # the onset: a burst in flight at the kill keeps its answered
+            # exchanges and yields, seconds later, a sync whose local_ref
+            # is from before the kill.
             with self.lock:
-                refs = [m.local_ref for _, m in self.clock if m.ok]
+                refs = [m.local_ref for t, m in self.clock
+                        if m.ok and t <= s.onset]
+            self.assertTrue(refs, 'no ok clock_state before the onset')
             self.assertAlmostEqual(s.onset, refs[-1] + limit, places=5)
             self.assertLess(refs[-1], self.injected + RESYNC,
                             'the last good sync came after the kill')

@@ -413,10 +413,40 @@ def test_clients_wait_waits_for_the_participants_dpms():
         w.on_state(c, True)
     assert w.waiting() == ['a', 'b']     # clocks fine, DPMs not heard yet
     assert w.describe(['a']) == 'a (no dpm_state from its DPM yet)'
-    w.on_dpm('a')
+    w.on_dpm('a', 5)
     assert w.waiting() == ['b'] and w.unready() == ['b']
-    w.on_dpm('b')
+    w.on_dpm('b', 1)
     assert w.settled and w.unready() == []
+
+
+def test_clients_wait_waits_for_a_sample_from_each_sensor():
+    w = ClientsWait(['a', 'b'], dpms=['a', 'b'], sample_timeout=10.0)
+    w.on_links({'a', 'b'}, 0.0)
+    for c in ('a', 'b'):
+        w.on_state(c, True)
+        w.on_dpm(c, 0)                   # DPM up, its sensor not yet
+    assert w.waiting() == ['a', 'b'] and w.unfed() == ['a', 'b']
+    assert w.describe(['a']) == \
+        'a (its DPM has received no sample from its sensor)'
+    assert w.on_samples(0.0) == []
+    w.on_dpm('a', 2)
+    assert w.waiting() == ['b'] and w.unready() == ['b']
+    assert w.on_samples(9.9) == []
+    assert w.on_samples(10.0) == ['b']   # said once, then not waited for
+    assert w.settled and w.unfed() == ['b'] and w.unready() == []
+    assert w.on_samples(11.0) == []
+
+
+def test_clients_wait_times_samples_from_when_only_they_are_waited():
+    w = ClientsWait(['a'], dpms=['a'], sample_timeout=10.0)
+    assert w.on_samples(0.0) == []       # no clock yet: not timed
+    w.on_state('a', True)
+    w.on_dpm('a', 0)
+    assert w.on_samples(50.0) == []      # links too: both timed from here
+    assert w.on_links(set(), 50.0) == []
+    assert w.on_samples(59.0) == [] and w.on_links(set(), 59.0) == []
+    assert w.on_samples(60.0) == ['a'] and w.on_links(set(), 60.0) == ['a']
+    assert w.settled
 
 
 def test_clients_wait_a_failed_clock_settles_without_its_dpm():
@@ -436,7 +466,7 @@ def test_clients_wait_can_stop_waiting_for_links():
     w = ClientsWait(['c'], dpms=['c'], link_timeout=10.0)
     assert w.on_links(set(), 100.0) == []   # nothing heard yet
     w.on_state('c', True)
-    w.on_dpm('c')
+    w.on_dpm('c', 3)
     assert w.on_links(set(), 101.0) == []   # only its link waited for
     assert w.on_links(set(), 110.9) == []
     assert w.waiting() == ['c']          # reached through a relay

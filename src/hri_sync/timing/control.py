@@ -310,31 +310,39 @@ class ClientsWait:
     linked (connected to the CM's sync_time and sync_ack: a sync order
     sent before would be lost, and the round aborted for a missing ACK)
     and, for a client in ``dpms`` (a participant: its CPM ACKs only with
-    a live DPM), its DPM's heartbeat has been heard; or once it reported
-    ``failures``
-    failed clock syncs in a row (its time server is unreachable: waiting
-    longer would not help, and the round lets it NACK with its reason).
-    A client that has reported nothing yet (a node still starting on a
-    loaded machine) is waited for.  Feed ``on_state`` each clock_state:
-    ``usable`` and the reason when not; ``on_dpm`` each heartbeat;
-    ``on_links`` the clients whose CPM is linked now.  Links are waited
-    for ``link_timeout`` s at most once nothing else is (a CPM reached
-    through a relay or bridge never shows as linked).
+    a live DPM whose sensor delivers), its DPM's heartbeat has been heard
+    and has counted a sample from its sensor; or once it reported
+    ``failures`` failed clock syncs in a row (its time server is
+    unreachable: waiting longer would not help, and the round lets it
+    NACK with its reason).  A client that has reported nothing yet (a
+    node still starting on a loaded machine) is waited for.  Feed
+    ``on_state`` each clock_state: ``usable`` and the reason when not;
+    ``on_dpm`` each heartbeat with its sample count; ``on_links`` the
+    clients whose CPM is linked now and ``on_samples`` the time, each
+    poll.  Once nothing else is waited for, links are waited for
+    ``link_timeout`` s at most (a CPM reached through a relay or bridge
+    never shows as linked) and samples ``sample_timeout`` s (a sensor
+    that never starts: the CPM NACKs naming it).
     """
 
     def __init__(self, clients: list[str], failures: int = 2,
                  dpms: list[str] | tuple[str, ...] = (),
-                 link_timeout: float = 10.0) -> None:
+                 link_timeout: float = 10.0,
+                 sample_timeout: float = 10.0) -> None:
         if failures < 1:
             raise ValueError('failures must be >= 1')
         self.clients = list(clients)
         self.failures = failures
         self.dpms = set(dpms) & set(self.clients)
         self.heard: set[str] = set()  # clients whose DPM beat was heard
+        self.fed: set[str] = set()  # ... and reported samples
         self.linked: set[str] = set()  # clients whose CPM is connected
         self.link_timeout = link_timeout
+        self.sample_timeout = sample_timeout
         self.require_links = True  # False once link_timeout has passed
+        self.require_samples = True  # False once sample_timeout has
         self._links_only_since: float | None = None
+        self._samples_only_since: float | None = None
         self.usable: set[str] = set()
         self.failed: Counter[str] = Counter()  # failed reports in a row
         self.reason: dict[str, str] = {}  # client -> its last reason
@@ -352,14 +360,25 @@ class ClientsWait:
             self.failed[client] += 1
             self.reason[client] = reason or 'no reason given'
 
-    def on_dpm(self, client: str) -> None:
-        """A heartbeat of ``client``'s DPM."""
+    def on_dpm(self, client: str, samples: int) -> None:
+        """A heartbeat of ``client``'s DPM, which has received
+        ``samples`` samples from its sensor."""
         self.heard.add(client)
+        if samples > 0:
+            self.fed.add(client)
 
     @property
     def settled(self) -> bool:
         """True once every client is settled (see the class)."""
         return not self.waiting()
+
+    def _only_late_ones(self, since: float | None,
+                        now: float) -> float | None:
+        """When only links and samples began to be waited for (None:
+        something else is waited for)."""
+        if self.waiting(links=False, samples=False):
+            return None
+        return now if since is None else since
 
     def on_links(self, clients: set[str] | frozenset[str],
                  now: float) -> list[Any]:
@@ -369,34 +388,56 @@ class ClientsWait:
         self.linked = set(clients)
         if not self.require_links:
             return []
-        if self.waiting(links=False):
-            self._links_only_since = None
-            return []
-        if self._links_only_since is None:
-            self._links_only_since = now
-        if now - self._links_only_since < self.link_timeout:
+        self._links_only_since = self._only_late_ones(
+            self._links_only_since, now)
+        if self._links_only_since is None or \
+                now - self._links_only_since < self.link_timeout:
             return []
         self.require_links = False
         return self.unlinked()
 
-    def _dpm_waited(self, client: str) -> bool:
-        return client in self.dpms and client not in self.heard
+    def on_samples(self, now: float) -> list[Any]:
+        """The time (the clock of ``on_links``); returns the participants
+        whose DPM has counted no sample once, when samples stop being
+        waited for, else []."""
+        if not self.require_samples:
+            return []
+        self._samples_only_since = self._only_late_ones(
+            self._samples_only_since, now)
+        if self._samples_only_since is None or \
+                now - self._samples_only_since < self.sample_timeout:
+            return []
+        self.require_samples = False
+        return self.unfed()
 
-    def _ready(self, client: str, links: bool) -> bool:
+    def _dpm_waited(self, client: str, samples: bool) -> bool:
+        return client in self.dpms and (
+            client not in self.heard or samples and client not in self.fed)
+
+    def _ready(self, client: str, links: bool, samples: bool) -> bool:
         return (not links or client in self.linked) \
-            and not self._dpm_waited(client)
+            and not self._dpm_waited(client, samples)
 
     def unlinked(self) -> list[Any]:
         """The clients whose CPM is not linked now, in order."""
         return [c for c in self.clients if c not in self.linked]
 
-    def waiting(self, links: bool | None = None) -> list[Any]:
-        """The clients not settled yet, in order; ``links`` False: as if
-        links were not waited for (default: ``require_links``)."""
+    def unfed(self) -> list[Any]:
+        """The participants whose DPM was heard but has counted no
+        sample, in order."""
+        return [c for c in self.clients
+                if c in self.dpms and c in self.heard and c not in self.fed]
+
+    def waiting(self, links: bool | None = None,
+                samples: bool | None = None) -> list[Any]:
+        """The clients not settled yet, in order; ``links`` or
+        ``samples`` False: as if those were not waited for (default:
+        ``require_links``, ``require_samples``)."""
         links = self.require_links if links is None else links
+        samples = self.require_samples if samples is None else samples
         return [c for c in self.clients
                 if (c not in self.usable and self.failed[c] < self.failures)
-                or (c in self.usable and not self._ready(c, links))]
+                or (c in self.usable and not self._ready(c, links, samples))]
 
     def unsynced(self) -> list[Any]:
         """The clients without a usable clock, in order."""
@@ -404,19 +445,23 @@ class ClientsWait:
 
     def unready(self) -> list[Any]:
         """The clients whose CPM is not linked or whose DPM (of one in
-        ``dpms``) was never heard, in order."""
+        ``dpms``) was never heard or counted no sample, in order."""
         return [c for c in self.clients
-                if not self._ready(c, self.require_links)]
+                if not self._ready(c, self.require_links,
+                                   self.require_samples)]
 
     def describe(self, clients: list[str]) -> str:
         """'c (why it is waited for)' for ``clients``: its clock's last
-        reason, no clock_state yet, its CPM not linked, or no dpm_state
-        yet."""
+        reason, no clock_state yet, its CPM not linked, no dpm_state yet
+        or no sample yet."""
         def why(c: str) -> str:
             if c in self.usable:
                 if self.require_links and c not in self.linked:
                     return 'its CPM not connected to sync_time and sync_ack'
-                return ('no dpm_state from its DPM yet'
-                        if self._dpm_waited(c) else 'ready')
+                if self._dpm_waited(c, False):
+                    return 'no dpm_state from its DPM yet'
+                if self._dpm_waited(c, self.require_samples):
+                    return 'its DPM has received no sample from its sensor'
+                return 'ready'
             return self.reason.get(c) or 'no clock_state yet'
         return ', '.join('%s (%s)' % (c, why(c)) for c in clients)
