@@ -43,6 +43,7 @@ from hri_sync.tools.procs import stop_group
 
 CLIENTS = ('left', 'right')
 MARGIN = 0.005       # s: device clock map error and rounding at the edges
+RECORDER_GRACE = 2.0  # s the recorder may lag this checker (see setUpClass)
 RECORD = ['/sync_time', '/sync_ack', '/capture_data', '/round_status',
           '/client_result', '/decision', '/dance_off/config',
           '/left/captured', '/right/captured']
@@ -117,8 +118,12 @@ class DanceOffRound(unittest.TestCase):
                 and not cls.all_arrived():
             time.sleep(0.1)
         if cls.recorder is not None:
-            # Ctrl-C to the recorder's process group (rosbag's wrapper and
-            # its record child), then wait for the bag to be closed.
+            # The recorder reads the same frames on connections of its
+            # own, and what it has not read when it stops is not in the
+            # bag: give it RECORDER_GRACE s.  Then Ctrl-C to its process
+            # group (rosbag's wrapper and its record child), and wait for
+            # the bag to be closed.
+            time.sleep(RECORDER_GRACE)
             stop_group(cls.recorder, timeout=15)
             deadline = time.time() + 15
             while time.time() < deadline and (
