@@ -287,23 +287,20 @@ def test_a_wrong_timeout_is_refused(item, words):
 
 
 class FakeEnding(Ending):
-    """An Ending on the fake clock: ``end_after`` s after the wait began
-    (None: never); records what abort did."""
+    """An Ending on the fake clock that ends ``end_after`` s after it is
+    made (None: never); records its sleeps and what abort did."""
 
     def __init__(self, clock, end_after, error=None):
-        super().__init__(clock.now)
-        self.clock, self.end_after, self.error_at_end = clock, end_after, \
-            error
-        self.waited, self.aborted = [], 0
+        super().__init__(clock.now, self.fake_sleep)
+        self.clock, self.error_at_end = clock, error
+        self.end_at = None if end_after is None else clock.t + end_after
+        self.slept, self.aborted = [], 0
 
-    def wait(self, seconds):
-        self.waited.append(seconds)
-        if self.end_after is not None and self.end_after <= seconds:
-            self.clock.t += self.end_after
-            self.finish(self.error_at_end, 'note')
-            return True
+    def fake_sleep(self, seconds):
+        self.slept.append(seconds)
         self.clock.t += seconds
-        return False
+        if self.end_at is not None and self.clock.t >= self.end_at:
+            self.finish(self.error_at_end, 'note')
 
     def abort(self):
         self.aborted += 1
@@ -320,13 +317,17 @@ def test_an_end_within_the_timeout_is_ok_or_failed():
     (beep,) = parse_actions([dict(BEEP, timeout=2.0)])
     ending = FakeEnding(clock, 0.5)
     end = await_end(began(beep, clock, ending), clock.now)
-    assert ending.waited == [2.0] and ending.aborted == 0
+    assert max(ending.slept) == pytest.approx(0.01)     # END_POLL
+    assert sum(ending.slept) == pytest.approx(0.5, abs=0.011)
+    assert ending.aborted == 0
     assert (end.status, end.reason, end.ended, end.duration) == (
-        ActionEnd.OK, 'note', 1000.5, 0.5)
+        ActionEnd.OK, 'note', pytest.approx(1000.5, abs=0.011),
+        pytest.approx(0.5, abs=0.011))
     ending = FakeEnding(clock, 1.25, 'exited with status 3')
     end = await_end(began(beep, clock, ending), clock.now)
-    assert (end.status, end.reason, end.duration) == (
-        ActionEnd.FAILED, 'exited with status 3', 1.25)
+    assert (end.status, end.reason) == (ActionEnd.FAILED,
+                                        'exited with status 3')
+    assert end.duration == pytest.approx(1.25, abs=0.011)
 
 
 def test_no_end_within_the_timeout_is_aborted_and_says_so():
@@ -336,9 +337,9 @@ def test_no_end_within_the_timeout_is_aborted_and_says_so():
     start = began(beep, clock, ending)
     clock.t += 0.5                  # the shell reported the start first
     end = await_end(start, clock.now)
-    assert ending.waited == [1.5] and ending.aborted == 1
-    assert (end.status, end.ended, end.duration) == (ActionEnd.TIMEOUT,
-                                                     1002.0, 2.0)
+    assert sum(ending.slept) == pytest.approx(1.5) and ending.aborted == 1
+    assert (end.status, end.ended, end.duration) == (
+        ActionEnd.TIMEOUT, pytest.approx(1002.0), pytest.approx(2.0))
     assert end.reason == 'no end 2.00 s after its start (timeout 2 s): ' \
         'its process group killed'
     # An end after the timeout is too late to count.
@@ -357,7 +358,7 @@ def test_a_publish_ends_at_once_and_a_failed_start_never():
 
 def test_a_real_ending_counts_its_first_end_only():
     clock = FakeClock(1000.0)
-    ending = Ending(clock.now)
+    ending = Ending(clock.now, clock.wait)
     assert not ending.wait(0.0)
     assert ending.finish('goal ended ABORTED')
     clock.t = 1001.0

@@ -24,6 +24,7 @@ import math
 import re
 import shlex
 import threading
+import time
 from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, NamedTuple, Optional, Tuple
@@ -37,6 +38,7 @@ TOLERANCE = 0.005        # s, default: a start later than this is LATE
 SERVICE_TIMEOUT = 5.0    # the service's answer
 ACTIONLIB_TIMEOUT = 30.0     # the goal's result
 COMMAND_TIMEOUT = 30.0   # the process's exit
+END_POLL = 0.01          # s between looks for an action's end
 TIMEOUTS = {Action.SERVICE: SERVICE_TIMEOUT,
             Action.ACTIONLIB: ACTIONLIB_TIMEOUT,
             Action.COMMAND: COMMAND_TIMEOUT}
@@ -289,11 +291,12 @@ class Ending:
     The shell's thread or callback calls :meth:`finish` once, when it
     ended (``error``: why it ended badly; None: well); a subclass's
     :meth:`abort` stops an action that did not end in time.  ``now()``:
-    the global clock, read at the end.  The first of the end and the
-    timeout wins (thread-safe)."""
+    the global clock, read at the end; ``sleep(s)`` between looks for
+    it.  The first of the end and the timeout wins (thread-safe)."""
 
-    def __init__(self, now):
+    def __init__(self, now, sleep=time.sleep):
         self.now = now
+        self.sleep = sleep
         self._lock = threading.Lock()
         self._done = threading.Event()
         self.ended: Optional[float] = None
@@ -310,8 +313,16 @@ class Ending:
             return True
 
     def wait(self, seconds):
-        """Whether it ended within ``seconds``."""
-        return self._done.wait(seconds)
+        """Whether it ended within ``seconds`` on the global clock; looks
+        every END_POLL s (a timed wait on a condition can last forever
+        under libfaketime; the end's time is read when it comes)."""
+        deadline = self.now() + seconds
+        while not self._done.is_set():
+            left = deadline - self.now()
+            if left <= 0:
+                return False
+            self.sleep(min(END_POLL, left))
+        return True
 
     def expire(self):
         """Marks it timed out: False if it ended meanwhile."""
