@@ -204,7 +204,10 @@ class ServiceAction:
                 note = 'sent again on a new connection: the kept one was ' \
                     'closed'
                 response = self.receive(call.transport)
-        except (ActionFailed,) + CALL_ERRORS as e:
+        except ActionFailed as e:       # no new connection
+            call.finish(str(e))
+            return
+        except CALL_ERRORS as e:
             call.transport.close()
             call.finish('service %s: %s' % (self.name, e))
             return
@@ -212,11 +215,12 @@ class ServiceAction:
         if getattr(response, 'success', True) is False:
             error = 'service %s answered success=false: %s' % (
                 self.name, getattr(response, 'message', ''))
+        spare = call.transport      # kept for the next call, if free
         if call.finish(error, note):
             with self.lock:
-                call.transport, self.idle = self.idle, call.transport
-        if call.transport is not None:
-            call.transport.close()
+                spare, self.idle = self.idle, spare
+        if spare is not None:
+            spare.close()
 
 
 class GoalRun(Ending):
