@@ -2,10 +2,12 @@
 """Checks action_client (issue 19) from outside, over one round.
 
 Serves what the actions of test/rostest/action_client.yaml use (the
-service /action_check/mark, the actionlib server /action_check/count),
-publishes the participants' constant samples so participant 1 wins, and
-records every ActionStart and what reached each receiver, with this
-process's (unfaked) clock.  Then checks, per action:
+services /action_check/mark, /action_check/refuse (success=false) and
+/action_check/stuck (never answers), the actionlib server
+/action_check/count), publishes the participants' constant samples so
+participant 1 wins, and records every ActionStart and ActionEnd and what
+reached each receiver, with this process's (unfaked) clock.  Then
+checks, per action:
 - it is reported exactly once (and the actions whose decision filter
   does not match, cheer_right and on_tie, not at all);
 - its scheduled time is its event's (CR_T + STR_AFT, the window end or
@@ -23,26 +25,37 @@ process's (unfaked) clock.  Then checks, per action:
   nobody serves, a program that does not exist, no actionlib server;
 - an action due 1 s before the decision's stamp begins at the decision,
   LATE with its lateness, and with a max_late of 0.5 s it does not begin
-  (FAILED, 'not run').
+  (FAILED, 'not run');
+- each action that began ends once (ActionEnd), after its start, with
+  its status: OK (the messages, the answered service, the goal, the
+  command exiting 0), FAILED (success=false, exit status 3) or TIMEOUT
+  past its 1 s timeout (the service that never answers: its connection
+  closed; the command that never exits: its process group killed, its
+  background child too); one that did not begin has no end.  Order and
+  statuses only: no bound on how long an end takes.
 """
 import math
 import os
+import re
 import shutil
 import threading
 import time
 import unittest
+import xmlrpc.client
 
 import actionlib
+import rosgraph
 import rospy
 import rostest
 from actionlib.msg import TwoIntsAction, TwoIntsResult
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PointStamped
 from std_msgs.msg import String
-from std_srvs.srv import SetBool, SetBoolResponse
+from std_srvs.srv import (SetBool, SetBoolResponse, Trigger,
+                          TriggerResponse)
 
 from constant_samples import publish_constant_samples
-from hri_sync.msg import ActionStart, CaptureData, Decision
+from hri_sync.msg import ActionEnd, ActionStart, CaptureData, Decision
 from hri_sync.timing.protocol import Capture
 
 START_SANITY = 0.25          # s, see the docstring
@@ -55,13 +68,28 @@ STARTED = {'light': ('publish', 'window_start', -0.2),
            'stimulus': ('command', 'window_start', 0.5),
            'count': ('actionlib', 'window_end', 0.0),
            'cheer_left': ('publish', 'decision', 0.3),
-           'late_cue': ('publish', 'decision', -1.0)}
+           'late_cue': ('publish', 'decision', -1.0),
+           'stuck': ('service', 'window_start', 0.3),
+           'refused': ('service', 'window_start', 0.3),
+           'exit3': ('command', 'window_start', 0.3),
+           'sleeper': ('command', 'window_start', 0.3)}
 FAILING = {'missing_service': ('service', 'window_end', 0.0,
                                'nobody_serves_this'),
            'bad_command': ('command', 'window_end', 0.0, 'No such file'),
            'absent_server': ('actionlib', 'window_end', 0.0,
                              'no actionlib server'),
            'stale_cue': ('publish', 'decision', -1.0, 'not run: ')}
+# How each action that began ends: status, timeout (s), words of the reason.
+ENDS = {'light': (ActionEnd.OK, 0.0, ''),
+        'mark': (ActionEnd.OK, 5.0, ''),
+        'stimulus': (ActionEnd.OK, 30.0, ''),
+        'count': (ActionEnd.OK, 30.0, ''),
+        'cheer_left': (ActionEnd.OK, 0.0, ''),
+        'late_cue': (ActionEnd.OK, 0.0, ''),
+        'stuck': (ActionEnd.TIMEOUT, 1.0, 'its connection closed'),
+        'refused': (ActionEnd.FAILED, 5.0, 'success=false: busy'),
+        'exit3': (ActionEnd.FAILED, 30.0, 'exited with status 3'),
+        'sleeper': (ActionEnd.TIMEOUT, 1.0, 'its process group killed')}
 
 
 class ActionClientRound(unittest.TestCase):
@@ -74,10 +102,13 @@ class ActionClientRound(unittest.TestCase):
         rospy.init_node('action_check')
         cls.lock = threading.Lock()
         cls.starts, cls.lights, cls.cheers, cls.marks, cls.goals, \
-            cls.cues = [], [], [], [], [], []
+            cls.cues, cls.ends, cls.stucks = [], [], [], [], [], [], [], []
         cls.capture = cls.decision = None
+        cls.over = threading.Event()
         sub = rospy.Subscriber
         sub('/actions/action_start', ActionStart, cls.rec, 'starts',
+            queue_size=100)
+        sub('/actions/action_end', ActionEnd, cls.rec, 'ends',
             queue_size=100)
         sub('/action_check/light', PointStamped, cls.rec, 'lights')
         sub('/action_check/cheer', String, cls.rec, 'cheers')
@@ -88,6 +119,10 @@ class ActionClientRound(unittest.TestCase):
         cls.diag = None
         sub('/diagnostics', DiagnosticArray, cls.on_diag)
         rospy.Service('~mark', SetBool, cls.on_mark)
+        rospy.Service('~refuse', Trigger,
+                      lambda req: TriggerResponse(success=False,
+                                                  message='busy'))
+        rospy.Service('~stuck', Trigger, cls.on_stuck)
         cls.server = actionlib.SimpleActionServer(
             '~count', TwoIntsAction, cls.on_goal, auto_start=False)
         cls.server.start()
@@ -95,9 +130,13 @@ class ActionClientRound(unittest.TestCase):
         deadline = time.time() + 90.0
         while time.time() < deadline and not (
                 cls.decision and len(cls.starts) >= len(STARTED) +
-                len(FAILING)):
+                len(FAILING) and len(cls.ends) >= len(ENDS)):
             time.sleep(0.1)
         time.sleep(3.0)              # any report that should not come
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.over.set()
 
     @classmethod
     def rec(cls, msg, key):
@@ -114,6 +153,13 @@ class ActionClientRound(unittest.TestCase):
     def on_mark(cls, req):
         cls.rec(req, 'marks')
         return SetBoolResponse(success=True, message='marked')
+
+    @classmethod
+    def on_stuck(cls, req):
+        """Answers only when the test is over (the client gave up)."""
+        cls.rec(req, 'stucks')
+        cls.over.wait(600.0)
+        return TriggerResponse(success=True, message='too late')
 
     @classmethod
     def on_goal(cls, goal):
@@ -215,10 +261,54 @@ class ActionClientRound(unittest.TestCase):
         self.assertIsNotNone(d, 'no actions status on /diagnostics')
         self.assertEqual(d.level, DiagnosticStatus.ERROR)
         self.assertEqual(d.message, 'last firing failed: absent_server, '
-                         'bad_command, missing_service, stale_cue')
+                         'bad_command, missing_service, stale_cue; last end '
+                         'failed: exit3, refused; last end timeout: '
+                         'sleeper, stuck')
         values = {kv.key: kv.value for kv in d.values}
         self.assertEqual(int(values['failed']), len(FAILING))
         self.assertTrue(values['late_cue'].startswith('late in round 1'))
+        self.assertEqual(int(values['ended_timeout']), 2)
+        self.assertTrue(values['stuck end'].startswith('timeout in round 1'))
+
+    def test_7_each_action_that_began_ends_once_with_its_status(self):
+        starts = self.reports()
+        with self.lock:
+            ends = [m for _, m in self.ends]
+            stucks = list(self.stucks)
+        self.assertEqual(sorted(m.action for m in ends), sorted(ENDS))
+        self.assertEqual(len(stucks), 1, 'the stuck service was not called')
+        for m in ends:
+            status, timeout, words = ENDS[m.action]
+            start = starts[m.action]
+            self.assertIn(start.status, (ActionStart.OK, ActionStart.LATE))
+            self.assertEqual((m.round, m.client_id, m.kind, m.event),
+                             (start.round, 'actions', start.kind,
+                              start.event), m.action)
+            self.assertEqual((m.status, m.timeout), (status, timeout),
+                             (m.action, m.reason))
+            self.assertIn(words, m.reason, m.action)
+            self.assertEqual(m.started, start.header.stamp, m.action)
+            self.assertAlmostEqual(
+                m.duration, (m.header.stamp - m.started).to_sec(),
+                delta=1e-6, msg=m.action)
+            self.assertGreaterEqual(m.duration, 0.0, m.action)
+            if status == ActionEnd.TIMEOUT:
+                self.assertIn('no end', m.reason)
+                self.assertGreater(m.duration, timeout * 0.99, m.action)
+
+    def test_8_a_timed_out_command_is_killed_with_its_group(self):
+        node = rosgraph.Master('/action_check').lookupNode('/actions')
+        code, _, pid = xmlrpc.client.ServerProxy(node).getPid(
+            '/action_check')
+        self.assertEqual(code, 1)
+        with open(os.path.join(OUT, 'sleeper.%d' % pid)) as f:
+            child = int(f.read())
+        try:
+            with open('/proc/%d/stat' % child) as f:
+                state = re.sub(r'^.*\) ', '', f.read()).split()[0]
+        except FileNotFoundError:
+            state = 'gone'
+        self.assertIn(state, ('gone', 'Z'), 'sleep 300 still runs')
 
 
 if __name__ == '__main__':

@@ -1,10 +1,16 @@
 """hri_sync.ros.action_kinds: what action_client checks at start, and a
-command's failure to begin (no master needed)."""
+command's failure to begin, its end and its timeout (no master
+needed)."""
+import os
+import time
+
 import roslib.message
 import pytest
 
-from hri_sync.robot.actions import ActionFailed, parse_action
+from hri_sync.robot.actions import (ActionFailed, Firing, StartReport,
+                                    await_end, parse_action)
 from hri_sync.ros.action_kinds import CommandAction, filled, type_class
+from hri_sync.timing.vocabulary import Action, ActionEnd
 
 
 def test_a_type_that_is_not_installed_is_named():
@@ -35,3 +41,35 @@ def test_a_command_that_cannot_start_fails_with_the_reason():
     assert logs == ['warn']             # not on PATH at start
     with pytest.raises(ActionFailed, match='No such file or directory'):
         run(spec)
+
+
+def command(argv, timeout=None):
+    """A CommandAction's spec and the Ending of the process it began."""
+    item = {'name': 'beep', 'at': 'window_start', 'command': argv}
+    if timeout is not None:
+        item['timeout'] = timeout
+    spec = parse_action(item)
+    return spec, CommandAction(spec, time.time, lambda *a: None)(spec).ending
+
+
+def test_a_command_ends_with_its_exit_status():
+    spec, ok = command(['/bin/true'])
+    spec, failed = command(['/bin/sh', '-c', 'exit 3'])
+    assert ok.wait(30.0) and failed.wait(30.0)
+    assert (ok.error, failed.error) == (None, 'exited with status 3')
+
+
+def test_a_command_past_its_timeout_is_killed_with_its_group(tmp_path):
+    pid_file = tmp_path / 'child'
+    spec, ending = command(['/bin/sh', '-c', 'sleep 300 & echo $! > "$0"; '
+                            'wait', str(pid_file)], timeout=0.5)
+    start = StartReport(Firing(spec, 1, time.time()), time.time(), 0.0,
+                        0.0, Action.OK, '', ending)
+    end = await_end(start, time.time)
+    assert end.status == ActionEnd.TIMEOUT
+    assert end.reason.endswith(': its process group killed')
+    child = int(pid_file.read_text())
+    with pytest.raises(ProcessLookupError):
+        for _ in range(300):            # until init reaps it
+            os.kill(child, 0)
+            time.sleep(0.01)

@@ -28,7 +28,8 @@ def words(cls):
 @pytest.mark.parametrize('cls, msg', [(v.ResultStatus, 'ClientResult'),
                                       (v.Outcome, 'Decision'),
                                       (v.RoundState, 'RoundStatus'),
-                                      (v.Action, 'ActionStart')])
+                                      (v.Action, 'ActionStart'),
+                                      (v.ActionEnd, 'ActionEnd')])
 def test_each_word_is_its_message_constant(cls, msg):
     assert words(cls) == msg_constants(msg)
     assert set(cls.ALL) == set(msg_constants(msg).values())
@@ -52,7 +53,7 @@ def sources():
 # (ActionStart's events are not scanned: LSL markers name their own.)
 FIELDS = {'status', 'outcome', 'state', 'kind'}
 VALUES = set(v.ResultStatus.ALL + v.Outcome.ALL + v.RoundState.ALL
-             + v.Action.KINDS + v.Action.STATUSES)
+             + v.Action.KINDS + v.Action.STATUSES + v.ActionEnd.STATUSES)
 
 
 def field_of(node):

@@ -15,24 +15,38 @@ No ROS and no clock of its own: ``nodes/action_client`` is the shell.
   through the shell's ``execute`` and judges its start
   (:class:`StartReport`: OK within the action's tolerance, LATE after
   it, FAILED when it did not begin, each with its reason).
+- :func:`await_end` waits for the end of a firing that began (the
+  shell's :class:`Ending`) for the action's ``timeout`` and judges it
+  (:class:`EndReport`: OK, FAILED with why, or TIMEOUT, the action
+  aborted).
 """
 import math
 import re
 import shlex
 import threading
+import time
 from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, NamedTuple, Optional, Tuple
 
 from hri_sync.timing.health import ERROR, OK, WARN, Health, text
-from hri_sync.timing.vocabulary import Action, Outcome
+from hri_sync.timing.vocabulary import Action, ActionEnd, Outcome
 
 TOLERANCE = 0.005        # s, default: a start later than this is LATE
+# s, defaults of an action's `timeout`: no end this long after its start
+# is TIMEOUT (a publish ends when it is sent: it has none).
+SERVICE_TIMEOUT = 5.0    # the service's answer
+ACTIONLIB_TIMEOUT = 30.0     # the goal's result
+COMMAND_TIMEOUT = 30.0   # the process's exit
+END_POLL = 0.01          # s between looks for an action's end
+TIMEOUTS = {Action.SERVICE: SERVICE_TIMEOUT,
+            Action.ACTIONLIB: ACTIONLIB_TIMEOUT,
+            Action.COMMAND: COMMAND_TIMEOUT}
 NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
 TYPE = re.compile(r'^[A-Za-z][A-Za-z0-9_]*/[A-Za-z][A-Za-z0-9_]*$')
 ROS_NAME = re.compile(r'^[~/]?[A-Za-z][A-Za-z0-9_/]*$')
 COMMON = {'name', 'at', 'offset', 'tolerance', 'max_late', 'outcomes',
-          'winners'}
+          'winners'}      # and `timeout`, but for a publish
 # kind: (the key that names it, the keys of its mapping or None for a list)
 KIND_KEYS = {
     Action.PUBLISH: ('topic', 'type', 'fields'),
@@ -56,7 +70,8 @@ class ActionSpec:
     ``target``: the topic, service or action server; ``type``: its
     message, service or action type (``pkg/Name``); ``fields``: the
     message's, request's or goal's fields; ``command``: the argv of a
-    command (run without a shell)."""
+    command (run without a shell); ``timeout``: s its end is awaited
+    after its start (0: a publish, which ends at once)."""
 
     name: str
     kind: str                       # Action.KINDS
@@ -64,6 +79,7 @@ class ActionSpec:
     offset: float = 0.0             # s after the event
     tolerance: float = TOLERANCE
     max_late: Optional[float] = None    # s; later: not run (None: any)
+    timeout: float = 0.0
     outcomes: Tuple[str, ...] = ()  # decision: the outcomes it fires on
     winners: Tuple[int, ...] = ()   # decision: the winners it fires on
     target: str = ''
@@ -157,7 +173,7 @@ def parse_action(item, tolerance=TOLERANCE):
                           % (name,))
     try:
         kind = _kind(item)
-        unknown = set(item) - COMMON - {kind}
+        unknown = set(item) - COMMON - {kind, 'timeout'}
         if unknown:
             raise ConfigError('unknown keys %s' % sorted(unknown))
         event = item.get('at')
@@ -171,6 +187,8 @@ def parse_action(item, tolerance=TOLERANCE):
                         'not participant numbers (1.., 0: none)')
         if event != Action.DECISION and (outcomes or winners):
             raise ConfigError('outcomes and winners filter decisions only')
+        if kind == Action.PUBLISH and 'timeout' in item:
+            raise ConfigError('timeout: a publish ends when it is sent')
         spec = dict(
             name=name, kind=kind, event=event,
             offset=_number(item, 'offset', 0.0, lambda x: True, 's'),
@@ -178,6 +196,8 @@ def parse_action(item, tolerance=TOLERANCE):
                               lambda x: x >= 0, '>= 0 s'),
             max_late=_number(item, 'max_late', None, lambda x: x >= 0,
                              '>= 0 s'),
+            timeout=0.0 if kind == Action.PUBLISH else _number(
+                item, 'timeout', TIMEOUTS[kind], lambda x: x > 0, '> 0 s'),
             outcomes=outcomes, winners=winners)
         if kind == Action.COMMAND:
             return ActionSpec(command=_command(item[kind]), **spec)
@@ -265,9 +285,70 @@ class ActionScheduler:
                       key=lambda f: f.scheduled)
 
 
+class Ending:
+    """The end of an action that began, as the shell sees it.
+
+    The shell's thread or callback calls :meth:`finish` once, when it
+    ended (``error``: why it ended badly; None: well); a subclass's
+    :meth:`abort` stops an action that did not end in time.  ``now()``:
+    the global clock, read at the end; ``sleep(s)`` between looks for
+    it.  The first of the end and the timeout wins (thread-safe)."""
+
+    def __init__(self, now, sleep=time.sleep):
+        self.now = now
+        self.sleep = sleep
+        self._lock = threading.Lock()
+        self._done = threading.Event()
+        self.ended: Optional[float] = None
+        self.error: Optional[str] = None
+        self.note = ''
+
+    def finish(self, error=None, note=''):
+        """It ended now; False if it had already ended or timed out."""
+        with self._lock:
+            if self._done.is_set():
+                return False
+            self.ended, self.error, self.note = self.now(), error, note
+            self._done.set()
+            return True
+
+    def wait(self, seconds):
+        """Whether it ended within ``seconds`` on the global clock; looks
+        every END_POLL s (a timed wait on a condition can last forever
+        under libfaketime; the end's time is read when it comes)."""
+        deadline = self.now() + seconds
+        while not self._done.is_set():
+            left = deadline - self.now()
+            if left <= 0:
+                return False
+            self.sleep(min(END_POLL, left))
+        return True
+
+    def expire(self):
+        """Marks it timed out: False if it ended meanwhile."""
+        with self._lock:
+            if self._done.is_set():
+                return False
+            self._done.set()
+            return True
+
+    def abort(self):
+        """Stops it (it timed out); returns what was done ('' nothing)."""
+        return ''
+
+
+class Begun(NamedTuple):
+    """What the shell's ``execute`` returns for an action it began: a
+    ``note`` on its start, and its ``ending`` (None: it ended at once)."""
+
+    note: str = ''
+    ending: Optional[Ending] = None
+
+
 class StartReport(NamedTuple):
     """How a firing began: ``actual`` (global), ``local`` and ``true``
-    (the host's clocks) at the instant, ``status`` and ``reason``."""
+    (the host's clocks) at the instant, ``status`` and ``reason``;
+    ``ending``: the shell's, when it began and has not ended yet."""
 
     firing: Firing
     actual: float
@@ -275,6 +356,7 @@ class StartReport(NamedTuple):
     true: float
     status: str
     reason: str
+    ending: Optional[Ending] = None
 
     @property
     def offset(self):
@@ -300,7 +382,7 @@ def judge(firing, actual, error=None, note=''):
 def run_firing(firing, now, wait, execute, host_clocks):
     """Wait for ``firing`` and run it: ``now()`` global time, ``wait(t)``
     blocks until global ``t`` (None: stopped), ``execute(action)`` begins
-    it (returns a note on its start or None; raises ActionFailed),
+    it (returns a Begun; raises ActionFailed),
     ``host_clocks()`` (local, true).  Returns the
     StartReport, or None if stopped before it began.  A firing later than
     its action's ``max_late`` is not run (FAILED)."""
@@ -312,7 +394,7 @@ def run_firing(firing, now, wait, execute, host_clocks):
     actual = now()
     late = actual - firing.scheduled
     error: Optional[Exception] = None
-    note = None
+    begun = Begun()
     if max_late is not None and late > max_late:
         error = ActionFailed('not run: %.1f ms after its scheduled time '
                              '(max_late %.1f ms)%s' % (
@@ -320,22 +402,80 @@ def run_firing(firing, now, wait, execute, host_clocks):
                                  '; ' + firing.note if firing.note else ''))
     else:
         try:
-            note = execute(firing.action)
+            begun = execute(firing.action)
         except ActionFailed as e:
             error = e
-    status, reason = judge(firing, actual, error, note or '')
-    return StartReport(firing, actual, local, true, status, reason)
+    status, reason = judge(firing, actual, error, begun.note)
+    return StartReport(firing, actual, local, true, status, reason,
+                       begun.ending)
+
+
+class EndReport(NamedTuple):
+    """How a firing that began ended: at ``ended`` (global), ``status``
+    (ActionEnd.STATUSES) and ``reason``."""
+
+    start: StartReport
+    ended: float
+    status: str
+    reason: str
+
+    @property
+    def firing(self):
+        """The firing that ended."""
+        return self.start.firing
+
+    @property
+    def duration(self):
+        """From its start to its end, s (global clock)."""
+        return self.ended - self.start.actual
+
+
+def judge_end(action, duration, error=None, note='', aborted=None):
+    """(status, reason) of an end ``duration`` s after the start:
+    TIMEOUT when it did not end within the action's timeout (``aborted``:
+    what was done then), FAILED with ``error``, else OK (``note``)."""
+    if aborted is not None:
+        return ActionEnd.TIMEOUT, 'no end %.2f s after its start (timeout ' \
+            '%g s)%s' % (duration, action.timeout,
+                         ': ' + aborted if aborted else '')
+    if error is not None:
+        return ActionEnd.FAILED, error or 'failed'
+    return ActionEnd.OK, note
+
+
+def await_end(start, now):
+    """Waits for the end of the firing that began as ``start`` says, at
+    most its action's timeout after its start (global ``now()``), and
+    judges it; a timed-out action is aborted.  None if it did not
+    begin."""
+    if start.status == Action.FAILED:
+        return None
+    action, ending = start.firing.action, start.ending
+    if ending is None:
+        return EndReport(start, now(), *judge_end(action, 0.0))
+    remaining = start.actual + action.timeout - now()
+    if ending.wait(max(0.0, remaining)) or not ending.expire():
+        ended = ending.ended
+        return EndReport(start, ended, *judge_end(
+            action, ended - start.actual, ending.error, ending.note))
+    aborted = ending.abort()
+    ended = now()
+    return EndReport(start, ended, *judge_end(
+        action, ended - start.actual, aborted=aborted))
 
 
 class ActionTally:
-    """Every report's status, and each action's last report, as a
-    /diagnostics status: ERROR while an action's last firing failed,
-    WARN while one was late, else OK.  Thread-safe."""
+    """Every report's status, and each action's last start and end, as a
+    /diagnostics status: ERROR while an action's last firing failed or
+    its last end failed or timed out, WARN while one was late, else OK.
+    Thread-safe."""
 
     def __init__(self):
         self._lock = threading.Lock()
         self.counts: Counter = Counter()
+        self.end_counts: Counter = Counter()
         self.last: Dict[str, StartReport] = {}
+        self.last_end: Dict[str, EndReport] = {}
 
     def record(self, report):
         """Count one StartReport."""
@@ -343,21 +483,49 @@ class ActionTally:
             self.counts[report.status] += 1
             self.last[report.firing.action.name] = report
 
-    def health(self):
-        """The Health of the actions' last firings."""
+    def record_end(self, report):
+        """Count one EndReport."""
         with self._lock:
-            counts, last = dict(self.counts), dict(self.last)
+            self.end_counts[report.status] += 1
+            self.last_end[report.firing.action.name] = report
+
+    @staticmethod
+    def _text(status, round_id, at, reason):
+        return '%s in round %d %s%s' % (status, round_id, at,
+                                        ': ' + reason if reason else '')
+
+    def _values(self, counts, end_counts, last, last_end):
         values = tuple((s, text(counts.get(s, 0))) for s in Action.STATUSES)
-        values += tuple(
-            (name, '%s in round %d at %+.2f ms%s' % (
-                r.status, r.firing.round, r.offset * 1e3,
-                ': ' + r.reason if r.reason else ''))
-            for name, r in sorted(last.items()))
-        for status, level in ((Action.FAILED, ERROR), (Action.LATE, WARN)):
-            names = sorted(n for n, r in last.items() if r.status == status)
-            if names:
-                return Health(level, 'last firing %s: %s' % (
-                    status, ', '.join(names)), values)
+        values += tuple(('ended_' + s, text(end_counts.get(s, 0)))
+                        for s in ActionEnd.STATUSES)
+        values += tuple((name, self._text(
+            r.status, r.firing.round, 'at %+.2f ms' % (r.offset * 1e3),
+            r.reason)) for name, r in sorted(last.items()))
+        values += tuple((name + ' end', self._text(
+            r.status, r.firing.round, 'after %.3f s' % r.duration,
+            r.reason)) for name, r in sorted(last_end.items()))
+        return values
+
+    def health(self):
+        """The Health of the actions' last firings and ends."""
+        with self._lock:
+            counts, end_counts = dict(self.counts), dict(self.end_counts)
+            last, last_end = dict(self.last), dict(self.last_end)
+        values = self._values(counts, end_counts, last, last_end)
+        for level, found in (
+                (ERROR, (('firing', Action.FAILED, last),
+                         ('end', ActionEnd.FAILED, last_end),
+                         ('end', ActionEnd.TIMEOUT, last_end))),
+                (WARN, (('firing', Action.LATE, last),))):
+            parts = []
+            for what, status, reports in found:
+                names = sorted(n for n, r in reports.items()
+                               if r.status == status)
+                if names:
+                    parts.append('last %s %s: %s' % (what, status,
+                                                     ', '.join(names)))
+            if parts:
+                return Health(level, '; '.join(parts), values)
         if not last:
             return Health(OK, 'no action fired yet', values)
         return Health(OK, 'last firings on time', values)

@@ -62,6 +62,16 @@ class Action:
     ALL = (DANCE, MUSIC) + KINDS + EVENTS + STATUSES
 
 
+class ActionEnd:
+    """``ActionEnd.status``: how an action that began ended."""
+
+    OK = 'ok'
+    FAILED = 'failed'
+    TIMEOUT = 'timeout'
+    STATUSES = (OK, FAILED, TIMEOUT)
+    ALL = STATUSES
+
+
 # The DM's ~on_missing: decide over the results present, or abort.
 ON_MISSING = ('partial', 'abort')
 
