@@ -341,8 +341,8 @@ class ClientsWait:
         self.sample_timeout = sample_timeout
         self.require_links = True  # False once link_timeout has passed
         self.require_samples = True  # False once sample_timeout has
-        self._links_only_since: float | None = None
-        self._samples_only_since: float | None = None
+        # 'links', 'samples' -> since when only those are waited for
+        self._late_since: dict[str, float] = {}
         self.usable: set[str] = set()
         self.failed: Counter[str] = Counter()  # failed reports in a row
         self.reason: dict[str, str] = {}  # client -> its last reason
@@ -372,13 +372,14 @@ class ClientsWait:
         """True once every client is settled (see the class)."""
         return not self.waiting()
 
-    def _only_late_ones(self, since: float | None,
-                        now: float) -> float | None:
-        """When only links and samples began to be waited for (None:
-        something else is waited for)."""
+    def _given_up(self, what: str, timeout: float, now: float) -> bool:
+        """True once ``what`` ('links' or 'samples') has been the only
+        thing waited for (with the other) for ``timeout`` s at ``now``."""
         if self.waiting(links=False, samples=False):
-            return None
-        return now if since is None else since
+            self._late_since.pop(what, None)
+            return False
+        since = self._late_since.setdefault(what, now)
+        return now - since >= timeout
 
     def on_links(self, clients: set[str] | frozenset[str],
                  now: float) -> list[Any]:
@@ -386,12 +387,8 @@ class ClientsWait:
         monotonic clock); returns the unlinked clients once, when links
         stop being waited for, else []."""
         self.linked = set(clients)
-        if not self.require_links:
-            return []
-        self._links_only_since = self._only_late_ones(
-            self._links_only_since, now)
-        if self._links_only_since is None or \
-                now - self._links_only_since < self.link_timeout:
+        if not self.require_links or \
+                not self._given_up('links', self.link_timeout, now):
             return []
         self.require_links = False
         return self.unlinked()
@@ -400,12 +397,8 @@ class ClientsWait:
         """The time (the clock of ``on_links``); returns the participants
         whose DPM has counted no sample once, when samples stop being
         waited for, else []."""
-        if not self.require_samples:
-            return []
-        self._samples_only_since = self._only_late_ones(
-            self._samples_only_since, now)
-        if self._samples_only_since is None or \
-                now - self._samples_only_since < self.sample_timeout:
+        if not self.require_samples or \
+                not self._given_up('samples', self.sample_timeout, now):
             return []
         self.require_samples = False
         return self.unfed()
