@@ -113,3 +113,29 @@ def test_next_output_never_overwrites_the_closed_bag():
     # -o PREFIX: rosbag already stamps each new bag with its start time
     assert next_output(['record', '-o', '/d/s', '/a'], 1) == \
         ['record', '-o', '/d/s', '/a']
+
+
+# A node's main thread holds a plain lock that a shutdown hook needs (as
+# rospy's queued /rosout publisher holds its connection's lock while the
+# node logs) when the lifeline's SIGTERM comes.
+SIGTERM_IN_LOCK = '''
+import os, signal, threading, time
+import rospy
+from hri_sync.ros.params import _shutdown_in_a_thread
+signal.signal(signal.SIGTERM, _shutdown_in_a_thread)
+lock = threading.Lock()
+rospy.core.add_preshutdown_hook(lambda reason: lock.acquire())
+with lock:
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(0.2)
+deadline = time.monotonic() + 20
+while not rospy.is_shutdown() and time.monotonic() < deadline:
+    time.sleep(0.01)
+print('shut down' if rospy.is_shutdown() else 'not shut down')
+'''
+
+
+def test_sigterm_inside_a_lock_still_shuts_the_node_down():
+    out = subprocess.run([sys.executable, '-c', SIGTERM_IN_LOCK], env=ENV,
+                         capture_output=True, text=True, timeout=60)
+    assert out.stdout.strip() == 'shut down', out.stderr[-2000:]

@@ -58,6 +58,17 @@ def positive(x):
     return math.isfinite(x) and x > 0
 
 
+def _shutdown_in_a_thread(signum, _frame):
+    """SIGTERM (a lifeline's, roslaunch's escalation): rospy's shutdown
+    in a thread of its own.  rospy's handler runs it in the main thread
+    at whatever line the signal interrupts; inside rospy's topic manager
+    lock (a subscriber unregistering) its close_all then waits for that
+    lock forever, and the node outlives its roslaunch (the control
+    module in orphans_dance_off under load)."""
+    threading.Thread(target=rospy.signal_shutdown, daemon=True,
+                     args=('signal-%d' % signum,)).start()
+
+
 def run_node(name, main, master_restart='exit'):
     """init_node, watch the master, then run ``main()``.
 
@@ -66,7 +77,8 @@ def run_node(name, main, master_restart='exit'):
     and, with ``master_restart='exit'``, shuts the node down with exit
     status ``master_watch.RESTART_EXIT`` (75) for roslaunch to respawn it;
     with 'warn' the node keeps running unregistered.  The node shuts down
-    (SIGTERM) when its parent, e.g. roslaunch, dies: no orphan nodes.
+    (SIGTERM, handled in a thread) when its parent, e.g. roslaunch, dies:
+    no orphan nodes.
     A live node of the same resolved name (a second system launched into
     this one's namespace) ends the node before ``init_node`` with a
     message saying so (exit status ``unique.DUPLICATE_EXIT``), instead of
@@ -82,6 +94,7 @@ def run_node(name, main, master_restart='exit'):
         print('%s: %s' % (name, e), file=sys.stderr, flush=True)
         raise SystemExit(unique.DUPLICATE_EXIT)
     rospy.init_node(name)
+    signal.signal(signal.SIGTERM, _shutdown_in_a_thread)
     watch = master_watch.start(exit_on_restart=master_restart == 'exit')
     try:
         main()
