@@ -106,16 +106,18 @@ class ActionClientRound(unittest.TestCase):
         cls.capture = cls.decision = None
         cls.over = threading.Event()
         sub = rospy.Subscriber
-        sub('/actions/action_start', ActionStart, cls.rec, 'starts',
-            queue_size=100)
-        sub('/actions/action_end', ActionEnd, cls.rec, 'ends',
-            queue_size=100)
+        observers = [
+            sub('/actions/action_start', ActionStart, cls.rec, 'starts',
+                queue_size=100),
+            sub('/actions/action_end', ActionEnd, cls.rec, 'ends',
+                queue_size=100)]
         sub('/action_check/light', PointStamped, cls.rec, 'lights')
         sub('/action_check/cheer', String, cls.rec, 'cheers')
         sub('/action_check/cue', String, cls.rec, 'cues')
-        sub('/capture_data', CaptureData,
-            lambda m: setattr(cls, 'capture', m))
-        sub('/decision', Decision, lambda m: setattr(cls, 'decision', m))
+        observers += [
+            sub('/capture_data', CaptureData,
+                lambda m: setattr(cls, 'capture', m)),
+            sub('/decision', Decision, lambda m: setattr(cls, 'decision', m))]
         cls.diag = None
         sub('/diagnostics', DiagnosticArray, cls.on_diag)
         rospy.Service('~mark', SetBool, cls.on_mark)
@@ -126,7 +128,7 @@ class ActionClientRound(unittest.TestCase):
         cls.server = actionlib.SimpleActionServer(
             '~count', TwoIntsAction, cls.on_goal, auto_start=False)
         cls.server.start()
-        publish_constant_samples({'a': 2.0, 'b': 1.0})
+        publish_constant_samples({'a': 2.0, 'b': 1.0}, observers=observers)
         deadline = time.time() + 90.0
         while time.time() < deadline and not (
                 cls.decision and len(cls.starts) >= len(STARTED) +

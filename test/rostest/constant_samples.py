@@ -1,15 +1,32 @@
 """The participants' constant samples the round checkers publish (a
 module beside them: a checker's folder is first on its sys.path)."""
 import threading
+import time
 
 import rospy
 
 from hri_sync.msg import Sample
 
 
-def publish_constant_samples(values, rate=50.0):
+def publish_constant_samples(values, rate=50.0, observers=(),
+                             timeout=30.0):
     """In a daemon thread, publish ``values[c]`` on ``~<c>_samples`` for
-    each client ``c`` at ``rate`` Hz, stamped now, until shutdown."""
+    each client ``c`` at ``rate`` Hz, stamped now, until shutdown.
+
+    The CM starts no round before a participant's sensor gave a sample,
+    so waiting first (at most ``timeout`` s) until each subscriber of
+    ``observers`` is connected to a publisher means the checker sees the
+    round's capture_data, however late its connections come on a busy
+    machine.  A subscriber still unconnected is logged, not waited for."""
+    deadline = time.monotonic() + timeout
+    for sub in observers:
+        while (sub.get_num_connections() < 1 and not rospy.is_shutdown()
+               and time.monotonic() < deadline):
+            time.sleep(0.05)
+        if sub.get_num_connections() < 1:
+            rospy.logwarn('%s has no publisher after %.0f s: feeding the '
+                          'samples anyway', sub.resolved_name, timeout)
+
     def run():
         pubs = {c: rospy.Publisher('~%s_samples' % c, Sample, queue_size=10)
                 for c in values}

@@ -85,16 +85,18 @@ class DjRobRound(unittest.TestCase):
         cls.bad_sent = None             # when we sent bad decisions
         cls.diag = {}
         sub = rospy.Subscriber
-        sub('/mobile_base/commands/velocity', Twist, cls.rec,
+        observers = [sub(
+            '/mobile_base/commands/velocity', Twist, cls.rec,
             ('cmds', lambda m: (m.linear.x, m.angular.z)), tcp_nodelay=True,
-            queue_size=1000)
+            queue_size=1000)]
         sub('/odom', Odometry, cls.rec, ('odom', lambda m: (
             m.header.stamp.to_sec(), m.pose.pose.position.x,
             m.pose.pose.position.y, yaw_of(m.pose.pose.orientation),
             m.twist.twist.linear.x, m.twist.twist.angular.z)),
             queue_size=1000)
-        for topic in ('/dj_rob/action_start', '/music/action_start'):
-            sub(topic, ActionStart, cls.rec, ('starts', lambda m: m))
+        observers += [sub(topic, ActionStart, cls.rec, ('starts', lambda m: m))
+                      for topic in ('/dj_rob/action_start',
+                                    '/music/action_start')]
         for topic in ('/mobile_base/commands/led1',
                       '/mobile_base/commands/led2'):
             sub(topic, Led, cls.rec, ('leds', lambda m: m.value))
@@ -109,15 +111,15 @@ class DjRobRound(unittest.TestCase):
         cls.beat_cache = message_filters.Cache(
             message_filters.Subscriber('/music/beat', Beat), 1000)
         sub('/kobuki_sim/led1', Led, cls.rec, ('sim_leds', lambda m: m.value))
-        sub('/capture_data', CaptureData, cls.on_capture)
-        sub('/decision', Decision, cls.on_decision)
+        observers += [sub('/capture_data', CaptureData, cls.on_capture),
+                      sub('/decision', Decision, cls.on_decision)]
         sub('/diagnostics', DiagnosticArray, cls.on_diag)
         cls.errors = []
         sub('/rosout', Log, lambda m: cls.errors.append(m.msg)
             if m.name == '/dj_rob' and m.level >= Log.WARN else None,
             queue_size=100)
         publish_constant_samples({c: float(rospy.get_param(
-            '~%s_value' % c)) for c in ('a', 'b')})
+            '~%s_value' % c)) for c in ('a', 'b')}, observers=observers)
         cls.wait_round()
 
     @classmethod

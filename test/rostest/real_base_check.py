@@ -60,20 +60,20 @@ class RealBase(unittest.TestCase):
         cls.pose = [0.0, 0.0, 0.0]            # x, y, yaw
         cls.twist = (0.0, 0.0)
         sub = rospy.Subscriber
-        sub('/mobile_base/commands/velocity', Twist, cls.on_cmd,
-            queue_size=1000)
+        observers = [sub('/mobile_base/commands/velocity', Twist,
+                         cls.on_cmd, queue_size=1000)]
         sub('/lab1/mobile_base/commands/velocity', Twist, cls.rec,
             'ns_cmds')
         for led in ('led1', 'led2'):
             sub('/mobile_base/commands/' + led, KobukiLed, cls.rec, 'leds')
         sub('/mobile_base/commands/sound', KobukiSound, cls.rec, 'sounds')
-        sub('/lab1/decision', Decision,
-            lambda m: setattr(cls, 'decision', m))
+        observers.append(sub('/lab1/decision', Decision,
+                             lambda m: setattr(cls, 'decision', m)))
         cls.rosout = sub('/rosout', Log, lambda m: cls.logs.append(m)
                          if m.name == '/lab1/dj_rob' else None,
                          queue_size=100)
         threading.Thread(target=cls.base, daemon=True).start()
-        publish_constant_samples({'a': 2.0, 'b': 1.0})
+        publish_constant_samples({'a': 2.0, 'b': 1.0}, observers=observers)
         cls.wait_round()
 
     @classmethod
