@@ -28,8 +28,8 @@ from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
 from std_msgs.msg import Header  # noqa: E402
 from std_srvs.srv import Trigger  # noqa: E402
 
-from hri_sync.msg import (ActionStart, CaptureData, ClientResult,  # noqa: E402
-                          Decision, DpmState, SyncTime)
+from hri_sync.msg import (ActionEnd, ActionStart, CaptureData,  # noqa: E402
+                          ClientResult, Decision, DpmState, SyncTime)
 from hri_sync.ros.params import wait_for  # noqa: E402
 from hri_sync.sensors.lsl import CorrectionFit  # noqa: E402
 from hri_sync.tools import lsl_io  # noqa: E402
@@ -51,6 +51,9 @@ class LslOutCheck(unittest.TestCase):
         # DJ Rob's action start: this checker stands in for turtlebot_gesture.
         self.action_pub = rospy.Publisher('/dj_rob/action_start',
                                           ActionStart, queue_size=10)
+        # And for action_client (client 'actions'): an action's end.
+        self.end_pub = rospy.Publisher('/actions/action_end', ActionEnd,
+                                       queue_size=10)
         # A forged decision (not the DM's): the outlet must not push it.
         self.forged_pub = rospy.Publisher('/decision', Decision,
                                           queue_size=10)
@@ -97,6 +100,14 @@ class LslOutCheck(unittest.TestCase):
                 scheduled=rospy.Time.from_sec(t), offset=0.0,
                 true_time=rospy.Time.from_sec(t)))
             self.put((m.round, 'action_start', 'dj_rob'), t)
+            self.end_pub.publish(ActionEnd(
+                header=Header(stamp=rospy.Time.from_sec(t)), round=m.round,
+                client_id='actions', action='cheer',
+                kind=ActionStart.SERVICE, event=ActionStart.DECISION,
+                status=ActionEnd.TIMEOUT, reason='no answer in 5 s',
+                started=rospy.Time.from_sec(t - 5.0), duration=5.0,
+                timeout=5.0))
+            self.put((m.round, 'action_end', 'actions'), t)
             self.forged_pub.publish(Decision(
                 header=Header(stamp=rospy.Time.from_sec(t)), round=m.round,
                 outcome=Decision.NO_WINNER, reason='forged'))
@@ -151,7 +162,8 @@ class LslOutCheck(unittest.TestCase):
         return [(n, e, '') for e in ('sync', 'window_start', 'window_end',
                                      'decision')] + \
             [(n, 'result', c) for c in self.clients] + \
-            ([(n, 'action_start', 'dj_rob')] if n == self.rounds else [])
+            ([(n, 'action_start', 'dj_rob'), (n, 'action_end', 'actions')]
+             if n == self.rounds else [])
 
     def test_markers(self):
         deadline = time.time() + float(rospy.get_param('~timeout', 240))

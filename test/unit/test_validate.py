@@ -68,6 +68,10 @@ def good(msg_type):
             action='dance', scheduled=NOW - 1.0, offset=0.01,
             true_time=NOW - 0.99, kind='', event='', status='', reason='',
             tolerance=0.0, local_time=0.0),
+        'hri_sync/ActionEnd': dict(
+            header=hdr(NOW - 0.5), round=5, client_id='actions',
+            action='cheer', kind='service', event='decision', status='ok',
+            reason='', started=NOW - 0.6, duration=0.1, timeout=5.0),
         'hri_sync/Beat': dict(header=hdr(NOW), round=5, index=4,
                               bar_beat=0, bpm=120.0),
         'hri_sync/Led': dict(value=1),
@@ -156,7 +160,7 @@ def test_zero_time_only_where_the_contract_allows_it():
         v.check('hri_sync/' + kind, dict(good('hri_sync/' + kind),
                                          header=hdr(0.0)), CTX)
     for kind in ('SyncTime', 'SyncAck', 'CaptureData', 'CaptureCommand',
-                 'ActionStart', 'Beat'):
+                 'ActionStart', 'ActionEnd', 'Beat'):
         e = rejected('hri_sync/' + kind, header=hdr(0.0))
         assert (e.reason, e.field) == ('time_not_positive', 'header.stamp')
 
@@ -165,7 +169,7 @@ def test_zero_time_only_where_the_contract_allows_it():
     'hri_sync/' + k for k in ('SyncTime', 'SyncAck', 'CaptureData',
                               'CaptureCommand', 'RoundStatus',
                               'ClientResult', 'Decision', 'ActionStart',
-                              'Beat')])
+                              'ActionEnd', 'Beat')])
 def test_header_of_every_timestamped_message_is_checked(msg_type):
     for t, reason in ((NOW + 1e5, 'time_in_future'),
                       (NOW - 1e5, 'time_too_old'),
@@ -446,6 +450,29 @@ def test_robot_messages():
         good('hri_sync/ActionStart'), action='light_on', kind='publish',
         event='decision', status='failed', reason='no such topic type',
         tolerance=0.005, local_time=NOW), CTX)
+
+
+
+def test_action_end_rejections():
+    assert rejected('hri_sync/ActionEnd', status='done').reason == \
+        'unknown_value'
+    assert rejected('hri_sync/ActionEnd', kind='').reason == \
+        'unknown_value'
+    for status in ('failed', 'timeout'):
+        assert rejected('hri_sync/ActionEnd', status=status).reason == \
+            'no_reason'
+    assert rejected('hri_sync/ActionEnd', duration=-0.1).reason == \
+        'out_of_range'
+    assert rejected('hri_sync/ActionEnd', duration=math.inf).reason == \
+        'not_finite'
+    assert rejected('hri_sync/ActionEnd', started=NOW - 1e5).reason == \
+        'time_too_old'
+    assert rejected('hri_sync/ActionEnd', client_id='').reason == \
+        'name_empty'
+    v.check('hri_sync/ActionEnd', dict(
+        good('hri_sync/ActionEnd'), kind='command', status='timeout',
+        reason='no end 30.00 s after its start: killed', duration=30.0,
+        timeout=30.0), CTX)
 
 
 def test_stamp_order_rejects_a_repeated_stamp_only():

@@ -29,7 +29,8 @@ import re
 from dataclasses import dataclass, field
 from typing import Any, Callable, Collection, Optional
 
-from hri_sync.timing.vocabulary import (NUM_JOINTS, Action, Outcome,
+from hri_sync.timing.vocabulary import (NUM_JOINTS, Action, ActionEnd,
+                                        Outcome,
                                         ResultStatus, RoundState)
 
 TIME_LIMIT = 2.0 ** 32      # rospy times hold uint32 seconds
@@ -605,6 +606,29 @@ def action_start(*, header: Any, round: Any, client_id: Any, action: Any,
     time_value(local_time, 'local_time', optional=True)
 
 
+def action_end(*, header: Any, round: Any, client_id: Any, action: Any,
+               kind: Any, event: Any, status: Any, reason: Any,
+               started: Any, duration: Any, timeout: Any,
+               ctx: Context) -> None:
+    """~action_end of action_client: when an action that began ended
+    (header.stamp, global): ``duration`` after ``started``, a FAILED or
+    TIMEOUT end saying why."""
+    header_time(header, ctx)
+    round_number(round, ctx)
+    client_name(client_id, 'client_id', ctx)
+    name(action, 'action', ctx)
+    choice(kind, 'kind', Action.KINDS)
+    choice(event, 'event', Action.EVENTS)
+    choice(status, 'status', ActionEnd.STATUSES)
+    text(reason, 'reason', ctx)
+    if status != ActionEnd.OK and not reason:
+        raise Rejected('no_reason', 'status %s without a reason' % status,
+                       'reason')
+    time_near(started, 'started', ctx)
+    number(duration, 'duration', 0.0, ctx.limits.max_dur)
+    number(timeout, 'timeout', 0.0, ctx.limits.max_dur, nan=True)
+
+
 def beat(*, header: Any, round: Any, index: Any, bar_beat: Any, bpm: Any,
          ctx: Context) -> None:
     """~beat of the music player (header.stamp: the beat's time)."""
@@ -674,6 +698,7 @@ VALIDATORS: dict[str, Callable[..., None]] = {
     'hri_sync/Skeleton': skeleton,
     'hri_sync/Sample': sample,
     'hri_sync/ActionStart': action_start,
+    'hri_sync/ActionEnd': action_end,
     'hri_sync/Beat': beat,
     'hri_sync/Led': led,
     'hri_sync/Sound': sound,

@@ -12,7 +12,7 @@ import math
 from collections import Counter
 
 EVENTS = ('sync', 'window_start', 'window_end', 'result', 'decision',
-          'action_start', 'round_aborted')
+          'action_start', 'action_end', 'round_aborted')
 
 
 def marker_text(event, round_id, global_time, bound, **fields):
