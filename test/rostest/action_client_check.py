@@ -30,8 +30,8 @@ checks, per action:
   its status: OK (the messages, the answered service, the goal, the
   command exiting 0), FAILED (success=false, exit status 3) or TIMEOUT
   past its 1 s timeout (the service that never answers: its connection
-  closed; the command that never exits: its process group killed, its
-  background child too); one that did not begin has no end.  Order and
+  closed; the command that never exits and ignores SIGTERM: its process
+  group killed 2 s after the SIGTERM, its background child too); one that did not begin has no end.  Order and
   statuses only: no bound on how long an end takes.
 """
 import math
@@ -89,7 +89,8 @@ ENDS = {'light': (ActionEnd.OK, 0.0, ''),
         'stuck': (ActionEnd.TIMEOUT, 1.0, 'its connection closed'),
         'refused': (ActionEnd.FAILED, 5.0, 'success=false: busy'),
         'exit3': (ActionEnd.FAILED, 30.0, 'exited with status 3'),
-        'sleeper': (ActionEnd.TIMEOUT, 1.0, 'its process group killed')}
+        'sleeper': (ActionEnd.TIMEOUT, 1.0,
+                    'its process group killed (SIGKILL 2 s after SIGTERM)')}
 
 
 class ActionClientRound(unittest.TestCase):

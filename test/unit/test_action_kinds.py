@@ -9,6 +9,7 @@ import pytest
 
 from hri_sync.robot.actions import (ActionFailed, Firing, StartReport,
                                     await_end, parse_action)
+from hri_sync.ros import action_kinds
 from hri_sync.ros.action_kinds import CommandAction, filled, type_class
 from hri_sync.timing.vocabulary import Action, ActionEnd
 
@@ -67,9 +68,30 @@ def test_a_command_past_its_timeout_is_killed_with_its_group(tmp_path):
                         0.0, Action.OK, '', ending)
     end = await_end(start, time.time)
     assert end.status == ActionEnd.TIMEOUT
-    assert end.reason.endswith(': its process group killed')
+    assert end.reason.endswith(': its process group ended on SIGTERM')
     child = int(pid_file.read_text())
     with pytest.raises(ProcessLookupError):
         for _ in range(300):            # until init reaps it
+            os.kill(child, 0)
+            time.sleep(0.01)
+
+
+def test_a_command_ignoring_sigterm_is_killed_after_the_grace(
+        tmp_path, monkeypatch):
+    monkeypatch.setattr(action_kinds, 'TERM_GRACE', 0.3)
+    pid_file = tmp_path / 'child'
+    # SIG_IGN is inherited: neither the shell nor its child ends on TERM.
+    spec, ending = command(['/bin/sh', '-c', 'trap "" TERM; sleep 300 & '
+                            'echo $! > "$0"; wait', str(pid_file)],
+                           timeout=0.5)
+    start = StartReport(Firing(spec, 1, time.time()), time.time(), 0.0,
+                        0.0, Action.OK, '', ending)
+    end = await_end(start, time.time)
+    assert end.status == ActionEnd.TIMEOUT
+    assert end.reason.endswith(': its process group killed (SIGKILL 0.3 s '
+                               'after SIGTERM)')
+    child = int(pid_file.read_text())
+    with pytest.raises(ProcessLookupError):
+        for _ in range(300):
             os.kill(child, 0)
             time.sleep(0.01)

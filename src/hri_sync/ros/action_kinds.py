@@ -21,6 +21,7 @@ import shutil
 import signal
 import subprocess
 import threading
+import time
 import warnings
 
 import actionlib
@@ -279,9 +280,24 @@ class ActionlibAction:
         return Begun(ending=run)
 
 
+TERM_GRACE = 2.0      # s an aborted command's group has after SIGTERM
+
+
+def group_alive(pgid):
+    """Whether a process of the group ``pgid`` still exists."""
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
 class CommandRun(Ending):
-    """A command's process; its end is its exit; aborted by killing its
-    process group (it runs in a session of its own)."""
+    """A command's process; its end is its exit; aborted by stopping its
+    process group (it runs in a session of its own): SIGTERM, then
+    SIGKILL if the group is still there ``TERM_GRACE`` s later."""
 
     def __init__(self, now, proc):
         super().__init__(now)
@@ -298,11 +314,22 @@ class CommandRun(Ending):
             self.finish('exited with status %d' % code)
 
     def abort(self):
+        pgid = self.proc.pid
         try:
-            os.killpg(self.proc.pid, signal.SIGKILL)
+            os.killpg(pgid, signal.SIGTERM)
+        except OSError as e:
+            return 'its process group not signalled: %s' % e
+        deadline = time.monotonic() + TERM_GRACE
+        while group_alive(pgid) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        try:
+            os.killpg(pgid, signal.SIGKILL)
+        except ProcessLookupError:
+            return 'its process group ended on SIGTERM'
         except OSError as e:
             return 'its process group not killed: %s' % e
-        return 'its process group killed'
+        return 'its process group killed (SIGKILL %g s after SIGTERM)' \
+            % TERM_GRACE
 
 
 class CommandAction:
