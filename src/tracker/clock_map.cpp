@@ -96,7 +96,9 @@ void DeviceClockMapper::fit() {
       }
     }
   }
-  drift_ = slopes.empty() ? 0.0 : median(slopes);
+  // A device clock is a crystal: a slope past kMaxDrift is delay that
+  // changed (a producer that fell behind and caught up), not drift.
+  drift_ = std::clamp(slopes.empty() ? 0.0 : median(slopes), -kMaxDrift, kMaxDrift);
   std::vector<double> bases;
   for (const Point& m : mins) bases.push_back(m.lag - drift_ * m.device);
   const double base = median(bases);

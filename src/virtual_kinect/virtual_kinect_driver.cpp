@@ -23,6 +23,7 @@
 #define XN_DELETE(p) delete (p)
 #include <Driver/OniDriverAPI.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
@@ -235,6 +236,11 @@ class DepthStream : public oni::driver::StreamBase {
       const auto due = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(n * period));
       while (running_ && Clock::now() < due) std::this_thread::sleep_for(std::chrono::milliseconds(2));
       if (!running_) break;
+      // A real sensor captures on its own schedule: the frames whose time
+      // passed while this thread could not run are lost (a gap in the frame
+      // index), not delivered late in a burst, which would read as drift.
+      const auto behind = static_cast<uint64_t>(std::chrono::duration<double>(Clock::now() - t0).count() / period);
+      n = std::max(n, behind);
       const double elapsed = n * period;  // true time since the start (the frames' schedule)
       if (cfg_.lose_after > 0 && elapsed >= cfg_.lose_after) {
         if (on_lost_) on_lost_();

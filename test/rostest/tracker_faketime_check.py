@@ -9,11 +9,13 @@ server serves, so each skeleton's true arrival time minus its
 header.stamp is its delay after capture. Asserted, with bounds load
 cannot break: no skeleton arrives before its stamp by more than the clock
 uncertainty the tracker client itself reports on its clock_state (plus
-1 ms), and the median delay is far from the fake offset (below half of
+1 ms), and the least delay is far from the fake offset (below half of
 it): stamps in the faked local clock, or a true-clock reading converted
 with the faked clock's ClockState, are off by the whole fake offset
-(measured: 1.505 s with a +1.5 s clock). The delay figures (measured:
-1-12 ms, median 3 ms on an idle machine) are logged, not asserted.
+(measured: 1.505 s with a +1.5 s clock) for every skeleton, while a
+starved tracker delays some of them only (a median of 0.85 s was seen
+under `make test-load`). The delay figures (measured: 1-12 ms, median
+3 ms on an idle machine) are logged, not asserted.
 """
 import time
 
@@ -58,9 +60,9 @@ class TrackerFaketimeTest(TrackerDanceOffTest):
         self.assertGreater(latency.min(), -early,
                            'a stamp %.4f s after its arrival, beyond the '
                            'clock uncertainty' % -latency.min())
-        self.assertLess(abs(np.median(latency)), abs(fake) / 2.0,
-                        'stamps not in global time: median latency %.4f s '
-                        '(fake offset %.1f s)' % (np.median(latency), fake))
+        self.assertLess(latency.min(), abs(fake) / 2.0,
+                        'stamps not in global time: least latency %.4f s '
+                        '(fake offset %.1f s)' % (latency.min(), fake))
 
 
 if __name__ == '__main__':

@@ -10,6 +10,7 @@ import pytest
 
 from hri_sync.timing.capture import (CaptureWindow, SampleBuffer,
                                      window_stats, window_status)
+from hri_sync.timing.clock import MAX_DRIFT
 from hri_sync.timing.mapping import (ArrivalStamps, DeviceClockMapper,
                                      TimeMapping)
 from hri_sync.timing.processors import CountMean, Processor, ProcessResult
@@ -283,6 +284,23 @@ def test_mapper_residual_is_the_envelope_scatter():
     assert m.residual <= 0.001 + 1e-9
 
 
+def catching_up(device):
+    """The delay of a 30 Hz producer that had fallen 0.8 s behind and
+    catches up over 6 s (the virtual Kinect before it dropped late frames,
+    on a starved machine), then keeps time."""
+    return 0.005 + 0.8 * max(0.0, 1.0 - device / 6.0)
+
+
+def test_a_producer_catching_up_is_not_read_as_drift():
+    m = DeviceClockMapper()
+    for k in range(300):
+        device = k / 30
+        m.observe(device, 1000.0 + device + catching_up(device))
+    assert m.drift == -MAX_DRIFT          # the slope is -0.13: delay, not drift
+    spacing = m.to_global(9.0) - m.to_global(8.0)
+    assert abs(spacing - 1.0) <= MAX_DRIFT + 1e-12
+
+
 def reference_fit(points, min_span):
     """The mapper's fit as first written in plain Python (30 s Theil-Sen
     through bin minima): the vectorized fit must give the same numbers."""
@@ -303,6 +321,7 @@ def reference_fit(points, min_span):
               for i, a in enumerate(mins) for b in mins[i + 1:]
               if b[0] != a[0]]
     drift = statistics.median(slopes) if slopes else 0.0
+    drift = min(MAX_DRIFT, max(-MAX_DRIFT, drift))   # a crystal's bound
     base = statistics.median(d - drift * t for t, d in mins)
     offset = base + min(d - (base + drift * (t - ref)) for t, d in points)
     return offset, drift, ref

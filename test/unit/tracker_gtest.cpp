@@ -407,6 +407,19 @@ TEST(DeviceClock, SharedVectorsMeetPythonsBounds) {
   std::printf("clock map: C++ vs Python at most %.3g s apart\n", worst_agreement);
 }
 
+// A 30 Hz producer 0.8 s behind that catches up over 6 s (the delay falls
+// 0.13 s per s): delay, not drift; the map's slope stops at kMaxDrift (as
+// Python's test_a_producer_catching_up_is_not_read_as_drift).
+TEST(DeviceClock, AProducerCatchingUpIsNotReadAsDrift) {
+  DeviceClockMapper map;
+  for (int k = 0; k < 300; ++k) {
+    const double device = k / 30.0;
+    map.observe(device, 1000.0 + device + 0.005 + 0.8 * std::max(0.0, 1.0 - device / 6.0));
+  }
+  EXPECT_EQ(map.drift(), -kMaxDrift);
+  EXPECT_LE(std::fabs(map.toLocal(9.0) - map.toLocal(8.0) - 1.0), kMaxDrift + 1e-12);
+}
+
 TEST(DeviceClock, ShortSpanTakesTheMinimumDelayWithoutDrift) {
   DeviceClockMapper map;
   EXPECT_THROW(map.toLocal(1.0), std::logic_error);

@@ -13,6 +13,7 @@ from typing import Any, Dict, Generic, Optional, TypeVar
 
 import numpy as np
 
+from hri_sync.timing.clock import MAX_DRIFT
 from hri_sync.timing.times import DeviceTime, GlobalTime, Seconds
 
 # A mapping's source clock.
@@ -211,7 +212,10 @@ class DeviceClockMapper(TimeMapping[DeviceTime]):
         dt = mt[j] - mt[i]
         keep = dt != 0
         slopes = (md[j] - md[i])[keep] / dt[keep]
-        self.drift = _median(slopes) if len(slopes) else 0.0
+        # A device clock is a crystal: a slope past MAX_DRIFT is delay that
+        # changed (a producer that fell behind and caught up), not drift.
+        drift = _median(slopes) if len(slopes) else 0.0
+        self.drift = min(MAX_DRIFT, max(-MAX_DRIFT, drift))
         base = _median(md - self.drift * mt)
         # Shift the line down onto the envelope (no point below it).
         self.offset = base + float(np.min(
