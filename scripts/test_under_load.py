@@ -34,6 +34,7 @@ FAILED_PATTERNS = (
     re.compile(r'^FAILED (\S+)'),                        # pytest -q
     re.compile(r'^FAIL\s+(\S+)'),                        # run_rostests.py
     re.compile(r'^make\[\d+\]: \*\*\* \[\S+: ([\w-]+)\] Error'),  # make
+    re.compile(r'^(\w+: FAIL(?: \(|: ).*)$'),    # the stages' own FAIL lines
 )
 
 
