@@ -289,8 +289,8 @@ def group_alive(pgid):
         os.killpg(pgid, 0)
     except ProcessLookupError:
         return False
-    except PermissionError:
-        return True
+    except PermissionError:     # there, but another user's now
+        pass
     return True
 
 
