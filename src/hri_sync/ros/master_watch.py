@@ -93,8 +93,9 @@ class MasterWatch:
         return 'restarted'
 
 
-def _master_calls(caller_id, master_uri):
-    """lookup and pid over XML-RPC with a timeout (OSError on failure)."""
+def _master_call(caller_id, master_uri):
+    """``call(method, *args)``: one master API call over XML-RPC with a
+    timeout; its (code, msg, value), or OSError on failure."""
     class Transport(xmlrpc.client.Transport):
         def make_connection(self, host):
             conn = super().make_connection(host)
@@ -109,6 +110,12 @@ def _master_calls(caller_id, master_uri):
                 ValueError) as e:
             raise OSError('%s: %s' % (method, e))
         return code, msg, value
+    return call
+
+
+def _master_calls(caller_id, master_uri):
+    """lookup and pid over XML-RPC with a timeout (OSError on failure)."""
+    call = _master_call(caller_id, master_uri)
 
     def lookup(name):
         code, _msg, value = call('lookupNode', name)
@@ -144,6 +151,7 @@ class _Runner:
         master_uri = rosgraph.get_master_uri()
         self.watch = MasterWatch(name, rospy.get_node_uri(), master_uri,
                                  *_master_calls(name, master_uri))
+        self.call = _master_call(name, master_uri)
         try:
             params = rospy.get_param('~')
         except (KeyError, OSError):
@@ -189,12 +197,19 @@ class _Runner:
         rospy.signal_shutdown('the ROS master restarted')
 
     def _restore_params(self):
+        """Write the private params back to the new master, with the
+        watch's timeout: the node must exit even if the master, just
+        started on a busy machine, does not answer (rospy.set_param
+        would wait for ever)."""
         if not self.params:
             return ''
         try:
-            rospy.set_param('~', self.params)
-        except (OSError, xmlrpc.client.Error) as e:
+            code, msg, _ = self.call('setParam', rospy.resolve_name('~'),
+                                     self.params)
+        except OSError as e:
             return ' (could not write its params back: %s)' % e
+        if code != 1:
+            return ' (could not write its params back: %s)' % msg
         return ' (its private params written back)'
 
     @staticmethod
