@@ -21,6 +21,9 @@ import rostest
 from hri_sync.msg import ClientResult, Decision
 
 PKG = 'hri_sync'
+# Hz: a tracker that kept fewer frames than this over the part of the
+# window its sensor saw (30 Hz unstarved) was starved of CPU.
+STARVED_RATE = 10.0
 
 
 class TrackerDanceOffTest(unittest.TestCase):
@@ -48,13 +51,16 @@ class TrackerDanceOffTest(unittest.TestCase):
         expect = rospy.get_param('~expect')
         tracker = rospy.get_param('~tracker_client')
         r = self.results.get(tracker)
-        if (r is not None and r.status == ClientResult.PARTIAL
-                and rospy.get_param('~expect_status_' + tracker,
-                                    ClientResult.OK) == ClientResult.OK):
+        if r is not None and r.status == ClientResult.PARTIAL and (
+                rospy.get_param('~expect_status_' + tracker,
+                                ClientResult.OK) == ClientResult.OK
+                or r.frames < STARVED_RATE * r.coverage
+                * rospy.get_param('~dur')):
             # A tracker starved of CPU gives a partial window (see
-            # test_tracker_result), scored over the whole window: ~expect's
-            # premise is gone. The decision must say so and follow the
-            # scores.
+            # test_tracker_result), or keeps few frames of the part its
+            # sensor saw (3 frames once, unplugged, under make test-load),
+            # scored over the whole window: ~expect's premise is gone. The
+            # decision must say so and follow the scores.
             rospy.logwarn('%s was starved (partial, %d frames): %s not '
                           'judged; the decision: %s', tracker, r.frames,
                           expect, d.reason)
