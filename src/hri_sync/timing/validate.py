@@ -30,8 +30,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Collection, Optional
 
 from hri_sync.timing.vocabulary import (NUM_JOINTS, Action, ActionEnd,
-                                        Outcome,
-                                        ResultStatus, RoundState)
+                                        Outcome, ResultStatus, RoundState)
 
 TIME_LIMIT = 2.0 ** 32      # rospy times hold uint32 seconds
 NAME_RE = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
