@@ -31,8 +31,9 @@ checks, per action:
   command exiting 0), FAILED (success=false, exit status 3) or TIMEOUT
   past its 1 s timeout (the service that never answers: its connection
   closed; the command that never exits and ignores SIGTERM: its process
-  group killed 2 s after the SIGTERM, its background child too); one that did not begin has no end.  Order and
-  statuses only: no bound on how long an end takes.
+  group killed 2 s after the SIGTERM, its background child too); one
+  that did not begin has no end.  Order and statuses only: no bound on
+  how long an end takes.
 """
 import math
 import os

@@ -1,11 +1,11 @@
 """The participants' constant samples the round checkers publish (a
 module beside them: a checker's folder is first on its sys.path)."""
 import threading
-import time
 
 import rospy
 
 from hri_sync.msg import Sample
+from hri_sync.ros.params import wait_for
 
 
 def publish_constant_samples(values, rate=50.0, observers=(),
@@ -18,11 +18,9 @@ def publish_constant_samples(values, rate=50.0, observers=(),
     ``observers`` is connected to a publisher means the checker sees the
     round's capture_data, however late its connections come on a busy
     machine.  A subscriber still unconnected is logged, not waited for."""
-    deadline = time.monotonic() + timeout
+    wait_for(lambda: all(sub.get_num_connections() for sub in observers),
+             timeout, 0.05)
     for sub in observers:
-        while (sub.get_num_connections() < 1 and not rospy.is_shutdown()
-               and time.monotonic() < deadline):
-            time.sleep(0.05)
         if sub.get_num_connections() < 1:
             rospy.logwarn('%s has no publisher after %.0f s: feeding the '
                           'samples anyway', sub.resolved_name, timeout)

@@ -60,38 +60,34 @@ def test_a_command_ends_with_its_exit_status():
     assert (ok.error, failed.error) == (None, 'exited with status 3')
 
 
-def test_a_command_past_its_timeout_is_killed_with_its_group(tmp_path):
+def timed_out_sleeper(tmp_path, trap=''):
+    """The end of a shell past its 0.5 s timeout, its background child
+    gone; ``trap`` runs first in the shell."""
     pid_file = tmp_path / 'child'
-    spec, ending = command(['/bin/sh', '-c', 'sleep 300 & echo $! > "$0"; '
-                            'wait', str(pid_file)], timeout=0.5)
-    start = StartReport(Firing(spec, 1, time.time()), time.time(), 0.0,
-                        0.0, Action.OK, '', ending)
-    end = await_end(start, time.time)
-    assert end.status == ActionEnd.TIMEOUT
-    assert end.reason.endswith(': its process group ended on SIGTERM')
-    child = int(pid_file.read_text())
-    with pytest.raises(ProcessLookupError):
-        for _ in range(300):            # until init reaps it
-            os.kill(child, 0)
-            time.sleep(0.01)
-
-
-def test_a_command_ignoring_sigterm_is_killed_after_the_grace(
-        tmp_path, monkeypatch):
-    monkeypatch.setattr(action_kinds, 'TERM_GRACE', 0.3)
-    pid_file = tmp_path / 'child'
-    # SIG_IGN is inherited: neither the shell nor its child ends on TERM.
-    spec, ending = command(['/bin/sh', '-c', 'trap "" TERM; sleep 300 & '
+    spec, ending = command(['/bin/sh', '-c', trap + 'sleep 300 & '
                             'echo $! > "$0"; wait', str(pid_file)],
                            timeout=0.5)
     start = StartReport(Firing(spec, 1, time.time()), time.time(), 0.0,
                         0.0, Action.OK, '', ending)
     end = await_end(start, time.time)
     assert end.status == ActionEnd.TIMEOUT
-    assert end.reason.endswith(': its process group killed (SIGKILL 0.3 s '
-                               'after SIGTERM)')
     child = int(pid_file.read_text())
     with pytest.raises(ProcessLookupError):
-        for _ in range(300):
+        for _ in range(300):            # until init reaps it
             os.kill(child, 0)
             time.sleep(0.01)
+    return end
+
+
+def test_a_command_past_its_timeout_is_killed_with_its_group(tmp_path):
+    end = timed_out_sleeper(tmp_path)
+    assert end.reason.endswith(': its process group ended on SIGTERM')
+
+
+def test_a_command_ignoring_sigterm_is_killed_after_the_grace(
+        tmp_path, monkeypatch):
+    monkeypatch.setattr(action_kinds, 'TERM_GRACE', 0.3)
+    # SIG_IGN is inherited: neither the shell nor its child ends on TERM.
+    end = timed_out_sleeper(tmp_path, 'trap "" TERM; ')
+    assert end.reason.endswith(': its process group killed (SIGKILL 0.3 s '
+                               'after SIGTERM)')

@@ -21,7 +21,6 @@ import shutil
 import signal
 import subprocess
 import threading
-import time
 import warnings
 
 import actionlib
@@ -37,7 +36,7 @@ from rospy.impl.validators import ParameterInvalid
 
 from hri_sync.robot.actions import ActionFailed, Begun, Ending
 from hri_sync.ros.outbox import Publisher, Unsendable, check_sendable
-from hri_sync.ros.params import stamp
+from hri_sync.ros.params import stamp, wait_for
 from hri_sync.timing.vocabulary import Action
 
 
@@ -319,9 +318,7 @@ class CommandRun(Ending):
             os.killpg(pgid, signal.SIGTERM)
         except OSError as e:
             return 'its process group not signalled: %s' % e
-        deadline = time.monotonic() + TERM_GRACE
-        while group_alive(pgid) and time.monotonic() < deadline:
-            time.sleep(0.02)
+        wait_for(lambda: not group_alive(pgid), TERM_GRACE, 0.02)
         try:
             os.killpg(pgid, signal.SIGKILL)
         except ProcessLookupError:
