@@ -17,7 +17,9 @@ The longest tests start first: by the durations of the last run, kept in
 this project's machine (TEST_DIR/durations.json, refreshed by hand).
 
 Each test's full output goes to .ws/test_logs/<name>.log; a failing
-test's tail is printed.  The last line is 'rostest: N passed, N failed';
+test's tail is printed.  Where the cgroup v1 cpuacct controller is
+mounted, each test's processes share a cgroup and the line gives the CPU
+time they used.  The last line is 'rostest: N passed, N failed';
 the exit status is non-zero when any test failed or none ran.
 """
 import argparse
@@ -34,6 +36,7 @@ import xml.etree.ElementTree as ET
 
 TIMEOUT = 600  # s per test file
 NETNS_PREFIX = 'hrit'
+CPUACCT = '/sys/fs/cgroup/cpuacct'
 
 
 def junit_counts(path):
@@ -88,6 +91,38 @@ def remove_netns(ns):
     subprocess.run(['ip', 'netns', 'del', ns], stderr=subprocess.DEVNULL)
 
 
+class CpuAccount:
+    """A cpuacct cgroup the command's processes run in (a no-op where
+    the controller is not mounted or writable)."""
+
+    def __init__(self, name):
+        self.path = os.path.join(CPUACCT, name)
+        try:
+            os.mkdir(self.path)
+        except OSError:
+            self.path = None
+
+    def wrap(self, command):
+        """command, started inside the cgroup."""
+        if not self.path:
+            return command
+        procs = os.path.join(self.path, 'cgroup.procs')
+        return ['sh', '-c', 'echo $$ > %s && exec "$@"' % procs,
+                'sh'] + command
+
+    def close(self):
+        """CPU seconds used, or None; removes the cgroup."""
+        if not self.path:
+            return None
+        try:
+            with open(os.path.join(self.path, 'cpuacct.usage')) as f:
+                seconds = int(f.read()) / 1e9
+            os.rmdir(self.path)
+        except (OSError, ValueError):
+            return None
+        return seconds
+
+
 def remove_stale_netns():
     """Namespaces of an earlier run of this script that was killed."""
     out = subprocess.run(['ip', 'netns', 'list'], capture_output=True,
@@ -134,15 +169,18 @@ class Runner:
         if os.path.exists(xml):
             os.remove(xml)
         ns = None
+        cpu = None
         env = dict(os.environ)
         if self.isolate:
             with self.lock:
                 self.count += 1
                 ns = '%s_%d_%d' % (NETNS_PREFIX, os.getpid(), self.count)
+            cpu = CpuAccount(ns)
             subprocess.run(['ip', 'netns', 'add', ns], check=True)
             subprocess.run(['ip', 'netns', 'exec', ns, 'ip', 'link', 'set',
                             'lo', 'up'], check=True)
-            command = ['ip', 'netns', 'exec', ns] + command
+            # Wrapped outside: `ip netns exec` mounts a sysfs of its own.
+            command = cpu.wrap(['ip', 'netns', 'exec', ns] + command)
             env.update(ROS_HOSTNAME='localhost',
                        ROS_MASTER_URI='http://localhost:11311')
             env.pop('ROS_IP', None)
@@ -162,18 +200,21 @@ class Runner:
             if ns:
                 remove_netns(ns)
         seconds = time.monotonic() - t0
+        cpu_seconds = cpu.close() if cpu else None
         counts = junit_counts(xml)
         ok = code == 0 and counts is not None and counts[0] > 0 \
             and counts[1] == 0
-        line = '%-4s %-40s %6.1f s  (exit %s, %s)' % (
-            'PASS' if ok else 'FAIL', name, seconds, code,
+        line = '%-4s %-40s %6.1f s%s  (exit %s, %s)' % (
+            'PASS' if ok else 'FAIL', name, seconds,
+            '' if cpu_seconds is None else ', cpu %5.1f s' % cpu_seconds,
+            code,
             '%d tests, %d failed' % counts if counts else 'no result file')
         if not ok:
             with open(log) as lf:
                 tail = lf.readlines()[-40:]
             line += '\n  --- tail of %s ---\n%s' % (
                 log, ''.join('  ' + t for t in tail))
-        return name, ok, seconds, line
+        return name, ok, seconds, cpu_seconds, line
 
 
 def main():
@@ -210,19 +251,22 @@ def main():
         len(files), jobs, ', one network namespace each' if isolate else
         ' (not root: no network namespaces, one at a time)'), flush=True)
     passed, failed = [], []
+    cpu_total = 0.0
     t0 = time.monotonic()
     with concurrent.futures.ThreadPoolExecutor(jobs) as pool:
         for future in concurrent.futures.as_completed(
                 [pool.submit(runner.run, f) for f in files]):
-            name, ok, seconds, line = future.result()
+            name, ok, seconds, cpu_seconds, line = future.result()
             durations[name] = round(seconds, 1)
+            cpu_total += cpu_seconds or 0.0
             (passed if ok else failed).append(name)
             print(line, flush=True)
     with open(durations_file, 'w') as f:
         json.dump(durations, f, indent=1, sort_keys=True)
-    print('rostest: wall %.1f s, sum of test times %.1f s' % (
+    print('rostest: wall %.1f s, sum of test times %.1f s, cpu %.1f s' % (
         time.monotonic() - t0, sum(durations.get(
-            os.path.splitext(os.path.basename(f))[0], 0) for f in files)))
+            os.path.splitext(os.path.basename(f))[0], 0) for f in files),
+        cpu_total))
     if failed:
         print('rostest: failed: %s' % ' '.join(sorted(failed)))
     print('rostest: %d passed, %d failed' % (len(passed), len(failed)))
