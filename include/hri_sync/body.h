@@ -39,10 +39,19 @@ using Joints = std::array<Vec3, NUM_JOINTS>;
 /// x right as seen by the sensor, y up, z along the optical axis).
 struct Camera {
   int width = 320, height = 240;
-  double hfov = 1.0225, vfov = 0.7959;   // Kinect v1 depth: 58.6 x 45.6 degrees
 
-  double xzFactor() const { return 2.0 * std::tan(hfov / 2.0); }
-  double yzFactor() const { return 2.0 * std::tan(vfov / 2.0); }
+  Camera() { setFov(1.0225, 0.7959); }  // Kinect v1 depth: 58.6 x 45.6 degrees
+  /// Fields of view (rad); the tangents the hot loops project with are kept.
+  void setFov(double h, double v) {
+    hfov_ = h;
+    vfov_ = v;
+    xz_ = 2.0 * std::tan(h / 2.0);
+    yz_ = 2.0 * std::tan(v / 2.0);
+  }
+  double hfov() const { return hfov_; }
+  double vfov() const { return vfov_; }
+  double xzFactor() const { return xz_; }
+  double yzFactor() const { return yz_; }
   /// Direction (with z = 1) of the ray through the centre of pixel (u, v).
   Vec3 ray(double u, double v) const {
     return {((u + 0.5) / width - 0.5) * xzFactor(), (0.5 - (v + 0.5) / height) * yzFactor(), 1.0};
@@ -53,6 +62,9 @@ struct Camera {
     *u = (p.x / (p.z * xzFactor()) + 0.5) * width - 0.5;
     *v = (0.5 - p.y / (p.z * yzFactor())) * height - 0.5;
   }
+
+ private:
+  double hfov_, vfov_, xz_, yz_;
 };
 
 /// A joint track: the plain-text format of data/motion/*.track.

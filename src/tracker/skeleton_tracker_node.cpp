@@ -257,9 +257,8 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     Camera cam;
     cam.width = mode.getResolutionX();
     cam.height = mode.getResolutionY();
-    cam.hfov = depth->getHorizontalFieldOfView();
-    cam.vfov = depth->getVerticalFieldOfView();
-    if (mode.getPixelFormat() != openni::PIXEL_FORMAT_DEPTH_1_MM || cam.width <= 0 || !(cam.hfov > 0.1)) {
+    cam.setFov(depth->getHorizontalFieldOfView(), depth->getVerticalFieldOfView());
+    if (mode.getPixelFormat() != openni::PIXEL_FORMAT_DEPTH_1_MM || cam.width <= 0 || !(cam.hfov() > 0.1)) {
       openFailed(uriLabel() + ": unsupported depth mode (need 1 mm depth with a field of view)");
       depth->destroy();
       dev->close();

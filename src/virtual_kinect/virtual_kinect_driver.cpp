@@ -187,8 +187,8 @@ class DepthStream : public oni::driver::StreamBase {
         c.height = mode_.resolutionY;
         return put(c, data, size);
       }
-      case ONI_STREAM_PROPERTY_HORIZONTAL_FOV: return put<float>(static_cast<float>(cam.hfov), data, size);
-      case ONI_STREAM_PROPERTY_VERTICAL_FOV: return put<float>(static_cast<float>(cam.vfov), data, size);
+      case ONI_STREAM_PROPERTY_HORIZONTAL_FOV: return put<float>(static_cast<float>(cam.hfov()), data, size);
+      case ONI_STREAM_PROPERTY_VERTICAL_FOV: return put<float>(static_cast<float>(cam.vfov()), data, size);
       case ONI_STREAM_PROPERTY_MAX_VALUE: return put<int>(10000, data, size);
       case ONI_STREAM_PROPERTY_MIN_VALUE: return put<int>(0, data, size);
       case ONI_STREAM_PROPERTY_MIRRORING: return put<OniBool>(FALSE, data, size);

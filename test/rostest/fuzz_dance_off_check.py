@@ -6,12 +6,16 @@ service) on this test's master, with its screen output in a file, and:
 
 1. runs a clean round, which must be decided (the setup works);
 2. runs a round while test/rostest/fuzz_publisher.py publishes ~count seeded
-   random-field messages on every topic the nodes subscribe to;
+   random-field messages on every topic the nodes subscribe to, under
+   its own caller id or, with ~impersonate, under each topic's rightful
+   owner's;
 3. checks every node of the launch is still alive (registered and
    answering a ping);
 4. runs another clean round: it must end in the decision that
    hri_sync.timing.decision.decide gives on the two DPMs' own results
    (by caller id), both ok;
+   ~impersonate may be a list: steps 2-4 then run once for each item,
+   on the same launch;
 5. checks no traceback through this package's code was logged: neither
    in the launch's output nor in the nodes' log files.  A traceback with
    no frame of ours is rospy's own transport thread losing a peer (the
@@ -210,31 +214,10 @@ class FuzzDanceOff(unittest.TestCase):
         rospy.loginfo('nodes before fuzzing: %s; logs in %s', sorted(before),
                       self.log_dir)
 
-        thread, _ = self.start_round()
-        fuzz = subprocess.run(
-            ['rosrun', 'hri_sync', 'fuzz_publisher.py',
-             '_seed:=%d' % rospy.get_param('~seed', 1),
-             '_count:=%d' % rospy.get_param('~count', 1000),
-             '_rate:=%f' % rospy.get_param('~rate', 400.0),
-             '_impersonate:=%s' % rospy.get_param('~impersonate', False)],
-            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-            timeout=rospy.get_param('~fuzz_timeout', 600.0))
-        rospy.loginfo('fuzzer: %s', fuzz.stdout.strip().splitlines()[-1:])
-        self.assertEqual(fuzz.returncode, 0, fuzz.stdout[-2000:])
-        thread.join(60.0)
-
-        after = self.nodes()
-        dead = sorted(before - after)
-        silent = sorted(n for n in after
-                        if not rosnode.rosnode_ping(n, max_count=1))
-        rospy.loginfo('after fuzzing: dead %s, not answering %s', dead,
-                      silent)
         failures = []
-        try:
-            decision, results = self.clean_round('clean after fuzzing')
-            failures += self.check_decision(decision, results)
-        except AssertionError as e:
-            failures.append(str(e))
+        passes = rospy.get_param('~impersonate', False)
+        for impersonate in passes if isinstance(passes, list) else [passes]:
+            failures += self.fuzz_pass(impersonate, before)
         self.out.flush()
         for line in deaths(self.out.name):
             rospy.loginfo('roslaunch: %s', line)
@@ -246,15 +229,49 @@ class FuzzDanceOff(unittest.TestCase):
                     collections.Counter(blocks).items()):
                 rospy.loginfo('%4d traceback(s) in %s: %s: %s', n,
                               os.path.basename(path), where, error)
-        if dead:
-            failures.append('nodes died: %s' % dead)
-        if silent:
-            failures.append('nodes not answering: %s' % silent)
         ours = sum(1 for blocks in found.values()
                    for where, _ in blocks if where != '?')
         if ours:
             failures.append('%d tracebacks logged' % ours)
         self.assertEqual(failures, [])
+
+    def fuzz_pass(self, impersonate, before):
+        """Fuzz a round (as its senders, with ``impersonate``), then check
+        the nodes and a clean round; returns what failed."""
+        name = 'impersonated' if impersonate else 'own caller id'
+        rospy.loginfo('fuzzing (%s)', name)
+        thread, _ = self.start_round()
+        fuzz = subprocess.run(
+            ['rosrun', 'hri_sync', 'fuzz_publisher.py',
+             '_seed:=%d' % rospy.get_param('~seed', 1),
+             '_count:=%d' % rospy.get_param('~count', 1000),
+             '_rate:=%f' % rospy.get_param('~rate', 400.0),
+             '_impersonate:=%s' % impersonate],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+            timeout=rospy.get_param('~fuzz_timeout', 600.0))
+        rospy.loginfo('fuzzer: %s', fuzz.stdout.strip().splitlines()[-1:])
+        self.assertEqual(fuzz.returncode, 0, fuzz.stdout[-2000:])
+        thread.join(60.0)
+
+        after = self.nodes()
+        dead = sorted(before - after)
+        silent = sorted(n for n in after
+                        if not rosnode.rosnode_ping(n, max_count=1))
+        rospy.loginfo('after fuzzing (%s): dead %s, not answering %s', name,
+                      dead, silent)
+        failures = []
+        try:
+            decision, results = self.clean_round(
+                'clean after fuzzing (%s)' % name)
+            failures += self.check_decision(decision, results)
+        except AssertionError as e:
+            failures.append(str(e))
+        if dead:
+            failures.append('nodes died fuzzed (%s): %s' % (name, dead))
+        if silent:
+            failures.append('nodes not answering fuzzed (%s): %s'
+                            % (name, silent))
+        return failures
 
     def check_decision(self, decision, results):
         """What is wrong with a clean round's decision and results."""

@@ -1,15 +1,16 @@
 #!/usr/bin/python3
 """Checks that a dance-off killed with SIGKILL leaves no orphans (issue 11).
 
-Starts ``dance_off.launch`` (a client under skewed_client, a bag being
-recorded) on this test's master, waits for its nodes, notes every
-descendant process of the roslaunch (or of the skewed_client), kills it
-with SIGKILL and checks that within ~deadline s none of them is alive
-any more (the lifelines of hri_sync.ros.lifeline); with roslaunch
-killed, that the bag was closed: no ``.bag.active`` left, a ``.bag``
-there.  The deadline is a liveness bound
-far above what the shutdown takes (a few seconds), not a performance
-figure.
+Starts ``dance_off.launch`` (both clients under skewed_client, a bag
+being recorded) on this test's master and waits for its nodes.  Then,
+one launch serving both checks: it kills the right client's
+skewed_client with SIGKILL and checks that within ~deadline s none of
+its descendant processes is alive any more (the lifelines of
+hri_sync.ros.lifeline); then it kills the roslaunch, the left client's
+skewed_client still running, and checks the same of every descendant of
+the roslaunch, and that the bag was closed: no ``.bag.active`` left, a
+``.bag`` there.  The deadline is a liveness bound far above what the
+shutdown takes (a few seconds), not a performance figure.
 """
 import os
 import signal
@@ -51,7 +52,8 @@ class Orphans(unittest.TestCase):
         self.launch = subprocess.Popen(
             ['roslaunch', 'hri_sync', 'dance_off.launch', 'rounds:=0',
              'ntp_port:=%d' % rospy.get_param('~ntp_port'),
-             'left_clock:=+1.5s x1.0001', 'bag:=' + bag,
+             'left_clock:=+1.5s x1.0001', 'right_clock:=+0.7s x0.9999',
+             'bag:=' + bag,
              'left_seed:=4', 'right_seed:=21',
              'monitor_required:=false'],
             stdout=open(os.path.join(folder, 'launch.log'), 'w'),
@@ -93,20 +95,22 @@ class Orphans(unittest.TestCase):
                          % (limit, '; '.join(c[:100] for c in
                                              survivors.values())))
 
-    def test_killed_roslaunch(self):
+    def test_killed_skewed_client_then_roslaunch(self):
         bag = self.start()
+        clients = {c: [p for p in procs.descendants(self.launch.pid)
+                       if 'skewed_client' in cmdline(p)
+                       and 'client_id:=%s' % c in cmdline(p)]
+                   for c in ('left', 'right')}
+        for c, pids in clients.items():
+            self.assertEqual(len(pids), 1, 'no skewed_client for %s' % c)
+        self.kill(clients['right'][0])
+        self.assertIn(clients['left'][0], procs.descendants(self.launch.pid),
+                      "the left client's skewed_client ended with the right's")
         self.kill(self.launch.pid)
         self.launch.wait()
         self.assertFalse(os.path.exists(bag + '.active'),
                          'the bag was left active')
         self.assertTrue(os.path.exists(bag), 'no closed bag')
-
-    def test_killed_skewed_client(self):
-        self.start()
-        client = [p for p in procs.descendants(self.launch.pid)
-                  if 'skewed_client' in cmdline(p)]
-        self.assertEqual(len(client), 1, 'no skewed_client')
-        self.kill(client[0])
 
 
 if __name__ == '__main__':

@@ -1,7 +1,10 @@
 #!/bin/bash
-# make test-install: a fresh `catkin_make install` of this package in a
-# temporary workspace, then, from the install space alone (a clean
-# environment whose first python3 on PATH is a fake that fails):
+# make test-install: `catkin_make install` of this package into a fresh
+# install space, .ws/install (the install target of make build's tree, so
+# nothing is compiled twice; the space is emptied first, so a file only an
+# earlier install left cannot hide a missing install rule), then, from the
+# install space alone (a clean environment whose first python3 on PATH is
+# a fake that fails):
 #   - every installed script's shebang is the ROS Python's;
 #   - dance_off.launch runs one round with a replay client under
 #     libfaketime (skewed_client) and a skeleton_tracker client on a
@@ -12,11 +15,11 @@
 #     MCAP (with the install's rosbags and mcap venv);
 #   - system.launch runs a round (synthetic_sensor);
 #   - the C++ tools record_oni, oni_info and tracker_eval run.
-# Exit 0 when all of it passed. KEEP=1 keeps the workspace.
+# Exit 0 when all of it passed. KEEP=1 keeps the logs and bag in /tmp.
 set -u
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 TMP=$(mktemp -d /tmp/hri_sync_install.XXXXXX)
-WS=$TMP/ws
+WS=$ROOT/.ws
 status=0
 say() { echo "install_space: $*"; }
 fail() { say "FAIL: $*"; status=1; }
@@ -29,13 +32,14 @@ free_port() {
   /usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
 }
 
-mkdir -p "$WS/src" "$TMP/badbin"
-ln -s "$ROOT" "$WS/src/hri_sync"
-say "catkin_make install in $WS (log: $TMP/build.log)"
+mkdir -p "$TMP/badbin"
+[ -f "$WS/build/CMakeCache.txt" ] || { fail "no build in $WS/build: run make build first"; exit 1; }
+prefix=$(sed -n 's/^CMAKE_INSTALL_PREFIX:PATH=//p' "$WS/build/CMakeCache.txt")
+[ "$prefix" = "$WS/install" ] || { fail "$WS/build installs to '$prefix', not $WS/install"; exit 1; }
+say "catkin_make install into $WS/install (log: $TMP/build.log)"
+rm -rf "$WS/install"
 if ! (cd "$WS" && source /usr/share/catkin/setup.bash 2>/dev/null
-      catkin_make install -DPYTHON_EXECUTABLE=/usr/bin/python3 \
-        -DCMAKE_BUILD_TYPE=Release -DCATKIN_ENABLE_TESTING=OFF) \
-      > "$TMP/build.log" 2>&1; then
+      catkin_make install) > "$TMP/build.log" 2>&1; then
   tail -30 "$TMP/build.log"
   fail "catkin_make install"
   exit 1
