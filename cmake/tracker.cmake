@@ -63,7 +63,7 @@ function(hri_sync_openni2_program target)
   target_link_libraries(${target} ${OPENNI2_LIBRARY} Threads::Threads)
   set_target_properties(${target} PROPERTIES
     BUILD_RPATH ${HRI_SYNC_OPENNI2_DEVEL}
-    INSTALL_RPATH ${HRI_SYNC_OPENNI2_INSTALL}
+    INSTALL_RPATH "$ORIGIN/openni2"  # relocatable: HRI_SYNC_OPENNI2_INSTALL beside the program
     RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/${CATKIN_PACKAGE_BIN_DESTINATION})
   add_dependencies(${target} VirtualKinect)
 endfunction()

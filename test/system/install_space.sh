@@ -1,10 +1,11 @@
 #!/bin/bash
-# make test-install: `catkin_make install` of this package into a fresh
-# install space, .ws/install (the install target of make build's tree, so
-# nothing is compiled twice; the space is emptied first, so a file only an
-# earlier install left cannot hide a missing install rule), then, from the
-# install space alone (a clean environment whose first python3 on PATH is
-# a fake that fails):
+# make test-install: `make install` of make build's tree (nothing is
+# compiled twice) staged with DESTDIR into a fresh temporary folder, as a
+# packager stages it: outside the package folder, where rosrun would find
+# a second copy of every node, and fresh, so a file only an earlier install
+# left cannot hide a missing install rule.  Then, from that install space
+# alone (a clean environment whose first python3 on PATH is a fake that
+# fails):
 #   - every installed script's shebang is the ROS Python's;
 #   - dance_off.launch runs one round with a replay client under
 #     libfaketime (skewed_client) and a skeleton_tracker client on a
@@ -15,11 +16,11 @@
 #     MCAP (with the install's rosbags and mcap venv);
 #   - system.launch runs a round (synthetic_sensor);
 #   - the C++ tools record_oni, oni_info and tracker_eval run.
-# Exit 0 when all of it passed. KEEP=1 keeps the logs and bag in /tmp.
+# Exit 0 when all of it passed. KEEP=1 keeps the install and its logs.
 set -u
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
 TMP=$(mktemp -d /tmp/hri_sync_install.XXXXXX)
-WS=$ROOT/.ws
+BUILD=$ROOT/.ws/build
 status=0
 say() { echo "install_space: $*"; }
 fail() { say "FAIL: $*"; status=1; }
@@ -33,13 +34,11 @@ free_port() {
 }
 
 mkdir -p "$TMP/badbin"
-[ -f "$WS/build/CMakeCache.txt" ] || { fail "no build in $WS/build: run make build first"; exit 1; }
-prefix=$(sed -n 's/^CMAKE_INSTALL_PREFIX:PATH=//p' "$WS/build/CMakeCache.txt")
-[ "$prefix" = "$WS/install" ] || { fail "$WS/build installs to '$prefix', not $WS/install"; exit 1; }
-say "catkin_make install into $WS/install (log: $TMP/build.log)"
-rm -rf "$WS/install"
-if ! (cd "$WS" && source /usr/share/catkin/setup.bash 2>/dev/null
-      catkin_make install) > "$TMP/build.log" 2>&1; then
+[ -f "$BUILD/CMakeCache.txt" ] || { fail "no build in $BUILD: run make build first"; exit 1; }
+prefix=$(sed -n 's/^CMAKE_INSTALL_PREFIX:PATH=//p' "$BUILD/CMakeCache.txt")
+INSTALL=$TMP/root$prefix
+say "make install of $BUILD into $INSTALL (DESTDIR; log: $TMP/build.log)"
+if ! DESTDIR=$TMP/root cmake --build "$BUILD" --target install > "$TMP/build.log" 2>&1; then
   tail -30 "$TMP/build.log"
   fail "catkin_make install"
   exit 1
@@ -53,17 +52,17 @@ CLEAN_ENV=(env -i HOME="$TMP" PATH="$TMP/badbin:/usr/local/bin:/usr/bin:/bin"
   ROS_MASTER_URI="http://localhost:$PORT" ROS_HOME="$TMP/ros"
   ROS_LOG_DIR="$TMP/ros/log")
 run() {   # run CMD in a clean environment with only the install space
-  "${CLEAN_ENV[@]}" bash -c "source '$WS/install/setup.bash' && $1"
+  "${CLEAN_ENV[@]}" bash -c "source '$INSTALL/setup.bash' && $1"
 }
 spawn() {   # as run, in the background: `spawn "exec CMD" &`, $! is CMD's pid
-  exec "${CLEAN_ENV[@]}" bash -c "source '$WS/install/setup.bash' && $1"
+  exec "${CLEAN_ENV[@]}" bash -c "source '$INSTALL/setup.bash' && $1"
 }
 
 share=$(run 'rospack find hri_sync')
-[ "$share" = "$WS/install/share/hri_sync" ] \
+[ "$share" = "$INSTALL/share/hri_sync" ] \
   || fail "rospack find hri_sync gives '$share', not the install space"
 
-for f in "$WS"/install/lib/hri_sync/*; do
+for f in "$INSTALL"/lib/hri_sync/*; do
   [ -f "$f" ] || continue
   if [ "$(head -c 2 "$f")" = '#!' ]; then
     line=$(head -n 1 "$f")

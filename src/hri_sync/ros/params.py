@@ -1,5 +1,6 @@
 """Node plumbing: ~params, polled waits and rospy.Time conversion."""
 import math
+import os
 import signal
 import sys
 import threading
@@ -95,6 +96,11 @@ def run_node(name, main, master_restart='exit'):
         raise SystemExit(unique.DUPLICATE_EXIT)
     rospy.init_node(name)
     signal.signal(signal.SIGTERM, _shutdown_in_a_thread)
+    if 'libfaketime' in os.environ.get('LD_PRELOAD', ''):
+        # Under libfaketime 0.9.10 (skewed_client) a timed thread join
+        # spins: rospy's shutdown, after its hooks ran, would spin up to 5 s
+        # a thread (skewed_client kills its client 3 s after a SIGINT).
+        rospy.core._TIMEOUT_SHUTDOWN_JOIN = 0.0
     watch = master_watch.start(exit_on_restart=master_restart == 'exit')
     try:
         main()
