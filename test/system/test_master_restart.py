@@ -156,12 +156,15 @@ def test_nodes_come_back_registered_after_a_master_restart(session):
         after = wait_until('every node registered with the new master',
                            lambda: registered(s, before), DEADLINE)
     except RuntimeError as e:
-        # Name the nodes that did not come back, with the launch's output
-        # (it timed out twice under make test-load; the cause is open).
+        # Name the nodes that did not come back after the launch's output,
+        # so a failing test's tail shows them (it timed out three times
+        # under make test-load; the cause is open).
         uris = {n: s.lookup('Node', n) for n in NODES}
-        raise AssertionError('%s: not registered again: %s\n%s' % (
-            e, [n for n in NODES if not uris[n] or uris[n] == before[n]],
-            s.log()[-4000:])) from e
+        raise AssertionError('%s\n%s: not registered again: %s%s' % (
+            s.log()[-4000:], e,
+            [n for n in NODES if not uris[n] or uris[n] == before[n]],
+            '' if s.lookup('Service', SERVICE) else
+            '; %s not advertised' % SERVICE)) from e
     assert set(after) == set(NODES)
     # The respawned tracker (C++) found its private params on the new master.
     assert 'virtual://' in rosgraph.Master('/test', s.uri).getParam(
