@@ -64,7 +64,7 @@ unit: setup
 check: setup
 	@$(CHECK)
 
-# A fresh catkin_make install runs the nodes and tools (test/system/install_space.sh).
+# make build's install, staged in a temporary folder, runs the nodes and tools (test/system/install_space.sh).
 test-install: setup
 	@$(INSTALL_CHECK)
 

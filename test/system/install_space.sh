@@ -40,7 +40,7 @@ INSTALL=$TMP/root$prefix
 say "make install of $BUILD into $INSTALL (DESTDIR; log: $TMP/build.log)"
 if ! DESTDIR=$TMP/root cmake --build "$BUILD" --target install > "$TMP/build.log" 2>&1; then
   tail -30 "$TMP/build.log"
-  fail "catkin_make install"
+  fail "make install (DESTDIR=$TMP/root)"
   exit 1
 fi
 
