@@ -111,29 +111,45 @@ class CpuAccount:
                 'sh'] + command
 
     def close(self):
-        """CPU seconds used, or None; removes the cgroup."""
+        """CPU seconds used, or None; removes the cgroup (left behind,
+        empty of processes, only while one of them still lingers)."""
         if not self.path:
             return None
         try:
             with open(os.path.join(self.path, 'cpuacct.usage')) as f:
                 seconds = int(f.read()) / 1e9
-            os.rmdir(self.path)
         except (OSError, ValueError):
-            return None
+            seconds = None
+        try:
+            os.rmdir(self.path)
+        except OSError:
+            pass
         return seconds
 
 
+def stale(name):
+    """True for a namespace or cgroup name of a run of this script that
+    is gone."""
+    parts = name.split('_')
+    return len(parts) == 3 and parts[0] == NETNS_PREFIX \
+        and parts[1].isdigit() and not os.path.exists('/proc/%s' % parts[1])
+
+
 def remove_stale_netns():
-    """Namespaces of an earlier run of this script that was killed."""
+    """Namespaces of an earlier run of this script that was killed, and
+    its cgroups left empty."""
     out = subprocess.run(['ip', 'netns', 'list'], capture_output=True,
                          text=True).stdout
     for line in out.splitlines():
         ns = line.split()[0] if line.split() else ''
-        parts = ns.split('_')
-        if len(parts) == 3 and parts[0] == NETNS_PREFIX \
-                and parts[1].isdigit() \
-                and not os.path.exists('/proc/%s' % parts[1]):
+        if stale(ns):
             remove_netns(ns)
+    for name in os.listdir(CPUACCT) if os.path.isdir(CPUACCT) else []:
+        if stale(name):
+            try:
+                os.rmdir(os.path.join(CPUACCT, name))
+            except OSError:
+                pass    # a process of it still runs
 
 
 class Runner:
