@@ -20,7 +20,7 @@ import time
 from dataclasses import dataclass, replace
 
 from hri_sync.tools.procs import (become_subreaper, cmdline, descendants,
-                                  proc_table, signal_each)
+                                  proc_table, reap, signal_each)
 
 
 def _log_nowhere(fmt, *args):
@@ -60,22 +60,7 @@ class Processes:
         return descendants(self.me)
 
     def _reap(self):
-        """Collect ended children: ours through their Popen, which keeps
-        their exit status (a plain waitpid(-1) could take it first), the
-        orphans re-parented to us directly."""
-        mine = {p.pid: p for _, p in self.children}
-        while True:
-            try:
-                info = os.waitid(os.P_ALL, 0, os.WEXITED | os.WNOHANG
-                                 | os.WNOWAIT)
-            except ChildProcessError:
-                return
-            if info is None:
-                return
-            if info.si_pid in mine:
-                mine.pop(info.si_pid).poll()
-            else:
-                os.waitpid(info.si_pid, 0)
+        reap([p for _, p in self.children])
 
     def _signal_all(self, sig, targets):
         live = self.descendants()

@@ -97,9 +97,10 @@ class Orphans(unittest.TestCase):
 
     def test_killed_skewed_client_then_roslaunch(self):
         bag = self.start()
-        clients = {c: [p for p in procs.descendants(self.launch.pid)
-                       if 'skewed_client' in cmdline(p)
-                       and 'client_id:=%s' % c in cmdline(p)]
+        launched = {p: cmdline(p) for p in procs.descendants(self.launch.pid)}
+        clients = {c: [p for p, line in launched.items()
+                       if 'skewed_client' in line
+                       and 'client_id:=%s' % c in line]
                    for c in ('left', 'right')}
         for c, pids in clients.items():
             self.assertEqual(len(pids), 1, 'no skewed_client for %s' % c)

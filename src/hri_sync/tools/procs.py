@@ -98,15 +98,23 @@ def become_subreaper():
         return False
 
 
-def reap():
-    """Collect every child of this process that has ended (non-blocking)."""
+def reap(children=()):
+    """Collect every child of this process that has ended (non-blocking);
+    those among ``children`` (Popen objects) through their ``poll()``, so
+    they keep their exit status (a plain waitpid(-1) could take it)."""
+    mine = {p.pid: p for p in children}
     while True:
         try:
-            pid, _ = os.waitpid(-1, os.WNOHANG)
+            info = os.waitid(os.P_ALL, 0, os.WEXITED | os.WNOHANG
+                             | os.WNOWAIT)
         except ChildProcessError:
             return
-        if pid == 0:
+        if info is None:
             return
+        if info.si_pid in mine:
+            mine.pop(info.si_pid).poll()
+        else:
+            os.waitpid(info.si_pid, 0)
 
 
 def signal_each(pids, sig):
