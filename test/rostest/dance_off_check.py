@@ -84,8 +84,10 @@ class DanceOffRound(unittest.TestCase):
         if cls.verify:
             cls.bag = os.path.join(tempfile.mkdtemp(prefix='dance_off_'),
                                    'round.bag')
+            # The CM waits for it (~recorder) before round 1.
             cls.recorder = subprocess.Popen(
-                ['rosbag', 'record', '-O', cls.bag] + RECORD,
+                ['rosbag', 'record', '-O', cls.bag] + RECORD
+                + ['__name:=' + rospy.get_param('~recorder')],
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                 start_new_session=True)
         rospy.Subscriber('/client_result', ClientResult, cls.on_result)
