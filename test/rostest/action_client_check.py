@@ -57,13 +57,13 @@ from std_srvs.srv import (SetBool, SetBoolResponse, Trigger,
 
 from constant_samples import publish_constant_samples
 from hri_sync.msg import ActionEnd, ActionStart, CaptureData, Decision
+from hri_sync.ros.master_watch import watch_links
 from hri_sync.timing.protocol import Capture
 
 START_SANITY = 0.25          # s, see the docstring
 ARRIVAL_SANITY = 1.0         # s, from a start to its receiver (transport,
                              # this process's threads under load)
 COMMAND_SANITY = 60.0        # s, from the command's start to its output
-OUT = '/tmp/action_client_check'
 STARTED = {'light': ('publish', 'window_start', -0.2),
            'mark': ('service', 'window_start', 0.0),
            'stimulus': ('command', 'window_start', 0.5),
@@ -99,9 +99,12 @@ class ActionClientRound(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        shutil.rmtree(OUT, ignore_errors=True)
-        os.makedirs(OUT)
         rospy.init_node('action_check')
+        watch_links()    # hri_sync.ros.links
+        # The commands' output folder, this launch's own (~out).
+        cls.out = rospy.get_param('~out')
+        shutil.rmtree(cls.out, ignore_errors=True)
+        os.makedirs(cls.out)
         cls.lock = threading.Lock()
         cls.starts, cls.lights, cls.cheers, cls.marks, cls.goals, \
             cls.cues, cls.ends, cls.stucks = [], [], [], [], [], [], [], []
@@ -141,6 +144,7 @@ class ActionClientRound(unittest.TestCase):
     @classmethod
     def tearDownClass(cls):
         cls.over.set()
+        shutil.rmtree(cls.out, ignore_errors=True)
 
     @classmethod
     def rec(cls, msg, key):
@@ -235,7 +239,7 @@ class ActionClientRound(unittest.TestCase):
                             name)
         # The command's own clock, once its interpreter is up (seconds on
         # a loaded machine: only the order and the round are checked).
-        with open(os.path.join(OUT, 'stimulus')) as f:
+        with open(os.path.join(self.out, 'stimulus')) as f:
             ran = float(f.read())
         self.assertGreaterEqual(ran, r['stimulus'].local_time.to_sec())
         self.assertLess(ran - r['stimulus'].local_time.to_sec(),
@@ -305,7 +309,7 @@ class ActionClientRound(unittest.TestCase):
         code, _, pid = xmlrpc.client.ServerProxy(node).getPid(
             '/action_check')
         self.assertEqual(code, 1)
-        with open(os.path.join(OUT, 'sleeper.%d' % pid)) as f:
+        with open(os.path.join(self.out, 'sleeper.%d' % pid)) as f:
             child = int(f.read())
         try:
             with open('/proc/%d/stat' % child) as f:

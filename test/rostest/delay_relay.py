@@ -8,9 +8,12 @@ import time
 import roslib.message
 import rospy
 
+from hri_sync.ros.master_watch import watch_links
+
 
 def main():
     rospy.init_node('delay_relay')
+    watch_links()    # hri_sync.ros.links
     delay = rospy.get_param('~delay')
     msg_class = roslib.message.get_message_class(rospy.get_param('~type'))
     pub = rospy.Publisher(rospy.get_param('~output'), msg_class,

@@ -25,6 +25,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from std_msgs.msg import Header
 
 from hri_sync.msg import Decision, SyncTime
+from hri_sync.ros.master_watch import watch_links
 from hri_sync.ros.params import wait_for
 
 SYNCED = ('left', 'dj_rob', 'music')
@@ -65,6 +66,7 @@ class DiagnosticsCheck(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         rospy.init_node('diagnostics_check')
+        watch_links()    # hri_sync.ros.links
         cls.bad = rospy.get_param('~unreachable')
         cls.server = rospy.get_param('~ntp_server')
         cls.diag = Seen('/diagnostics')

@@ -17,6 +17,7 @@ import threading
 import time
 import unittest
 
+from hri_sync.ros.master_watch import watch_links  # noqa: E402
 from hri_sync.tools import venv
 
 venv.ensure(['pylsl'], 'lsl_out_check', __file__)
@@ -208,4 +209,5 @@ class LslOutCheck(unittest.TestCase):
 
 if __name__ == '__main__':
     rospy.init_node('lsl_out_check')
+    watch_links()    # hri_sync.ros.links
     rostest.rosrun('hri_sync', 'lsl_out_check', LslOutCheck)

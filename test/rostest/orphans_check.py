@@ -23,6 +23,7 @@ import rosnode
 import rospy
 import rostest
 
+from hri_sync.ros.master_watch import watch_links
 from hri_sync.tools import procs
 
 NODES = ('/control_module', '/decision_module', '/time_server',
@@ -116,4 +117,5 @@ class Orphans(unittest.TestCase):
 
 if __name__ == '__main__':
     rospy.init_node('orphans_check')
+    watch_links()    # hri_sync.ros.links
     rostest.rosrun('hri_sync', 'orphans_check', Orphans)

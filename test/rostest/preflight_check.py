@@ -7,6 +7,8 @@ import sys
 import unittest
 
 import rospy
+
+from hri_sync.ros.master_watch import watch_links
 import rostest
 
 
@@ -28,4 +30,5 @@ class PreflightCheck(unittest.TestCase):
 
 if __name__ == '__main__':
     rospy.init_node('preflight_check')
+    watch_links()    # hri_sync.ros.links
     rostest.rosrun('hri_sync', 'preflight_check', PreflightCheck)

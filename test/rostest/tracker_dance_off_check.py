@@ -19,6 +19,7 @@ import unittest
 import rospy
 import rostest
 from hri_sync.msg import ClientResult, Decision
+from hri_sync.ros.master_watch import watch_links
 
 PKG = 'hri_sync'
 # Hz: a tracker that kept fewer frames than this over the part of the
@@ -110,4 +111,5 @@ class TrackerDanceOffTest(unittest.TestCase):
 
 if __name__ == '__main__':
     rospy.init_node('tracker_dance_off_check')
+    watch_links()    # hri_sync.ros.links
     rostest.rosrun(PKG, 'tracker_dance_off', TrackerDanceOffTest)

@@ -11,6 +11,8 @@ import time
 import unittest
 
 import rospy
+
+from hri_sync.ros.master_watch import watch_links
 import rostest
 
 from tracker_partial_view_check import listen
@@ -75,4 +77,5 @@ class TrackerMultiUserTest(unittest.TestCase):
 
 if __name__ == '__main__':
     rospy.init_node('tracker_multi_user_check')
+    watch_links()    # hri_sync.ros.links
     rostest.rosrun(PKG, 'tracker_multi_user', TrackerMultiUserTest)

@@ -27,6 +27,7 @@ import numpy as np
 import rospy
 import rostest
 from hri_sync.msg import ClockState, Skeleton
+from hri_sync.ros.master_watch import watch_links
 
 PKG = 'hri_sync'
 HANDS = (7, 8)
@@ -131,4 +132,5 @@ class TrackerOniTest(unittest.TestCase):
 
 if __name__ == '__main__':
     rospy.init_node('tracker_oni_check')
+    watch_links()    # hri_sync.ros.links
     rostest.rosrun(PKG, 'tracker_oni', TrackerOniTest)

@@ -14,7 +14,9 @@ them at start; ``keep_param`` updates them), and ends with exit status
 registered with the new master; a node without respawn stays down, and
 its log says the launch must be restarted.  A node that needs no
 registration to do its work (the time server) may instead keep running,
-unregistered, with ``run_node(..., master_restart='warn')``.
+unregistered, with ``run_node(..., master_restart='warn')``.  The same
+loop connects a new subscription to a publisher that rospy's registration
+race made it miss (``hri_sync.ros.links``).
 """
 import http.client
 import logging
@@ -25,6 +27,8 @@ import xmlrpc.client
 
 import rosgraph
 import rospy
+
+from hri_sync.ros.links import LinkRepair
 
 RESTART_EXIT = 75   # EX_TEMPFAIL: try again (roslaunch respawns the node)
 PERIOD = 1.0        # s between two questions to the master
@@ -152,6 +156,7 @@ class _Runner:
         self.watch = MasterWatch(name, rospy.get_node_uri(), master_uri,
                                  *_master_calls(name, master_uri))
         self.call = _master_call(name, master_uri)
+        self.links = LinkRepair(self.call)
         try:
             params = rospy.get_param('~')
         except (KeyError, OSError):
@@ -179,6 +184,8 @@ class _Runner:
             elif state == 'restarted':
                 self._restarted()
                 return
+            if self.watch.seen and not self.watch.unreachable:
+                self.links.check()
             time.sleep(PERIOD)
 
     def _restarted(self):
@@ -229,3 +236,17 @@ def start(exit_on_restart=True):
     threading.Thread(target=runner.run, daemon=True,
                      name='master_watch').start()
     return runner
+
+
+def watch_links(period=PERIOD):
+    """For a rospy process that does not run under ``run_node`` (a test's
+    checker): the subscription checks of ``hri_sync.ros.links``, in a
+    thread of their own, every ``period`` s."""
+    name = rospy.get_name()
+    repair = LinkRepair(_master_call(name, rosgraph.get_master_uri()))
+
+    def run():
+        while not rospy.is_shutdown():
+            repair.check()
+            time.sleep(period)
+    threading.Thread(target=run, daemon=True, name='links').start()
