@@ -31,10 +31,15 @@ def publish_constant_samples(values, rate=50.0, observers=(),
         index = 0
         sleeper = rospy.Rate(rate)
         while not rospy.is_shutdown():
-            for c, pub in pubs.items():
-                msg = Sample(index=index, value=values[c])
-                msg.header.stamp = rospy.Time.now()
-                pub.publish(msg)
+            try:
+                for c, pub in pubs.items():
+                    msg = Sample(index=index, value=values[c])
+                    msg.header.stamp = rospy.Time.now()
+                    pub.publish(msg)
+                sleeper.sleep()
+            except rospy.ROSException:
+                if not rospy.is_shutdown():
+                    raise
+                return          # closed at shutdown
             index += 1
-            sleeper.sleep()
     threading.Thread(target=run, daemon=True).start()

@@ -82,9 +82,13 @@ class SyncedClock:
         with self._publish_lock:
             status = self.sync.status()
             local = time.time()
-            self._state_pub.publish(msg_from_model(
-                self.name, status.model.snapshot(local),
-                status.reason(local), status.samples, status.round_trip))
+            try:
+                self._state_pub.publish(msg_from_model(
+                    self.name, status.model.snapshot(local),
+                    status.reason(local), status.samples, status.round_trip))
+            except rospy.ROSException:
+                if not rospy.is_shutdown():
+                    raise       # closed at shutdown: nothing to tell
 
     def _report(self, status):
         self._publish()
