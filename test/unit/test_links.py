@@ -117,3 +117,34 @@ def test_a_lost_publisher_update_is_repaired(tmp_path):
         for p in procs:
             p.kill()
             p.wait()
+
+
+class FakeTopics:
+    """rospy's topic manager, as LinkRepair reads it."""
+
+    def __init__(self, subscribed, impls):
+        self.subscribed = subscribed
+        self.impls = impls
+
+    def get_subscriptions(self):
+        return [[t, 'std_msgs/String'] for t in self.subscribed]
+
+    def get_subscriber_impl(self, topic):
+        return self.impls.get(topic)
+
+
+def test_a_subscription_gone_during_the_check_is_unregistered_again(
+        monkeypatch):
+    from hri_sync.ros import links
+    calls = []
+
+    def call(method, *args):
+        calls.append((method,) + args)
+        return 1, '', []
+    monkeypatch.setattr(links, 'get_topic_manager',
+                        lambda: FakeTopics(['/gone'], {}))
+    monkeypatch.setattr(links.rospy, 'get_node_uri', lambda: A)
+    links.LinkRepair(call).check()
+    assert calls == [
+        ('registerSubscriber', '/gone', 'std_msgs/String', A),
+        ('unregisterSubscriber', '/gone', A)]

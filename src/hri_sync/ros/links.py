@@ -90,7 +90,10 @@ class LinkRepair:
             except OSError:
                 return              # the master watch says why
             impl = tm.get_subscriber_impl(topic)
-            if code != 1 or impl is None:
+            if impl is None:        # unsubscribed meanwhile: undo the call
+                self.unregister(topic, uri)
+                continue
+            if code != 1:
                 continue
             lost = self.core.repair(
                 topic, publishers,
@@ -98,6 +101,12 @@ class LinkRepair:
                 time.monotonic())
             if lost:
                 self.hand_over(topic, publishers, lost, uri)
+
+    def unregister(self, topic, uri):
+        try:
+            self.call('unregisterSubscriber', topic, uri)
+        except OSError:
+            pass                    # the master watch says why
 
     @staticmethod
     def hand_over(topic, publishers, lost, uri):
