@@ -5,7 +5,6 @@ import threading
 from xmlrpc.server import SimpleXMLRPCServer
 
 import pytest
-import rosgraph
 
 from hri_sync.ros.recorder_link import RecorderLink, unlinked
 
@@ -51,18 +50,15 @@ def test_only_a_publishers_connection_to_the_recorder_counts():
     assert unlinked(REC, STATE, info.get) == []
 
 
-class FakeMaster:
-    def __init__(self, uris, state):
-        self.uris = uris
-        self.state = state
-
-    def lookupNode(self, name):
-        if name not in self.uris:
-            raise rosgraph.MasterError('unknown node [%s]' % name)
-        return self.uris[name]
-
-    def getSystemState(self):
-        return self.state
+def master(uris, state):
+    """A master's ``call(method, *args)`` (as master_watch.master_call)."""
+    def call(method, *args):
+        if method == 'lookupNode':
+            return (1, '', uris[args[0]]) if args[0] in uris else \
+                (-1, 'unknown node [%s]' % args[0], '')
+        assert method == 'getSystemState'
+        return 1, '', state
+    return call
 
 
 @pytest.fixture
@@ -86,9 +82,7 @@ def nodes():
 
 
 def link(uris):
-    out = RecorderLink(REC, CM, timeout=2.0)
-    out.master = FakeMaster(uris, STATE)
-    return out
+    return RecorderLink(REC, master(uris, STATE), CM, timeout=2.0)
 
 
 def test_missing_names_what_is_not_connected(nodes):
@@ -96,7 +90,8 @@ def test_missing_names_what_is_not_connected(nodes):
     checker = link(uris)
     rows[LEFT].append(row('/lab/left/captured'))
     rows[CM].append(row('/lab/capture_data'))
-    assert checker.missing() == '/lab/right/captured from %s' % RIGHT
+    assert checker.missing() == ('no connection to the recorder %s: '
+                                 '/lab/right/captured from %s' % (REC, RIGHT))
     rows[RIGHT].append(row('/lab/right/captured'))
     assert checker.missing() == ''
 
@@ -106,10 +101,17 @@ def test_a_publisher_that_does_not_answer_is_not_connected(nodes):
     rows[LEFT].append(row('/lab/left/captured'))
     rows[RIGHT].append(row('/lab/right/captured'))
     uris[CM] = 'http://127.0.0.1:1/'
-    assert link(uris).missing() == '/lab/capture_data from %s' % CM
+    gap = 'no connection to the recorder %s: /lab/capture_data from %s' % (
+        REC, CM)
+    assert link(uris).missing() == gap
     del uris[CM]                  # gone from the master since its state
-    assert link(uris).missing() == '/lab/capture_data from %s' % CM
+    assert link(uris).missing() == gap
 
 
-def test_an_unregistered_recorder_is_said():
+def test_an_unregistered_recorder_and_an_unreachable_master_are_said():
     assert link({}).missing() == 'the recorder %s is not registered' % REC
+
+    def down(method, *args):
+        raise OSError('%s: connection refused' % method)
+    assert RecorderLink(REC, down, CM).missing() == (
+        'the master cannot be reached (lookupNode: connection refused)')

@@ -25,7 +25,7 @@ import xmlrpc.client
 import rospy
 from rospy.impl.registration import get_topic_manager
 
-from hri_sync.ros.unique import _Timeout
+from hri_sync.ros.unique import TimeoutTransport
 
 SETTLE = 30.0   # s after a subscription appears that it is checked
 FIRST = 1.0     # s after it appears that a complete check ends its checks
@@ -115,7 +115,7 @@ class LinkRepair:
                       'connecting', rospy.get_name(), ', '.join(lost), topic)
         try:
             xmlrpc.client.ServerProxy(
-                uri, transport=_Timeout(10.0)).publisherUpdate(
+                uri, transport=TimeoutTransport(10.0)).publisherUpdate(
                 '/master', topic, publishers)
         except (OSError, xmlrpc.client.Error) as e:
             rospy.logerr('%s: could not hand %s over for %s: %s',

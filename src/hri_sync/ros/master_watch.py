@@ -29,6 +29,7 @@ import rosgraph
 import rospy
 
 from hri_sync.ros.links import LinkRepair
+from hri_sync.ros.unique import TimeoutTransport
 
 RESTART_EXIT = 75   # EX_TEMPFAIL: try again (roslaunch respawns the node)
 PERIOD = 1.0        # s between two questions to the master
@@ -97,15 +98,11 @@ class MasterWatch:
         return 'restarted'
 
 
-def _master_call(caller_id, master_uri):
+def master_call(caller_id, master_uri):
     """``call(method, *args)``: one master API call over XML-RPC with a
     timeout; its (code, msg, value), or OSError on failure."""
-    class Transport(xmlrpc.client.Transport):
-        def make_connection(self, host):
-            conn = super().make_connection(host)
-            conn.timeout = TIMEOUT
-            return conn
-    proxy = xmlrpc.client.ServerProxy(master_uri, transport=Transport())
+    proxy = xmlrpc.client.ServerProxy(master_uri,
+                                      transport=TimeoutTransport(TIMEOUT))
 
     def call(method, *args):
         try:
@@ -119,7 +116,7 @@ def _master_call(caller_id, master_uri):
 
 def _master_calls(caller_id, master_uri):
     """lookup and pid over XML-RPC with a timeout (OSError on failure)."""
-    call = _master_call(caller_id, master_uri)
+    call = master_call(caller_id, master_uri)
 
     def lookup(name):
         code, _msg, value = call('lookupNode', name)
@@ -155,7 +152,7 @@ class _Runner:
         master_uri = rosgraph.get_master_uri()
         self.watch = MasterWatch(name, rospy.get_node_uri(), master_uri,
                                  *_master_calls(name, master_uri))
-        self.call = _master_call(name, master_uri)
+        self.call = master_call(name, master_uri)
         self.links = LinkRepair(self.call)
         try:
             params = rospy.get_param('~')
@@ -243,7 +240,7 @@ def watch_links(period=PERIOD):
     checker): the subscription checks of ``hri_sync.ros.links``, in a
     thread of their own, every ``period`` s."""
     name = rospy.get_name()
-    repair = LinkRepair(_master_call(name, rosgraph.get_master_uri()))
+    repair = LinkRepair(master_call(name, rosgraph.get_master_uri()))
 
     def run():
         while not rospy.is_shutdown():

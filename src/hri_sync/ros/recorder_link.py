@@ -8,13 +8,11 @@ recompute the round).  Before its first round the control module asks the
 master who publishes the recorder's topics, and each publisher (getBusInfo,
 the slave API call that ``rosnode info`` makes) whether its connection to
 the recorder is up: a publisher lists a subscriber once their handshake is
-done, the subscriber lists it before.  rospy-free (rosgraph and XML-RPC).
+done, the subscriber lists it before.  rospy-free (XML-RPC).
 """
 import xmlrpc.client
 
-import rosgraph
-
-from hri_sync.ros.unique import _Timeout
+from hri_sync.ros.unique import TimeoutTransport
 
 
 def unlinked(recorder, state, bus_info_of):
@@ -45,31 +43,39 @@ def unlinked(recorder, state, bus_info_of):
 class RecorderLink:
     """Asks the master and the publishers whether the recorder node
     ``recorder`` (a resolved name) is connected to every publisher of what
-    it records; ``missing()`` -> the text of what is not (empty: all is)."""
+    it records; ``missing()`` -> what is not, as a sentence (empty: all
+    is).  ``call(method, *args)``: a master API call with a timeout
+    (hri_sync.ros.master_watch.master_call; OSError on failure)."""
 
-    def __init__(self, recorder, caller, timeout=2.0):
+    def __init__(self, recorder, call, caller, timeout=2.0):
         self.recorder = recorder
-        self.master = rosgraph.Master(caller)
+        self.call = call
         self.caller = caller
         self.timeout = timeout
 
     def bus_info(self, node):
         """``node``'s getBusInfo rows; None if it cannot be asked."""
         try:
+            code, _msg, uri = self.call('lookupNode', node)
+            if code != 1:
+                return None
             code, _msg, info = xmlrpc.client.ServerProxy(
-                self.master.lookupNode(node),
-                transport=_Timeout(self.timeout)).getBusInfo(self.caller)
-        except (OSError, xmlrpc.client.Error, rosgraph.MasterException):
+                uri, transport=TimeoutTransport(self.timeout)).getBusInfo(
+                    self.caller)
+        except (OSError, xmlrpc.client.Error):
             return None
         return info if code == 1 else None
 
     def missing(self):
         try:
-            self.master.lookupNode(self.recorder)
-            gaps = unlinked(self.recorder, self.master.getSystemState(),
-                            self.bus_info)
-        except rosgraph.MasterError:
-            return 'the recorder %s is not registered' % self.recorder
-        except (OSError, rosgraph.MasterException) as e:
+            if self.call('lookupNode', self.recorder)[0] != 1:
+                return 'the recorder %s is not registered' % self.recorder
+            code, msg, state = self.call('getSystemState')
+            if code != 1:
+                return 'the master refused getSystemState: %s' % msg
+            gaps = unlinked(self.recorder, state, self.bus_info)
+        except OSError as e:
             return 'the master cannot be reached (%s)' % e
-        return ', '.join('%s from %s' % g for g in gaps)
+        return 'no connection to the recorder %s: %s' % (
+            self.recorder, ', '.join('%s from %s' % g for g in gaps)) \
+            if gaps else ''

@@ -63,7 +63,10 @@ def message(name, uri, pid, client_id=None):
             ' first' % (ns, name, pid, uri))
 
 
-class _Timeout(xmlrpc.client.Transport):
+class TimeoutTransport(xmlrpc.client.Transport):
+    """An XML-RPC transport whose connections give up after ``timeout``
+    s (a node or master that does not answer)."""
+
     def __init__(self, timeout):
         super().__init__()
         self.timeout = timeout
@@ -89,7 +92,7 @@ def live_node(name, timeout=3.0, caller='/hri_sync_unique_check'):
     def ping(uri):
         try:
             code, _, pid = xmlrpc.client.ServerProxy(
-                uri, transport=_Timeout(timeout)).getPid(caller)
+                uri, transport=TimeoutTransport(timeout)).getPid(caller)
         except (OSError, xmlrpc.client.Error):
             return None
         return pid if code == 1 else None
