@@ -15,7 +15,8 @@
 #   - verify_decisions recomputes that bag and report writes its HTML and
 #     MCAP (with the install's rosbags and mcap venv);
 #   - system.launch runs a round (synthetic_sensor);
-#   - the C++ tools record_oni, oni_info and tracker_eval run.
+#   - the C++ tools record_oni, oni_info and tracker_eval run;
+#   - no node died (roslaunch's "process has died") in any of it.
 # Exit 0 when all of it passed. KEEP=1 keeps the install and its logs.
 set -u
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
@@ -131,6 +132,11 @@ uri="virtual://$share/data/motion/cmu_60_01_salsa.track?res=320x240"
 run "rosrun hri_sync record_oni '$uri' $TMP/x.oni 1 && rosrun hri_sync oni_info $TMP/x.oni \
      && rosrun hri_sync tracker_eval --track $share/data/motion/cmu_60_01_salsa.track --seconds 1" \
   > "$TMP/tools.log" 2>&1 || { tail -20 "$TMP/tools.log"; fail "C++ tools"; }
+
+# No node died on the way (a respawned node that cannot start, e.g. for a
+# module the install left out, would otherwise loop unseen).
+died=$(grep -ho '\[[^]]*\] process has died' "$TMP"/*.log | sed 's/^\[[0-9;]*m//' | sort | uniq -c)
+[ -z "$died" ] || fail "nodes died: $(echo $died)"
 
 # Nothing this test started outlives it (roscore, roslaunch and its nodes).
 kill "$MASTER_PID" 2>/dev/null && wait "$MASTER_PID" 2>/dev/null
