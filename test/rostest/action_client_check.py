@@ -57,7 +57,7 @@ from std_srvs.srv import (SetBool, SetBoolResponse, Trigger,
 
 from constant_samples import publish_constant_samples
 from hri_sync.msg import ActionEnd, ActionStart, CaptureData, Decision
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 from hri_sync.timing.protocol import Capture
 
 START_SANITY = 0.25          # s, see the docstring
@@ -99,8 +99,7 @@ class ActionClientRound(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('action_check')
-        watch_links()    # hri_sync.ros.links
+        init_checker('action_check')
         # The commands' output folder, this launch's own (~out).
         cls.out = rospy.get_param('~out')
         shutil.rmtree(cls.out, ignore_errors=True)

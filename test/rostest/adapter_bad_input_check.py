@@ -21,7 +21,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from hri_sync.dance_off.joints import NUM_JOINTS
 from hri_sync.msg import Skeleton
 from hri_sync.people.adapters import azure_markers, openni_transforms
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 
 
 def pose():
@@ -70,8 +70,7 @@ class AdapterBadInput(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('adapter_bad_input_check')
-        watch_links()    # hri_sync.ros.links
+        init_checker('adapter_bad_input_check')
         cls.out = {'azure': [], 'openni': []}
         cls.diag = {}
         rospy.Subscriber('/azure/skeleton', Skeleton,

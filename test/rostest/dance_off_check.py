@@ -39,7 +39,7 @@ import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 
 from hri_sync.msg import ClientResult, Decision, Skeleton
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 from hri_sync.tools.procs import stop_group
 
 CLIENTS = ('left', 'right')
@@ -62,8 +62,7 @@ class DanceOffRound(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('dance_off_check')
-        watch_links()    # hri_sync.ros.links
+        init_checker('dance_off_check')
         cls.expect = rospy.get_param('~expect')
         cls.rate = rospy.get_param('~rate', 20.0)
         cls.dur = rospy.get_param('~dur')

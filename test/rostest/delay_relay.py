@@ -8,12 +8,11 @@ import time
 import roslib.message
 import rospy
 
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 
 
 def main():
-    rospy.init_node('delay_relay')
-    watch_links()    # hri_sync.ros.links
+    init_checker('delay_relay')
     delay = rospy.get_param('~delay')
     msg_class = roslib.message.get_message_class(rospy.get_param('~type'))
     pub = rospy.Publisher(rospy.get_param('~output'), msg_class,

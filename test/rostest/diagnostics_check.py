@@ -25,8 +25,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from std_msgs.msg import Header
 
 from hri_sync.msg import Decision, SyncTime
-from hri_sync.ros.master_watch import watch_links
-from hri_sync.ros.params import wait_for
+from hri_sync.ros.params import init_checker, wait_for
 
 SYNCED = ('left', 'dj_rob', 'music')
 CPM_NODES = {'left': 'left/cpm', 'right': 'right/cpm', 'dj_rob': 'dj_rob',
@@ -65,8 +64,7 @@ class DiagnosticsCheck(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('diagnostics_check')
-        watch_links()    # hri_sync.ros.links
+        init_checker('diagnostics_check')
         cls.bad = rospy.get_param('~unreachable')
         cls.server = rospy.get_param('~ntp_server')
         cls.diag = Seen('/diagnostics')

@@ -51,7 +51,7 @@ from hri_sync.msg import (ActionStart, Beat, CaptureData, Decision, Led,
                           Sound)
 from hri_sync.robot.geometry import wrap_degrees, yaw_of
 from hri_sync.robot.kobuki import Limits
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 from hri_sync.timing.protocol import Capture
 from hri_sync.timing.truth import realtime
 
@@ -74,8 +74,7 @@ class DjRobRound(unittest.TestCase):
         cls.realtime = rt.ok
         if rt.ok:
             os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(5))
-        rospy.init_node('dj_rob_check')
-        watch_links()    # hri_sync.ros.links
+        init_checker('dj_rob_check')
         cls.expect = rospy.get_param('~expect')
         cls.rounds = int(rospy.get_param('~rounds', 1))
         cls.bearings = rospy.get_param('~participant_bearings')

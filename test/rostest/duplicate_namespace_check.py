@@ -27,7 +27,7 @@ import rostest
 from std_srvs.srv import Trigger
 
 from hri_sync.msg import Decision
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 from hri_sync.tools.procs import stop_group
 
 NODES = ('control_module', 'decision_module', 'left/cpm', 'left/dpm',
@@ -54,8 +54,7 @@ class DuplicateNamespace(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('duplicate_namespace_check')
-        watch_links()    # hri_sync.ros.links
+        init_checker('duplicate_namespace_check')
         cls.ns = rospy.get_param('~ns').rstrip('/')
         cls.rounds = rospy.get_param('~rounds', 2)
         timeout = rospy.get_param('~timeout', 150.0)

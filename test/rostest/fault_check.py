@@ -50,8 +50,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 from hri_sync.msg import RoundStatus
 from hri_sync.ros.inbox import Inbox
-from hri_sync.ros.master_watch import watch_links
-from hri_sync.ros.params import wait_for
+from hri_sync.ros.params import init_checker, wait_for
 from hri_sync.ros.round_log import RoundLog
 from hri_sync.ros.unique import node_pid
 from hri_sync.timing.protocol import Capture
@@ -331,6 +330,5 @@ class Fault(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('fault_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('fault_check')
     rostest.rosrun('hri_sync', 'fault_check', Fault)

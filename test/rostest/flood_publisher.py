@@ -13,12 +13,11 @@ import rospy
 from std_msgs.msg import Header
 
 from hri_sync.msg import CaptureData
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 
 
 def main():
-    rospy.init_node('flooder')
-    watch_links()    # hri_sync.ros.links
+    init_checker('flooder')
     rate = rospy.get_param('~rate', 200.0)
     count = rospy.get_param('~count', 4000)
     rounds = rospy.get_param('~rounds', 3)

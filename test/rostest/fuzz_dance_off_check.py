@@ -42,8 +42,7 @@ import rostest
 from std_srvs.srv import Trigger
 
 from hri_sync.msg import ClientResult, ClockState, Decision, DpmState
-from hri_sync.ros.master_watch import watch_links
-from hri_sync.ros.params import wait_for
+from hri_sync.ros.params import init_checker, wait_for
 from hri_sync.timing.decision import decide
 
 # The dance-off's; ~clients and ~participants for another ~launch.
@@ -295,6 +294,5 @@ class FuzzDanceOff(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('fuzz_dance_off_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('fuzz_dance_off_check')
     rostest.rosrun('hri_sync', 'fuzz_dance_off', FuzzDanceOff)

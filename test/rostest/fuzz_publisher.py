@@ -36,7 +36,7 @@ import roslib.message
 import rospy
 
 from hri_sync.ros.inbox import Senders
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 
 EXCLUDE = ('/rosout', '/rosout_agg', '/clock', '/tf', '/tf_static')
 CLIENTS = ('left', 'right', 'dj_rob', 'music', 'skeleton', 'imu', 'audio',
@@ -227,8 +227,7 @@ def owner(topic, senders):
 
 
 def main():
-    rospy.init_node('fuzz_publisher')
-    watch_links()    # hri_sync.ros.links
+    init_checker('fuzz_publisher')
     seed = rospy.get_param('~seed', 1)
     count = rospy.get_param('~count', 2000)
     rate = rospy.get_param('~rate', 400.0)

@@ -16,7 +16,7 @@ import rostest
 
 from hri_sync.msg import SyncTime
 from hri_sync.ros.inbox import Inbox
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 from hri_sync.timing.validate import Context
 
 
@@ -53,6 +53,5 @@ class InboxCheck(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('inbox_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('inbox_check')
     rostest.rosrun('hri_sync', 'inbox_check', InboxCheck)

@@ -7,12 +7,11 @@ import rospy
 from std_msgs.msg import Header
 
 from hri_sync.msg import SyncTime
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 
 
 def main():
-    rospy.init_node('inbox_talker')
-    watch_links()    # hri_sync.ros.links
+    init_checker('inbox_talker')
     rate = rospy.Rate(rospy.get_param('~rate', 20.0))
     round_id = rospy.get_param('~round')
     bad_every = rospy.get_param('~bad_every', 0)

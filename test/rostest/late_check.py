@@ -20,8 +20,7 @@ import unittest
 import rospy
 import rostest
 
-from hri_sync.ros.master_watch import watch_links
-from hri_sync.ros.params import csv_list
+from hri_sync.ros.params import csv_list, init_checker
 from hri_sync.ros.round_log import RoundLog
 
 
@@ -83,6 +82,5 @@ class LateCheck(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('late_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('late_check')
     rostest.rosrun('hri_sync', 'late_check', LateCheck)

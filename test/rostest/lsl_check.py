@@ -27,8 +27,7 @@ import rostest
 from std_srvs.srv import Trigger
 
 from hri_sync.msg import ClientResult, DpmState, LslSample
-from hri_sync.ros.master_watch import watch_links
-from hri_sync.ros.params import wait_for
+from hri_sync.ros.params import init_checker, wait_for
 
 KIND_OF_FAULT = {'vanish': 'lost', 'stall': 'lost', 'reset': 'clock_reset'}
 
@@ -161,6 +160,5 @@ class LslCheck(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('lsl_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('lsl_check')
     rostest.rosrun('hri_sync', 'lsl_check', LslCheck)

@@ -17,7 +17,7 @@ import threading
 import time
 import unittest
 
-from hri_sync.ros.master_watch import watch_links  # noqa: E402
+from hri_sync.ros.params import init_checker, wait_for  # noqa: E402
 from hri_sync.tools import venv
 
 venv.ensure(['pylsl'], 'lsl_out_check', __file__)
@@ -31,7 +31,6 @@ from std_srvs.srv import Trigger  # noqa: E402
 
 from hri_sync.msg import (ActionEnd, ActionStart, CaptureData,  # noqa: E402
                           ClientResult, Decision, DpmState, SyncTime)
-from hri_sync.ros.params import wait_for  # noqa: E402
 from hri_sync.sensors.lsl import CorrectionFit  # noqa: E402
 from hri_sync.tools import lsl_io  # noqa: E402
 from hri_sync.tools.lsl_markers import parse_marker  # noqa: E402
@@ -208,6 +207,5 @@ class LslOutCheck(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('lsl_out_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('lsl_out_check')
     rostest.rosrun('hri_sync', 'lsl_out_check', LslOutCheck)

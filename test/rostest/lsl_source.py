@@ -19,7 +19,7 @@ import signal
 import threading
 import time
 
-from hri_sync.ros.master_watch import watch_links  # noqa: E402
+from hri_sync.ros.params import init_checker  # noqa: E402
 from hri_sync.tools import venv
 
 venv.ensure(['pylsl'], 'lsl_source', __file__)
@@ -92,7 +92,6 @@ class Source:
 
 
 if __name__ == '__main__':
-    rospy.init_node('lsl_source')
-    watch_links()    # hri_sync.ros.links
+    init_checker('lsl_source')
     threading.Thread(target=Source().run, daemon=True).start()
     rospy.spin()

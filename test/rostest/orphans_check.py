@@ -23,7 +23,7 @@ import rosnode
 import rospy
 import rostest
 
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 from hri_sync.tools import procs
 
 NODES = ('/control_module', '/decision_module', '/time_server',
@@ -116,6 +116,5 @@ class Orphans(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('orphans_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('orphans_check')
     rostest.rosrun('hri_sync', 'orphans_check', Orphans)

@@ -8,7 +8,7 @@ import unittest
 
 import rospy
 
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 import rostest
 
 
@@ -29,6 +29,5 @@ class PreflightCheck(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('preflight_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('preflight_check')
     rostest.rosrun('hri_sync', 'preflight_check', PreflightCheck)

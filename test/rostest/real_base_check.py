@@ -29,7 +29,7 @@ from rosgraph_msgs.msg import Log
 
 from constant_samples import publish_constant_samples
 from hri_sync.msg import Decision, Led, Sound
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 
 # kobuki_msgs/msg/Led.msg and Sound.msg (yujinrobot/kobuki_msgs): their
 # constants and field, as released (comments left out: the md5sum
@@ -53,8 +53,7 @@ class RealBase(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('mobile_base_nodelet_manager')
-        watch_links()    # hri_sync.ros.links
+        init_checker('mobile_base_nodelet_manager')
         cls.lock = threading.Lock()
         cls.cmds, cls.ns_cmds, cls.leds, cls.sounds, cls.logs = \
             [], [], [], [], []

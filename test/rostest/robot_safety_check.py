@@ -44,8 +44,7 @@ import rostest
 from geometry_msgs.msg import Twist
 
 from hri_sync.msg import ActionStart, ClockState, SafetyStop
-from hri_sync.ros.master_watch import watch_links
-from hri_sync.ros.params import wait_for
+from hri_sync.ros.params import init_checker, wait_for
 from hri_sync.ros.unique import node_pid
 from hri_sync.tools.procs import descendants
 
@@ -60,8 +59,7 @@ class RobotSafety(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('robot_safety_check')
-        watch_links()    # hri_sync.ros.links
+        init_checker('robot_safety_check')
         cls.fault = rospy.get_param('~fault')
         cls.lock = threading.Lock()
         cls.cmds, cls.stops, cls.clock, cls.starts = [], [], [], []

@@ -27,7 +27,7 @@ import unittest
 import rospy
 import rostest
 
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 from hri_sync.ros.unison_watch import RobotsWatch
 from hri_sync.tools.unison import heading_spreads
 
@@ -42,8 +42,7 @@ class RobotsUnison(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('robots_unison_check')
-        watch_links()    # hri_sync.ros.links
+        init_checker('robots_unison_check')
         robots = rospy.get_param('~robots').split(',')
         cls.rounds = int(rospy.get_param('~rounds'))
         specs = [c.strip() for c in rospy.get_param('~clocks').split(';')

@@ -12,7 +12,7 @@ import tf2_ros
 from visualization_msgs.msg import Marker, MarkerArray
 
 from hri_sync.msg import Decision
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 
 TORSO = 2                # joint index; SPHERE_LIST points keep joint order
 # The salsa clips' torsos travel up to 1.25 m (cmu_60_01) and 1.49 m
@@ -125,6 +125,5 @@ class MarkersCheck(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('rviz_markers_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('rviz_markers_check')
     rostest.rosrun('hri_sync', 'rviz_markers_check', MarkersCheck)

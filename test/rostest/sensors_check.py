@@ -25,7 +25,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import Image, Imu, JointState
 
 from hri_sync.msg import AudioChunk, CaptureData, ClientResult, Decision
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 from hri_sync.ros.replay import start_round_when_delivering
 from hri_sync.timing.protocol import Capture
 
@@ -147,6 +147,5 @@ class SensorsRound(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('sensors_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('sensors_check')
     rostest.rosrun('hri_sync', 'sensors_round', SensorsRound)

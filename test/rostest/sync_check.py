@@ -29,8 +29,7 @@ import unittest
 import rospy
 import rostest
 
-from hri_sync.ros.master_watch import watch_links
-from hri_sync.ros.params import csv_list
+from hri_sync.ros.params import csv_list, init_checker
 from hri_sync.ros.round_log import RoundLog
 from hri_sync.timing.protocol import Capture
 from hri_sync.timing.skew import client_timing, start_skew
@@ -139,6 +138,5 @@ class SyncCheck(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('sync_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('sync_check')
     rostest.rosrun('hri_sync', 'sync_check', SyncCheck)

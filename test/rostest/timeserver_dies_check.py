@@ -20,8 +20,7 @@ import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 from hri_sync.msg import CaptureData, RoundStatus
-from hri_sync.ros.master_watch import watch_links
-from hri_sync.ros.params import wait_for
+from hri_sync.ros.params import init_checker, wait_for
 from hri_sync.ros.round_log import RoundLog
 from hri_sync.ros.unique import node_pid
 from hri_sync.tools.procs import alive, descendants
@@ -135,6 +134,5 @@ class TimeServerDies(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('timeserver_dies_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('timeserver_dies_check')
     rostest.rosrun('hri_sync', 'timeserver_dies_check', TimeServerDies)

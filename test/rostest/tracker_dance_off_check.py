@@ -19,7 +19,7 @@ import unittest
 import rospy
 import rostest
 from hri_sync.msg import ClientResult, Decision
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 
 PKG = 'hri_sync'
 # Hz: a tracker that kept fewer frames than this over the part of the
@@ -110,6 +110,5 @@ class TrackerDanceOffTest(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('tracker_dance_off_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('tracker_dance_off_check')
     rostest.rosrun(PKG, 'tracker_dance_off', TrackerDanceOffTest)

@@ -23,7 +23,7 @@ import numpy as np
 import rospy
 import rostest
 from hri_sync.msg import ClockState, Skeleton
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 from tracker_dance_off_check import TrackerDanceOffTest
 
 PKG = 'hri_sync'
@@ -69,6 +69,5 @@ class TrackerFaketimeTest(TrackerDanceOffTest):
 
 
 if __name__ == '__main__':
-    rospy.init_node('tracker_faketime_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('tracker_faketime_check')
     rostest.rosrun(PKG, 'tracker_faketime', TrackerFaketimeTest)

@@ -15,7 +15,7 @@ import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from hri_sync.msg import Skeleton
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 
 PKG = 'hri_sync'
 
@@ -53,7 +53,6 @@ class TrackerMissingDeviceTest(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('tracker_missing_device_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('tracker_missing_device_check')
     rostest.rosrun(PKG, 'tracker_missing_device',
                    TrackerMissingDeviceTest)

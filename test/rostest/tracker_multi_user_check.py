@@ -12,7 +12,7 @@ import unittest
 
 import rospy
 
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 import rostest
 
 from tracker_partial_view_check import listen
@@ -76,6 +76,5 @@ class TrackerMultiUserTest(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('tracker_multi_user_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('tracker_multi_user_check')
     rostest.rosrun(PKG, 'tracker_multi_user', TrackerMultiUserTest)

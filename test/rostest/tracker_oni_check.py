@@ -27,7 +27,7 @@ import numpy as np
 import rospy
 import rostest
 from hri_sync.msg import ClockState, Skeleton
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 
 PKG = 'hri_sync'
 HANDS = (7, 8)
@@ -131,6 +131,5 @@ class TrackerOniTest(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('tracker_oni_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('tracker_oni_check')
     rostest.rosrun(PKG, 'tracker_oni', TrackerOniTest)

@@ -13,7 +13,7 @@ import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 from hri_sync.msg import ClockState, Skeleton
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 
 PKG = 'hri_sync'
 LEGS = (11, 12, 13, 14)     # knees and feet (hri_sync.dance_off.joints order)
@@ -63,6 +63,5 @@ class TrackerPartialViewTest(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('tracker_partial_view_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('tracker_partial_view_check')
     rostest.rosrun(PKG, 'tracker_partial_view', TrackerPartialViewTest)

@@ -35,7 +35,7 @@ from nav_msgs.msg import Odometry
 
 from hri_sync.msg import (ActionStart, CaptureData, ClientResult, Decision,
                           Skeleton, SyncAck, SyncTime)
-from hri_sync.ros.master_watch import watch_links
+from hri_sync.ros.params import init_checker
 
 GLOBAL = {'/diagnostics', '/rosout', '/rosout_agg', '/tf', '/tf_static'}
 CLIENTS = ('left', 'right')
@@ -60,8 +60,7 @@ class TwoSystems(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        rospy.init_node('two_systems_check')
-        watch_links()    # hri_sync.ros.links
+        init_checker('two_systems_check')
         cls.expect = rospy.get_param('~expect')
         cls.robots = rospy.get_param('~robot_systems', [])
         cls.rounds = rospy.get_param('~rounds', 2)

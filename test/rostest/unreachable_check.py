@@ -15,8 +15,7 @@ import rospy
 import rostest
 
 from hri_sync.msg import RoundStatus
-from hri_sync.ros.master_watch import watch_links
-from hri_sync.ros.params import csv_list
+from hri_sync.ros.params import csv_list, init_checker
 from hri_sync.ros.round_log import RoundLog
 
 
@@ -76,6 +75,5 @@ class UnreachableCheck(unittest.TestCase):
 
 
 if __name__ == '__main__':
-    rospy.init_node('unreachable_check')
-    watch_links()    # hri_sync.ros.links
+    init_checker('unreachable_check')
     rostest.rosrun('hri_sync', 'unreachable_check', UnreachableCheck)

@@ -10,6 +10,7 @@ import rospy
 from std_msgs.msg import Header
 
 from hri_sync.ros import master_watch, unique
+from hri_sync.ros.rpc_server import stop_serving_at_shutdown
 from hri_sync.ros.lifeline import die_with_parent
 from hri_sync.timing.validate import Rejected, time_value
 
@@ -94,6 +95,7 @@ def run_node(name, main, master_restart='exit'):
     except unique.Duplicate as e:
         print('%s: %s' % (name, e), file=sys.stderr, flush=True)
         raise SystemExit(unique.DUPLICATE_EXIT)
+    stop_serving_at_shutdown()
     rospy.init_node(name)
     signal.signal(signal.SIGTERM, _shutdown_in_a_thread)
     if 'libfaketime' in os.environ.get('LD_PRELOAD', ''):
@@ -116,6 +118,16 @@ def run_node(name, main, master_restart='exit'):
                       rospy.get_name(), e)
     if watch.restarted and watch.exit_on_restart:
         raise SystemExit(master_watch.RESTART_EXIT)
+
+
+def init_checker(name):
+    """``rospy.init_node`` for a process that does not run under
+    ``run_node`` (a test's checker or helper node): its XML-RPC server
+    stopped at shutdown (``rpc_server``) and its subscriptions checked
+    (``master_watch.watch_links``)."""
+    stop_serving_at_shutdown()
+    rospy.init_node(name)
+    master_watch.watch_links()
 
 
 def wait_for(predicate, timeout, poll=0.005):
