@@ -8,7 +8,10 @@
 //   offset_us=1000000 (device clock at open), drift_ppm=0 (device clock rate error),
 //   lose_after=0 (s; > 0: the sensor is unplugged then: no more frames, a disconnect
 //   event, and the device is announced again at once (replugged), so a reader that
-//   reopens it gets a new device clock and the motion from its start).
+//   reopens it gets a new device clock and the motion from its start),
+//   unplug_file=PATH (unplugged as with lose_after as soon as PATH exists: a test
+//   unplugs the sensor at a time of its choosing). A device is unplugged once: the
+//   replugged one, opened again, stays.
 // Scene keys (docs/tracker.md, "Virtual Kinect scenes"): body=average|short_broad|tall_slim|
 //   loose_clothes|dark_clothes|model, height, girth, limbs, arms, legs, clothing, clothes_albedo,
 //   wall=GAP_M|none, furniture=none|table|chair, furniture_x, bystander=none|walk|stand,
@@ -32,11 +35,14 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <unistd.h>
 
 #include "hri_sync/body.h"
 #include "hri_sync/render.h"
@@ -56,6 +62,7 @@ struct VirtualConfig {
   bool loop = true;
   double start = 0.0, lose_after = 0.0, drift_ppm = 0.0;
   double offset_us = 1e6;
+  std::string unplug_file;      ///< unplugged when this file exists (empty: never)
   hri_sync::SceneSpec scene;    ///< scene.used: render a Scene
   bool sigma_given = false;
 };
@@ -110,9 +117,10 @@ VirtualConfig parseUri(const std::string& uri) {
     } else if (k == "offset_us") { c.offset_us = toNumber(k, v);
     } else if (k == "drift_ppm") { c.drift_ppm = toNumber(k, v);
     } else if (k == "lose_after") { c.lose_after = toNumber(k, v);
+    } else if (k == "unplug_file") { c.unplug_file = v;
     } else {
       throw std::runtime_error("virtual kinect: unknown URI key '" + k + "' (keys: res, fps, background, noise, "
-                               "loop, start, offset_us, drift_ppm, lose_after, " + hri_sync::sceneKeys() + ")");
+                               "loop, start, offset_us, drift_ppm, lose_after, unplug_file, " + hri_sync::sceneKeys() + ")");
     }
   }
   if (c.scene.used) {
@@ -242,7 +250,8 @@ class DepthStream : public oni::driver::StreamBase {
       const auto behind = static_cast<uint64_t>(std::chrono::duration<double>(Clock::now() - t0).count() / period);
       n = std::max(n, behind);
       const double elapsed = n * period;  // true time since the start (the frames' schedule)
-      if (cfg_.lose_after > 0 && elapsed >= cfg_.lose_after) {
+      if ((cfg_.lose_after > 0 && elapsed >= cfg_.lose_after) ||
+          (!cfg_.unplug_file.empty() && access(cfg_.unplug_file.c_str(), F_OK) == 0)) {
         if (on_lost_) on_lost_();
         while (running_) std::this_thread::sleep_for(std::chrono::milliseconds(20));
         break;
@@ -368,15 +377,23 @@ class VirtualDriver : public oni::driver::DriverBase {
     try {
       VirtualConfig cfg = parseUri(uri);
       auto track = load(cfg.path);
+      const std::string key = uri;
       const OniDeviceInfo* info = nullptr;
       {
         std::lock_guard<std::mutex> lock(mutex_);
         auto it = infos_.find(uri);
         if (it != infos_.end()) info = it->second.get();
+        if (unplugged_.count(key)) {  // the replugged device stays
+          cfg.lose_after = 0.0;
+          cfg.unplug_file.clear();
+        }
       }
-      const std::string key = uri;
       auto on_lost = [this, info, key] {
         if (info == nullptr) return;
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          unplugged_.insert(key);
+        }
         deviceDisconnected(info);
         // Replugged at once: OpenNI forgets a disconnected device, so announce it
         // anew (with a fresh info; the old one stays alive for OpenNI).
@@ -441,6 +458,7 @@ class VirtualDriver : public oni::driver::DriverBase {
   std::map<std::string, std::shared_ptr<const Track>> tracks_;
   std::map<std::string, std::unique_ptr<OniDeviceInfo>> infos_;
   std::vector<std::unique_ptr<OniDeviceInfo>> retired_;
+  std::set<std::string> unplugged_;  ///< URIs unplugged once (replugged: they stay)
   std::vector<std::unique_ptr<VirtualDevice>> devices_;
 };
 

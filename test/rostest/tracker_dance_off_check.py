@@ -10,15 +10,19 @@ window is partial, that the decision says so and follows the scores), that
 the tracker client's result is ok with
 its window covered and at most 30 Hz of frames over DUR (or, with
 ~expect_status_<client> partial, a coverage below 0.9 that shows the gap of
-an unplugged sensor), and that both values are finite.
+an unplugged sensor), and that both values are finite.  With
+~unplug_file, it creates that file ~unplug_at s into the first capture
+window: the virtual Kinect that watches it is unplugged then.
 """
 import math
+import os
+import threading
 import time
 import unittest
 
 import rospy
 import rostest
-from hri_sync.msg import ClientResult, Decision
+from hri_sync.msg import CaptureData, ClientResult, Decision
 from hri_sync.ros.params import init_checker
 
 PKG = 'hri_sync'
@@ -27,11 +31,36 @@ PKG = 'hri_sync'
 STARVED_RATE = 10.0
 
 
+def unplug_in_window(path, at):
+    """Create ``path`` ``at`` s after the first capture window's start (the
+    global clock is this host's)."""
+    windows = []
+    rospy.Subscriber('/capture_data', CaptureData, windows.append)
+
+    def run():
+        while not windows and not rospy.is_shutdown():
+            time.sleep(0.01)
+        if not windows:
+            return
+        w = windows[0]
+        due = w.header.stamp.to_sec() + w.str_aft + at
+        while time.time() < due and not rospy.is_shutdown():
+            time.sleep(0.01)
+        with open(path, 'w'):
+            pass
+        rospy.loginfo('unplugged the sensor (%s) %.2f s into the window',
+                      path, time.time() - due + at)
+    threading.Thread(target=run, daemon=True).start()
+
+
 class TrackerDanceOffTest(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
         cls.results, cls.decisions = {}, []
+        cls.unplug_file = rospy.get_param('~unplug_file', '')
+        if cls.unplug_file:
+            unplug_in_window(cls.unplug_file, rospy.get_param('~unplug_at'))
         rospy.Subscriber('/client_result', ClientResult,
                          lambda m: cls.results.__setitem__(m.client_id, m))
         rospy.Subscriber('/decision', Decision, cls.decisions.append)
@@ -45,6 +74,11 @@ class TrackerDanceOffTest(unittest.TestCase):
         while (not {'left', 'right'} <= set(cls.results)
                and time.time() < deadline and not rospy.is_shutdown()):
             time.sleep(0.1)
+
+    @classmethod
+    def tearDownClass(cls):
+        if cls.unplug_file and os.path.exists(cls.unplug_file):
+            os.remove(cls.unplug_file)
 
     def test_winner(self):
         self.assertTrue(self.decisions, 'no /decision')
