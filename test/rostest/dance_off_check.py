@@ -224,10 +224,14 @@ class DanceOffRound(unittest.TestCase):
             lost = [t for t in sent if round(t, 6) not in kept]
             self.assertEqual(lost, [], '%s: %d sent frames not captured'
                              % (c, len(lost)))
+            # The first frame is the first sent after the start: within
+            # half a period, as the device clock map's bias (the least
+            # transport delay it saw, 5 ms under make test-load) moves
+            # the mapped stamp, not the frame.
             first_sent = min((t for t in self.sent[c] if t >= start),
                              default=end)
             self.assertLessEqual(r.first_frame_offset,
-                                 first_sent - start + MARGIN, c)
+                                 first_sent - start + 0.5 * period, c)
             rospy.loginfo('%s: first frame %.1f ms after the start, %d of '
                           '%d ticks kept', c, r.first_frame_offset * 1e3,
                           len(window), int(self.dur * self.rate))
