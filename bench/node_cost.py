@@ -9,7 +9,9 @@ first applies hri_sync.ros.rpc_server.stop_serving_at_shutdown (what every
 hri_sync node and checker does), with ``plain`` it does not.  Prints JSON:
 per mode, the median and max CPU seconds of each phase and of the whole
 process (its rusage as a child), and the ratio of the medians, plain to
-fixed.
+fixed.  The spin the fix stops takes what CPU is idle: run it on an idle
+machine (beside busy loops the spinning thread gets a small share and the
+two modes cost about the same).
 
     source WS/devel/setup.bash
     bench/node_cost.py [--nodes 10] [--idle 1.0]
