@@ -1,13 +1,15 @@
 #!/usr/bin/python3
 """Checks skeleton_tracker's bad-input behaviour (issue 5).
 
-The node reads a virtual Kinect that is unplugged ~lose_after s after it opens.
+The node reads a virtual Kinect that this checker unplugs (creating its
+~unplug_file) once skeletons flow.
 - before any clock_state: no skeleton, a WARN on /diagnostics that says so;
 - once the clock is there: skeletons;
 - after the unplug: an ERROR on /diagnostics naming the disconnection, no
   skeleton while the sensor is gone (the stamps show the gap), then frames
   again after the node reopens the device, stamps still increasing.
 """
+import os
 import time
 import unittest
 
@@ -56,6 +58,16 @@ class TrackerBadInputTest(unittest.TestCase):
         pub.publish(ClockState(client_id=client, ok=True,
                                local_ref=time.time(), offset=0.25,
                                drift=0.0, uncertainty=0.001, samples=4))
+        # Skeletons first (a loaded machine may start them late), then
+        # the unplug, then ~duration s for the gap and the reopen.
+        deadline = time.time() + 30.0
+        while (len(skeletons) < 6 and time.time() < deadline
+               and not rospy.is_shutdown()):
+            time.sleep(0.1)
+        unplug = rospy.get_param('~unplug_file')
+        with open(unplug, 'w'):
+            pass
+        self.addCleanup(os.remove, unplug)
         deadline = time.time() + rospy.get_param('~duration', 20.0)
         while time.time() < deadline and not rospy.is_shutdown():
             time.sleep(0.1)
