@@ -44,12 +44,34 @@ def truth_of(msg):
     return msg.channels[0], msg.channels[2]
 
 
+def index_of(msg):
+    """The source's running sample number."""
+    if msg.markers:
+        return int(msg.markers[0].split()[1])
+    return int(msg.channels[1])
+
+
+def source_stalled(data, rate):
+    """Whether a partial window is the source's own doing: no sample
+    number missing among ``data`` (nothing lost on the way) and a gap of
+    over 2.5 periods in the source's true send times (a source starved of
+    CPU sends late, in a burst, stamped when sent)."""
+    if rate <= 0 or not data:
+        return False
+    numbers = sorted(index_of(m) for _, m in data)
+    truths = sorted(truth_of(m)[0] for _, m in data)
+    return (numbers == list(range(numbers[0], numbers[-1] + 1))
+            and max((b - a for a, b in zip(truths, truths[1:])),
+                    default=0.0) > 2.5 / rate)
+
+
 class LslCheck(unittest.TestCase):
 
     def setUp(self):
         self.client = rospy.get_param('~client', 'eeg')
         self.rounds = int(rospy.get_param('~rounds', 2))
         self.margin = float(rospy.get_param('~margin', 0.0005))
+        self.rate = float(rospy.get_param('~rate', 0.0))
         self.fault = rospy.get_param('~fault', '')
         self.fault_round = int(rospy.get_param('~fault_round', 1))
         self.lock = threading.Lock()
@@ -143,7 +165,13 @@ class LslCheck(unittest.TestCase):
             d, data = self.check_round(r)
             if not self.fault or n < self.fault_round or \
                     n == self.recover_round:
-                self.assertEqual(r.status, ClientResult.OK, d)
+                if r.status == ClientResult.PARTIAL and \
+                        source_stalled(data, self.rate):
+                    rospy.logwarn('lsl_check: round %d partial: the source '
+                                  'was starved (a gap in its send times, '
+                                  'no sample lost)', n)
+                else:
+                    self.assertEqual(r.status, ClientResult.OK, d)
                 self.assertNotIn('lsl_stream', d)
                 self.assertGreater(len(data), 0)
                 continue
