@@ -10,8 +10,8 @@ import rospy
 from std_msgs.msg import Header
 
 from hri_sync.ros import master_watch, unique
-from hri_sync.ros.rpc_server import stop_serving_at_shutdown
 from hri_sync.ros.lifeline import die_with_parent
+from hri_sync.ros.rpc_server import stop_serving_at_shutdown
 from hri_sync.timing.validate import Rejected, time_value
 
 
