@@ -28,6 +28,7 @@ from std_srvs.srv import Trigger
 
 from hri_sync.msg import ClientResult, DpmState, LslSample
 from hri_sync.ros.params import init_checker, wait_for
+from hri_sync.timing.capture import GAP_PERIODS
 
 KIND_OF_FAULT = {'vanish': 'lost', 'stall': 'lost', 'reset': 'clock_reset'}
 
@@ -54,15 +55,16 @@ def index_of(msg):
 def source_stalled(data, rate):
     """Whether a partial window is the source's own doing: no sample
     number missing among ``data`` (nothing lost on the way) and a gap of
-    over 2.5 periods in the source's true send times (a source starved of
-    CPU sends late, in a burst, stamped when sent)."""
+    over GAP_PERIODS periods (a window's coverage rule) in the source's
+    true send times (a source starved of CPU sends late, in a burst,
+    stamped when sent)."""
     if rate <= 0 or not data:
         return False
     numbers = sorted(index_of(m) for _, m in data)
     truths = sorted(truth_of(m)[0] for _, m in data)
     return (numbers == list(range(numbers[0], numbers[-1] + 1))
             and max((b - a for a, b in zip(truths, truths[1:])),
-                    default=0.0) > 2.5 / rate)
+                    default=0.0) > GAP_PERIODS / rate)
 
 
 class LslCheck(unittest.TestCase):

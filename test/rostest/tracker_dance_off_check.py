@@ -143,14 +143,11 @@ class TrackerDanceOffTest(unittest.TestCase):
         if r.status == ClientResult.OK:
             # A loaded tracker may keep every other frame evenly (full
             # coverage at 15 Hz): the frame count is logged above, and
-            # tracker_accuracy's figure; a window ok is covered.
+            # tracker_accuracy's figure. Below the DPM's ~min_rate (10 Hz
+            # for a tracker client) the window is partial (3 and 7 frames
+            # in 10 s were ok, on fresh clones, before there was one).
             self.assertGreaterEqual(r.coverage, 0.9)
-            if r.frames + r.frames_rejected < 2 * dur:
-                # Starved (3 and 7 frames in 10 s on fresh clones): the
-                # window is called ok as the coverage rule learns the period
-                # from the window's own samples (docs/not_done.md).
-                rospy.logwarn('%s starved: ok with %d frames', tracker,
-                              r.frames)
+            self.assertGreaterEqual(r.frames + r.frames_rejected, 2 * dur)
         else:  # sensor unplugged in the window: the result shows the gap
             self.assertLess(r.coverage, 0.9)
             if self.starved(r):

@@ -102,6 +102,31 @@ def test_repeated_stamps_are_no_period():
     assert st['coverage'] == 0.0
 
 
+def test_a_max_period_shows_a_sensor_slow_all_window():
+    # Every third frame of a 16 Hz sensor, evenly (a starved tracker): by
+    # its own spacing the window is whole; at most 2 P apart, it is not,
+    # and two frames of each three are dropped.
+    stamps = [FIRST + k * P for k in range(0, 16, 3)]
+    assert window_stats(stamps, 0.0, 1.0)['coverage'] == 1.0
+    st = window_stats(stamps, 0.0, 1.0, max_period=P)
+    assert st['period'] == P and st['dropped'] == 10
+    # Only the edges are covered: the lead and the 0.046875 s tail.
+    assert st['coverage'] == P
+    # Every other frame, or all of them: within the bound, as before.
+    for step in (1, 2):
+        some = [FIRST + k * P for k in range(0, 16, step)]
+        assert window_stats(some, 0.0, 1.0, max_period=2 * P) == \
+            window_stats(some, 0.0, 1.0)
+
+
+def test_a_max_period_gives_a_lone_sample_its_edges():
+    st = window_stats([0.5], 0.0, 1.0, max_period=P)
+    assert st['period'] == P and st['dropped'] == 0
+    assert st['coverage'] == 0.0             # both edges are 0.5 s gaps
+    st = window_stats([FIRST], 0.0, 0.1, max_period=P)
+    assert st['coverage'] == 1.0             # lead and tail within 2.5 P
+
+
 def test_status_rule():
     assert window_status(19, 0.95, 0.9) == 'ok'
     assert window_status(18, 0.9, 0.9) == 'ok'

@@ -100,6 +100,26 @@ def test_a_sensor_that_stops_is_partial_once_its_next_sample_is_overdue():
         'no sample from the sensor for the last 0.660 s of the window')
 
 
+def test_a_sensor_slower_than_min_rate_all_window_is_partial():
+    # A 20 Hz sensor that delivers every fourth frame, evenly, from before
+    # the window (a tracker starved of CPU).
+    def run(**kw):
+        d = dp(**kw)
+        start = L0 + OFFSET + 0.01
+        d.open(1, start, start + 1.0)
+        (r,) = results(feed(d, [L0 - 1.0 + 4 * k * P for k in range(12)]))
+        return r
+    r = run()
+    assert r.status == 'ok' and r.coverage == 1.0 and r.frames == 5
+    r = run(min_rate=RATE)
+    assert r.status == 'partial' and r.frames == 5
+    assert r.frames_dropped == 12 and r.diagnostics['period'] == P
+    # At most 0.1 s apart: 0.2 s gaps are within GAP_PERIODS of it.
+    assert run(min_rate=RATE / 2).status == 'ok'
+    with pytest.raises(ValueError, match='min_rate'):
+        dp(min_rate=-1.0)
+
+
 def test_a_sensor_that_never_sent_is_named_in_the_result():
     d = dp(margin=0.03)
     start = L0 + OFFSET + 1.0

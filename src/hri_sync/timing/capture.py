@@ -20,6 +20,8 @@ from hri_sync.timing.vocabulary import MIN_COVERAGE, ResultStatus
 
 OK, PARTIAL, NO_DATA, ERROR = (ResultStatus.OK, ResultStatus.PARTIAL,
                                ResultStatus.NO_DATA, ResultStatus.ERROR)
+# A gap between samples longer than this many periods is uncovered.
+GAP_PERIODS = 2.5
 
 
 class SampleBuffer:
@@ -45,17 +47,19 @@ class SampleBuffer:
 
 
 def window_stats(stamps: Sequence[float], start: GlobalTime,
-                 end: GlobalTime,
-                 max_gap: Optional[Seconds] = None) -> Dict[str, Any]:
+                 end: GlobalTime, max_gap: Optional[Seconds] = None,
+                 max_period: Seconds = math.nan) -> Dict[str, Any]:
     """Coverage, dropped frames and first-frame offset of a window.
 
-    ``stamps`` are the kept samples' global stamps (sorted).  The nominal
-    period is the median of their positive spacings (a repeated stamp is
-    no period); a gap longer than ``max_gap`` (default 2.5 periods) is
-    uncovered, and each missing period in a gap counts as a dropped frame;
-    a lone sample has no period, so covers nothing.  Returns a dict:
-    coverage (0..1), dropped, period, first_frame_offset (NaN without
-    samples).
+    ``stamps`` are the kept samples' global stamps (sorted).  The period
+    is the median of their positive spacings (a repeated stamp is no
+    period), at most ``max_period`` when that is given: otherwise a sensor
+    that delivered a few samples evenly all window (a tracker starved of
+    CPU) covers it.  A gap longer than ``max_gap`` (default GAP_PERIODS
+    periods) is uncovered, and each missing period in a gap counts as a
+    dropped frame; without ``max_period`` a lone sample has no period, so
+    covers nothing.  Returns a dict: coverage (0..1), dropped, period,
+    first_frame_offset (NaN without samples).
     """
     dur = end - start
     if not stamps:
@@ -63,10 +67,13 @@ def window_stats(stamps: Sequence[float], start: GlobalTime,
                 'first_frame_offset': math.nan}
     gaps = [b - a for a, b in zip(stamps, stamps[1:]) if b > a]
     period = sorted(gaps)[len(gaps) // 2] if gaps else math.nan
+    if max_period > 0 and not period <= max_period:
+        period = max_period
     if max_gap is None:
-        max_gap = 2.5 * period if gaps else 0.0
+        max_gap = GAP_PERIODS * period if math.isfinite(period) else 0.0
     covered = sum(g for g in gaps if g <= max_gap)
-    dropped = sum(max(0, round(g / period) - 1) for g in gaps) if gaps else 0
+    dropped = (sum(max(0, round(g / period) - 1) for g in gaps)
+               if math.isfinite(period) else 0)
     # The edges: start -> first sample and last sample -> end.
     lead, tail = stamps[0] - start, end - stamps[-1]
     covered += sum(e for e in (lead, tail) if e <= max_gap)
@@ -99,11 +106,14 @@ class CaptureWindow:
     its end, on the global clock, with nothing more.  A sample stamped
     before its start that arrives after its end, or a window sample that
     comes too late for stamp order, is counted in ``late``, never added.
+    Its coverage is judged at a period of at most ``max_period``
+    (``window_stats``).
     """
 
     def __init__(self, round_id: int, start: GlobalTime, end: GlobalTime,
                  processor: Processor, reorder: Seconds = 0.2,
-                 margin: Seconds = 0.03) -> None:
+                 margin: Seconds = 0.03,
+                 max_period: Seconds = math.nan) -> None:
         if not (math.isfinite(start) and math.isfinite(end) and end > start):
             raise ValueError('capture window [%r, %r) is empty or not '
                              'finite' % (start, end))
@@ -111,6 +121,7 @@ class CaptureWindow:
         self.start, self.end = start, end
         self.reorder = reorder
         self.margin = margin
+        self.max_period = max_period
         self.complete = False
         self.completed_by = ''
         self.late = 0
@@ -183,7 +194,8 @@ class CaptureWindow:
         or None, window_stats dict, error text)."""
         while self._waiting:
             self._feed()
-        stats = window_stats(sorted(self.stamps), self.start, self.end)
+        stats = window_stats(sorted(self.stamps), self.start, self.end,
+                             max_period=self.max_period)
         try:
             result, error = self._run.result(), ''
         except Exception as e:  # a processor bug must not kill the client

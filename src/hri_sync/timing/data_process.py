@@ -91,7 +91,10 @@ class DataProcess:
 
     A window is due for lack of samples ``margin`` s, plus the recent
     delivery lag of device-stamped samples, after the next sample was
-    expected past its end.
+    expected past its end.  ``min_rate`` (Hz; 0: none) is the lowest rate
+    at which the sensor's samples still cover a window: slower, even if
+    evenly (a tracker starved of CPU), the window is judged at that rate
+    (``window_stats``' ``max_period``) and is partial.
 
     Every sample is first validated by the processor's ``check``: one it
     rejects is counted by its reason (``counts``, ``invalid``, and the
@@ -105,7 +108,7 @@ class DataProcess:
             stamp_source: str = 'auto', min_coverage: float = MIN_COVERAGE,
             history: float = 2.0, margin: float = 0.03, reorder: float = 0.2,
             drift_bound: float = DRIFT_BOUND, jump: float = 0.1,
-            refit: float = 0.05) -> None:
+            refit: float = 0.05, min_rate: float = 0.0) -> None:
         if stamp_source not in STAMP_SOURCES:
             raise ValueError('stamp_source must be one of %s, got %r'
                              % (', '.join(STAMP_SOURCES), stamp_source))
@@ -124,6 +127,9 @@ class DataProcess:
         self.mapping: TimeMapping[Any] = ArrivalStamps()
         if stamp_source == 'device':
             self.mapping = DeviceClockMapper()
+        if not (math.isfinite(min_rate) and min_rate >= 0):
+            raise ValueError('min_rate must be >= 0 Hz, got %r' % min_rate)
+        self.max_period = 1.0 / min_rate if min_rate else math.nan
         self.min_coverage = min_coverage
         self.margin = margin
         self.reorder = reorder
@@ -365,7 +371,7 @@ class DataProcess:
             step.results.append(self._error(round_id, start, end, why))
             return step
         w = CaptureWindow(round_id, start, end, self.make_processor(),
-                          self.reorder, self.margin)
+                          self.reorder, self.margin, self.max_period)
         self.windows[round_id] = w
         for f in self.history.take(start, GlobalTime(math.inf)):
             msg, raw, arrival, bound = f.msg

@@ -10,7 +10,7 @@ sample by sample, and the raw samples are written alongside:
   linearly interpolated between that joint's two neighbouring usable
   samples (finite, confidence at least the result's ``min_confidence``);
   empty where the client has no usable sample on both sides within
-  ``max_gap`` (2.5 median frame periods);
+  ``max_gap`` (GAP_PERIODS median frame periods, as a window's coverage);
 - ``raw.csv``: every captured frame: round, client, global stamp, time
   into the window, device stamp, and per joint x, y, z and confidence.
 """
@@ -21,6 +21,7 @@ import os
 import numpy as np
 
 from hri_sync.dance_off.joints import JOINTS
+from hri_sync.timing.capture import GAP_PERIODS
 from hri_sync.tools.analysis import (_min_confidence, _window,
                                      skeleton_arrays)
 from hri_sync.tools.session import secs
@@ -106,7 +107,7 @@ def write_csv(session, out_dir, rate, prefix=''):
                     raw.writerow(row)
                 period = float(np.median(np.diff(stamps))) \
                     if len(stamps) > 1 else 0.0
-                max_gap = 2.5 * period
+                max_gap = GAP_PERIODS * period
                 for k in range(len(JOINTS)):
                     valid = np.all(np.isfinite(pos[:, k, :]), axis=1) & \
                         (conf[:, k] >= min_conf) if len(stamps) else \
