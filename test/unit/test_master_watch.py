@@ -95,6 +95,18 @@ def test_an_unknown_node_before_its_registration_is_not_a_restart():
     assert w.check() == 'waiting' and not w.restarted
 
 
+def test_a_restart_before_the_node_was_seen_registered_is_one():
+    # Under make test-load the master was killed after the node had
+    # registered but before its watch had seen it: it waited for ever.
+    m = FakeMaster()
+    w = watch(m)
+    assert w.check() == 'waiting'
+    m.restart()
+    assert w.check() == 'restarted'
+    assert w.reason.startswith('the ROS master at http://host:11311/ '
+                               'restarted (pid 101, was 100)')
+
+
 def test_a_node_watched_from_outside_adopts_its_first_uri():
     m = FakeMaster()
     w = MasterWatch('/recorder', None, 'http://host:11311/', m.lookup, m.pid)

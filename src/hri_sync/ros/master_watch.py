@@ -6,8 +6,10 @@ of them: connections already made keep working, but nothing can find the
 node again (a service call, a late subscriber, ``rosnode``), and rospy
 never registers again.  ``MasterWatch`` asks the master every second
 whether it still knows this node at this node's URI.  Once it has seen the
-node registered, a master that answers and does not know it has restarted
-(a master that does not answer is only waited for).  Then the node says
+node registered, or once the master's pid changed (a master killed before
+this loop saw the node registered, under load), a master that answers and
+does not know it has restarted (a master that does not answer is only
+waited for).  Then the node says
 so (logerr), writes its private params back to the new master (it took
 them at start; ``keep_param`` updates them), and ends with exit status
 ``RESTART_EXIT`` so that roslaunch's ``respawn="true"`` starts it again,
@@ -77,14 +79,14 @@ class MasterWatch:
             return 'unreachable' if first else 'still_unreachable'
         was_unreachable = self.unreachable is not None
         self.unreachable = None
+        if self.master_pid is None:
+            self.master_pid = pid
         if self.uri is None and known:
             self.uri = known     # a node watched from outside: its URI
         if known and known == self.uri:
             self.seen = True
-            self.master_pid = pid if self.master_pid is None \
-                else self.master_pid
             return 'back' if was_unreachable else 'ok'
-        if not self.seen:
+        if not self.seen and pid == self.master_pid:
             return 'waiting'
         self.restarted = True
         self.reason = (
