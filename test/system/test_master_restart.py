@@ -19,6 +19,7 @@ import xmlrpc.client
 import pytest
 import rosbag
 import rosgraph
+from hri_sync.tools.procs import cmdline, descendants
 from hri_sync_support.harness import free_port, wait_until
 
 NODES = ['/control_module', '/decision_module', '/a/cpm', '/a/dpm',
@@ -127,6 +128,32 @@ def session():
             s.close()
 
 
+def lines_on(log, node, last=40):
+    """The last ``last`` lines of the launch's output that name ``node``
+    (roslaunch's own lines on its process: started, died, respawned)."""
+    keys = (node, '[%s-' % node[1:])
+    return '\n'.join([line for line in log.splitlines()
+                      if any(k in line for k in keys)][-last:])
+
+
+def processes_of(s, node):
+    """The launch's live processes of ``node``: pid, state (R: running),
+    CPU seconds."""
+    base = '__name:=%s' % node.rsplit('/', 1)[1]
+    out = []
+    for pid, info in descendants(s.launch.pid).items():
+        if base in cmdline(pid, None).split():
+            try:
+                with open('/proc/%d/stat' % pid) as f:
+                    fields = f.read().rsplit(')', 1)[1].split()
+                cpu = (int(fields[11]) + int(fields[12])) / os.sysconf(
+                    'SC_CLK_TCK')
+            except (OSError, IndexError, ValueError):
+                cpu = float('nan')
+            out.append('%d %s %.1f CPU s' % (pid, info.state, cpu))
+    return ', '.join(out) or 'none'
+
+
 def registered(s, before=None):
     """Every node's URI when all are registered (and, given ``before``,
     all with a new process), else None."""
@@ -160,11 +187,14 @@ def test_nodes_come_back_registered_after_a_master_restart(session):
         # so a failing test's tail shows them (it timed out three times
         # under make test-load; the cause is open).
         uris = {n: s.lookup('Node', n) for n in NODES}
-        raise AssertionError('%s\n%s: not registered again: %s%s' % (
-            s.log()[-4000:], e,
-            [n for n in NODES if not uris[n] or uris[n] == before[n]],
+        missing = [n for n in NODES if not uris[n] or uris[n] == before[n]]
+        raise AssertionError('%s\n%s: not registered again: %s%s%s' % (
+            s.log()[-4000:], e, missing,
             '' if s.lookup('Service', SERVICE) else
-            '; %s not advertised' % SERVICE)) from e
+            '; %s not advertised' % SERVICE,
+            ''.join('\nthe launch\'s lines on %s:\n%s\nits processes: %s'
+                    % (n, lines_on(s.log(), n), processes_of(s, n))
+                    for n in missing))) from e
     assert set(after) == set(NODES)
     # The respawned tracker (C++) found its private params on the new master.
     assert 'virtual://' in rosgraph.Master('/test', s.uri).getParam(

@@ -107,6 +107,23 @@ def test_a_restart_before_the_node_was_seen_registered_is_one():
                                'restarted (pid 101, was 100)')
 
 
+def test_a_new_master_that_knows_the_node_again_is_a_restart():
+    # The link checks registered a subscription with the new master before
+    # the watch asked: the node looked registered, at its URI, for good.
+    m = FakeMaster()
+    w = watch(m)
+    m.nodes['/control_module'] = URI
+    assert w.check() == 'ok'
+    m.restart()
+    m.nodes['/control_module'] = URI
+    assert w.check() == 'restarted'
+    assert w.reason == (
+        'the ROS master at http://host:11311/ restarted (pid 101, was 100) '
+        'and no longer knows /control_module at http://host:40001/ (but for '
+        'a subscription the link checks registered since): its topics, '
+        'services and params are gone')
+
+
 def test_a_node_watched_from_outside_adopts_its_first_uri():
     m = FakeMaster()
     w = MasterWatch('/recorder', None, 'http://host:11311/', m.lookup, m.pid)

@@ -6,10 +6,12 @@ of them: connections already made keep working, but nothing can find the
 node again (a service call, a late subscriber, ``rosnode``), and rospy
 never registers again.  ``MasterWatch`` asks the master every second
 whether it still knows this node at this node's URI.  Once it has seen the
-node registered, or once the master's pid changed (a master killed before
-this loop saw the node registered, under load), a master that answers and
-does not know it has restarted (a master that does not answer is only
-waited for).  Then the node says
+node registered, a master that answers and does not know it has restarted;
+so has one whose pid changed, even before this loop saw the node
+registered, and even if it knows the node again (the link checks below may
+register a subscription with the new master before this loop asks: the
+node then looked registered for good, under load).  A master that does not
+answer is only waited for.  Then the node says
 so (logerr), writes its private params back to the new master (it took
 them at start; ``keep_param`` updates them), and ends with exit status
 ``RESTART_EXIT`` so that roslaunch's ``respawn="true"`` starts it again,
@@ -83,20 +85,23 @@ class MasterWatch:
             self.master_pid = pid
         if self.uri is None and known:
             self.uri = known     # a node watched from outside: its URI
-        if known and known == self.uri:
+        same_master = pid == self.master_pid
+        if known and known == self.uri and same_master:
             self.seen = True
             return 'back' if was_unreachable else 'ok'
-        if not self.seen and pid == self.master_pid:
+        if not self.seen and same_master:
             return 'waiting'
         self.restarted = True
         self.reason = (
             'the ROS master at %s %s and no longer knows %s at %s%s: its '
             'topics, services and params are gone'
             % (self.master_uri,
-               'restarted (pid %s, was %s)' % (pid, self.master_pid)
-               if pid != self.master_pid else 'lost its registrations',
+               'lost its registrations' if same_master else
+               'restarted (pid %s, was %s)' % (pid, self.master_pid),
                self.name, self.uri,
-               ' (it has %s under that name)' % known if known else ''))
+               '' if not known else ' (it has %s under that name)' % known
+               if known != self.uri else
+               ' (but for a subscription the link checks registered since)'))
         return 'restarted'
 
 
