@@ -45,8 +45,8 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import decision_latency as dl  # noqa: E402  (its helpers)
+from hri_sync.tools.procs import cpu_seconds  # noqa: E402
 
-HZ = os.sysconf('SC_CLK_TCK')
 STREAMS = {   # kind: (rate Hz, processor)
     'depth': (30.0, 'hri_sync.sensors.image.ImageMotion'),
     'rgb': (30.0, 'hri_sync.sensors.image.ImageMotion'),
@@ -175,16 +175,6 @@ def bag_stamps(path, clients):
             if c in out:
                 out[c].append(dl.skeleton_stamps(msg[1])[1])
     return out
-
-
-def cpu_seconds(pid):
-    """utime + stime of a process, s (None if gone)."""
-    try:
-        with open('/proc/%d/stat' % pid) as f:
-            fields = f.read().rsplit(')', 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / HZ
-    except (OSError, IndexError, ValueError):
-        return None
 
 
 class CapturedCounter:

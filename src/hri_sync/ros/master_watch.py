@@ -92,16 +92,18 @@ class MasterWatch:
         if not self.seen and same_master:
             return 'waiting'
         self.restarted = True
+        what = 'lost its registrations' if same_master else \
+            'restarted (pid %s, was %s)' % (pid, self.master_pid)
+        if not known:
+            has = ''
+        elif known == self.uri:
+            has = ' (but for a subscription the link checks registered since)'
+        else:
+            has = ' (it has %s under that name)' % known
         self.reason = (
             'the ROS master at %s %s and no longer knows %s at %s%s: its '
             'topics, services and params are gone'
-            % (self.master_uri,
-               'lost its registrations' if same_master else
-               'restarted (pid %s, was %s)' % (pid, self.master_pid),
-               self.name, self.uri,
-               '' if not known else ' (it has %s under that name)' % known
-               if known != self.uri else
-               ' (but for a subscription the link checks registered since)'))
+            % (self.master_uri, what, self.name, self.uri, has))
         return 'restarted'
 
 

@@ -2,9 +2,9 @@
 
 Contract: no rospy.  What ``skewed_client`` (a client under libfaketime),
 the benches and the test checkers share: /proc read into ``ProcInfo``, a
-process's live descendants, this process made a child subreaper (so
-orphans stay in its tree), and a process group stopped SIGINT -> SIGTERM
--> SIGKILL.
+process's CPU seconds, its live descendants, this process made a child
+subreaper (so orphans stay in its tree), and a process group stopped
+SIGINT -> SIGTERM -> SIGKILL.
 """
 import ctypes
 import os
@@ -73,6 +73,16 @@ def descendants(root=None, table=None):
             out[pid] = table[pid]
         todo.extend(kids.get(pid, []))
     return out
+
+
+def cpu_seconds(pid):
+    """utime + stime of a process, s (None if gone)."""
+    try:
+        with open('/proc/%d/stat' % pid) as f:
+            fields = f.read().rsplit(')', 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+    except (OSError, IndexError, ValueError):
+        return None
 
 
 def cmdline(pid, words=3):
