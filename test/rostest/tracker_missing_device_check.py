@@ -26,10 +26,13 @@ class TrackerMissingDeviceTest(unittest.TestCase):
         client = rospy.get_param('~client_id')
         device = rospy.get_param('~device')
         statuses, skeletons = [], []
+        # (diagnostic_updater announces each task once, with no values:
+        # 'Node starting up'; a checker up first sees it)
         rospy.Subscriber('/diagnostics', DiagnosticArray,
                          lambda m: statuses.extend(
                              s for s in m.status
-                             if s.name == client + '/tracker: sensor'))
+                             if s.name == client + '/tracker: sensor'
+                             and s.values))
         rospy.Subscriber('/%s/skeleton' % client, Skeleton,
                          lambda m: skeletons.append(m))
         deadline = time.time() + rospy.get_param('~duration')

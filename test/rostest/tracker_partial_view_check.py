@@ -21,12 +21,15 @@ LEGS = (11, 12, 13, 14)     # knees and feet (hri_sync.dance_off.joints order)
 
 def listen(client):
     """Collects the tracker's statuses and skeletons, and gives it a valid
-    global clock (a latched ClockState, offset 0): the two lists filled."""
+    global clock (a latched ClockState, offset 0): the two lists filled.
+    diagnostic_updater's announcement of a task ('Node starting up', no
+    values), which a checker up first sees, is not a status to check."""
     diags, skeletons = [], []
     rospy.Subscriber('/diagnostics', DiagnosticArray,
                      lambda m: diags.extend(
                          s for s in m.status
-                         if s.name.startswith(client + '/')))
+                         if s.name.startswith(client + '/')
+                         and s.values))
     rospy.Subscriber('/%s/skeleton' % client, Skeleton, skeletons.append)
     pub = rospy.Publisher('/%s/clock_state' % client, ClockState,
                           queue_size=1, latch=True)
