@@ -155,7 +155,9 @@ def remove_stale_netns():
 class Runner:
     """Runs test files, each alone in a namespace when isolate is set."""
 
-    def __init__(self, root, isolate):
+    def __init__(self, root, isolate, fork):
+        self.support = os.path.join(root, 'support')
+        self.fork = fork
         self.logs = os.path.join(root, '.ws', 'test_logs')
         self.results = os.path.join(root, '.ws', 'test_results')
         self.isolate = isolate
@@ -173,9 +175,14 @@ class Runner:
         if path.endswith('.py'):
             return xml, [sys.executable, '-m', 'pytest', '-q', '-p',
                          'no:cacheprovider', '--junitxml', xml, path]
-        return xml, ['rostest', '--results-base-dir', results,
-                     '--results-filename', '%s.xml' % name,
-                     'hri_sync', os.path.basename(path)]
+        rostest = ['rostest', '--results-base-dir', results,
+                   '--results-filename', '%s.xml' % name,
+                   'hri_sync', os.path.basename(path)]
+        if not self.fork:
+            return xml, rostest
+        sock = os.path.join(self.results, '.%s.fork' % name)
+        return xml, [sys.executable, '-m', 'hri_sync_support.forkserver',
+                     sock, '--'] + rostest
 
     def run(self, path):
         """(name, ok, seconds, summary line) of one test file."""
@@ -187,6 +194,9 @@ class Runner:
         ns = None
         cpu = None
         env = dict(os.environ)
+        env['PYTHONPATH'] = os.pathsep.join(
+            [self.support] + [p for p in env.get('PYTHONPATH', '').split(
+                os.pathsep) if p])
         if self.isolate:
             with self.lock:
                 self.count += 1
@@ -252,7 +262,8 @@ def main():
     jobs = max(1, args.jobs) if isolate else 1
     if isolate:
         remove_stale_netns()
-    runner = Runner(root, isolate)
+    runner = Runner(root, isolate,
+                    os.environ.get('ROSTEST_FORKSERVER', '1') != '0')
     durations_file = os.path.join(runner.logs, 'durations.json')
     durations = {}
     for path in (os.path.join(test_dir, 'durations.json'), durations_file):
@@ -263,9 +274,11 @@ def main():
             pass
     files.sort(key=lambda f: -durations.get(
         os.path.splitext(os.path.basename(f))[0], 60.0))
-    print('rostest: %d files, %d at once%s' % (
+    print('rostest: %d files, %d at once%s%s' % (
         len(files), jobs, ', one network namespace each' if isolate else
-        ' (not root: no network namespaces, one at a time)'), flush=True)
+        ' (not root: no network namespaces, one at a time)',
+        ', Python forked from a preloaded server' if runner.fork else ''),
+        flush=True)
     passed, failed = [], []
     cpu_total = 0.0
     t0 = time.monotonic()

@@ -1,0 +1,298 @@
+"""A fork server for a rostest's Python processes (test tooling only).
+
+    python3 -m hri_sync_support.forkserver SOCKET -- COMMAND ...
+
+A rostest starts ~15 Python processes, and each spends ~0.35 CPU s
+importing rospy's dependencies (numpy, genpy, yaml, catkin_pkg, the
+message modules) before it does anything: on a 2-core machine that is
+about half of the suite's CPU.  This server imports them once, then runs
+COMMAND with ``support/forkserver`` on its ``PYTHONPATH`` and
+``HRI_SYNC_FORKSERVER=SOCKET``; every Python script started under it
+(rostest, rosmaster, the nodes, the checkers) hands itself over
+(``support/forkserver/sitecustomize.py``) and the server forks a copy to
+run it: the script's own code, argv, environment, folder and streams, in
+a session of its own, while its proxy stands where roslaunch started it
+(its pid, signals and exit status).  rospy itself is not imported here:
+it reads argv and the environment at import, so each copy imports it
+(~0.02 CPU s).  The server exits with COMMAND's status, after SIGKILL to
+any copy left.
+
+What differs from a plain process, and where it matters: a copy's parent
+is this server, not roslaunch, so a lifeline (PR_SET_PDEATHSIG) fires
+when the server ends, not when roslaunch dies; a test about process
+lifetimes runs its launch with ``HRI_SYNC_FORKSERVER`` set to ``off``.
+"""
+import os
+import runpy
+import selectors
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import threading
+import atexit
+import json
+import traceback
+
+os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')  # no thread to fork
+
+# rospy's dependencies that hold no state of the process (rospy, which
+# reads argv and the environment at import, is left to each copy).
+PRELOAD = ('numpy', 'yaml', 'genpy', 'genpy.rostime', 'roslib',
+           'roslib.packages', 'rosgraph', 'rosgraph.masterapi',
+           'rosgraph.network', 'rospkg', 'catkin_pkg.package',
+           'xmlrpc.client', 'xmlrpc.server', 'http.server',
+           'logging.config', 'socketserver', 'std_msgs.msg',
+           'geometry_msgs.msg', 'sensor_msgs.msg', 'diagnostic_msgs.msg',
+           'visualization_msgs.msg', 'tf2_msgs.msg', 'nav_msgs.msg',
+           'rosgraph_msgs.msg', 'hri_sync.msg')
+ENV = 'HRI_SYNC_FORKSERVER'
+_KEEP = []  # the server's objects a copy must not close on collection
+
+
+def preload():
+    """Import PRELOAD (those that exist); rospy must not come with them."""
+    for name in PRELOAD:
+        try:
+            __import__(name)
+        except ImportError:
+            pass
+    if 'rospy' in sys.modules:
+        raise RuntimeError('a preloaded module imported rospy')
+
+
+def python_settings(env):
+    """The PYTHON* variables a copy must share with the server (its
+    ``PYTHONPATH`` may differ: a copy's path is built from its own)."""
+    return repr(sorted((k, v) for k, v in env.items()
+                       if k.startswith('PYTHON') and k != 'PYTHONPATH'))
+
+
+def _receive(conn):
+    """(request, [fd 0, fd 1, fd 2]) from a proxy."""
+    head, fds = b'', []
+    while len(head) < 4:
+        data, ancdata, _, _ = conn.recvmsg(4 - len(head),
+                                           socket.CMSG_SPACE(3 * 4))
+        if not data:
+            raise EOFError('proxy closed before its request')
+        head += data
+        for level, kind, payload in ancdata:
+            if level == socket.SOL_SOCKET and kind == socket.SCM_RIGHTS:
+                fds += list(struct.unpack('%di' % (len(payload) // 4),
+                                          payload))
+    size = struct.unpack('!I', head)[0]
+    body = b''
+    while len(body) < size:
+        chunk = conn.recv(size - len(body))
+        if not chunk:
+            raise EOFError('proxy closed mid-request')
+        body += chunk
+    if len(fds) != 3:
+        raise EOFError('proxy sent %d streams, not 3' % len(fds))
+    return json.loads(body), fds
+
+
+class Server:
+    """Forks a copy per proxy; reports each copy's end to its proxy."""
+
+    def __init__(self, path):
+        self.path = path
+        self.listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        self.listener.bind(path)
+        self.listener.listen(64)
+        self.selector = selectors.DefaultSelector()
+        self.selector.register(self.listener, selectors.EVENT_READ)
+        self.copies = {}     # pid: (its proxy's connection, its pidfd)
+        self.main_fd = None
+        # sys.path without -m's working folder and PYTHONPATH's entries
+        pythonpath = [p for p in os.environ.get('PYTHONPATH', '').split(
+            os.pathsep) if p]
+        self.base_path = [p for p in sys.path[1:] if p not in pythonpath]
+
+    def serve(self, command):
+        """Runs ``command`` under the server; its exit status."""
+        env = dict(os.environ)
+        hook = os.path.join(os.path.dirname(os.path.dirname(
+            os.path.abspath(__file__))), 'forkserver')
+        env['PYTHONPATH'] = os.pathsep.join(
+            [hook] + [p for p in env.get('PYTHONPATH', '').split(os.pathsep)
+                      if p])
+        env.update({ENV: self.path, ENV + '_PYTHON': sys.executable,
+                    ENV + '_ENV': python_settings(env)})
+        main = subprocess.Popen(command, env=env)
+        self.main_fd = os.pidfd_open(main.pid)
+        self.selector.register(self.main_fd, selectors.EVENT_READ, 'main')
+        while True:
+            for key, _ in self.selector.select():
+                if key.fileobj is self.listener:
+                    self.accept()
+                elif key.data == 'main':
+                    code = main.wait()
+                    self.close()
+                    return code
+                elif key.data[0] == 'copy':
+                    self.copy_ended(key.data[1])
+                else:
+                    self.proxy_gone(key.data[1])
+
+    def accept(self):
+        conn, _ = self.listener.accept()
+        try:
+            request, fds = _receive(conn)
+        except (OSError, EOFError, ValueError) as e:
+            sys.stderr.write('hri_sync forkserver: %s\n' % e)
+            conn.close()
+            return
+        sys.stdout.flush()
+        sys.stderr.flush()
+        pid = os.fork()
+        if pid == 0:
+            self.run_copy(conn, request, fds)
+        for fd in fds:
+            os.close(fd)
+        pidfd = os.pidfd_open(pid)
+        self.copies[pid] = (conn, pidfd)
+        self.selector.register(pidfd, selectors.EVENT_READ, ('copy', pid))
+        self.selector.register(conn, selectors.EVENT_READ, ('proxy', pid))
+        try:
+            conn.sendall(struct.pack('!i', pid))
+        except OSError:
+            self.proxy_gone(pid)
+
+    def copy_ended(self, pid):
+        _, status = os.waitpid(pid, 0)
+        conn, pidfd = self.copies.pop(pid)
+        self.selector.unregister(pidfd)
+        if conn.fileno() in self.selector.get_map():
+            self.selector.unregister(conn)
+        os.close(pidfd)
+        try:
+            conn.sendall(struct.pack('!i', status))
+        except OSError:
+            pass
+        conn.close()
+
+    def proxy_gone(self, pid):
+        """The proxy closed (killed: SIGKILL cannot be passed on): the copy
+        and its process group get SIGKILL too."""
+        conn, _ = self.copies[pid]
+        self.selector.unregister(conn)
+        try:
+            os.killpg(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+
+    def close(self):
+        """SIGKILL to every copy left; the socket removed."""
+        for pid in list(self.copies):
+            try:
+                os.killpg(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        self.listener.close()
+        try:
+            os.unlink(self.path)
+        except OSError:
+            pass
+
+    def run_copy(self, conn, request, fds):
+        """In the forked copy: become the script's process; never returns."""
+        code = 1
+        try:
+            os.setsid()
+            _KEEP.extend([self.listener, self.selector, conn] +
+                         [c for c, _ in self.copies.values()])
+            for fd in [self.listener.fileno(), conn.fileno()] + [
+                    c.fileno() for c, _ in self.copies.values()] + [
+                    p for _, p in self.copies.values()] + [self.main_fd]:
+                os.close(fd)
+            self.selector.close()
+            for target, fd in enumerate(fds):
+                os.dup2(fd, target)
+                os.close(fd)
+            sys.stdout.reconfigure(line_buffering=os.isatty(1))
+            _signals(request.get('ignored', []))
+            os.chdir(request['cwd'])
+            os.environ.clear()
+            os.environ.update(request['env'])
+            argv = request['argv']
+            sys.argv = argv
+            sys.orig_argv = [sys.executable] + argv
+            script = os.path.realpath(argv[0])
+            sys.path[:] = [os.path.dirname(script)] + [
+                p for p in os.environ.get('PYTHONPATH', '').split(os.pathsep)
+                if p] + self.base_path
+            code = _run(argv[0])
+        finally:
+            try:
+                sys.stdout.flush()
+                sys.stderr.flush()
+            finally:
+                os._exit(code)
+
+
+def _signals(ignored):
+    """The dispositions Python starts with, as the proxy had them:
+    ``ignored`` (signal numbers) ignored, SIGINT raising
+    KeyboardInterrupt, the rest by default."""
+    for name in ('SIGINT', 'SIGTERM', 'SIGHUP', 'SIGQUIT', 'SIGUSR1',
+                 'SIGUSR2', 'SIGCONT'):
+        signum = getattr(signal, name)
+        if signum in ignored:
+            signal.signal(signum, signal.SIG_IGN)
+        elif signum == signal.SIGINT:
+            signal.signal(signum, signal.default_int_handler)
+        else:
+            signal.signal(signum, signal.SIG_DFL)
+
+
+def _run(script):
+    """Runs ``script`` as ``__main__`` and ends as Python would: threads
+    joined, atexit handlers run; the exit code (an uncaught
+    KeyboardInterrupt ends the process by SIGINT, as Python's does)."""
+    interrupted = False
+    code = 0
+    try:
+        runpy.run_path(script, run_name='__main__')
+    except SystemExit as e:
+        if e.code is None:
+            code = 0
+        elif isinstance(e.code, int):
+            code = e.code
+        else:
+            sys.stderr.write('%s\n' % e.code)
+            code = 1
+    except KeyboardInterrupt:
+        traceback.print_exc()
+        interrupted = True
+    except BaseException:
+        traceback.print_exc()
+        code = 1
+    threading._shutdown()
+    atexit._run_exitfuncs()
+    if interrupted:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        os.kill(os.getpid(), signal.SIGINT)
+    return code
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    if len(argv) < 3 or argv[1] != '--':
+        sys.stderr.write(__doc__.split('\n\n')[1] + '\n')
+        return 2
+    path, command = argv[0], argv[2:]
+    preload()
+    server = Server(path)
+    try:
+        return server.serve(command)
+    finally:
+        server.close()
+
+
+if __name__ == '__main__':
+    sys.exit(main())

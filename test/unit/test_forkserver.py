@@ -1,0 +1,176 @@
+"""The rostests' fork server: a script run through it behaves as a plain
+process would, as its parent sees it (argv, environment, folder, streams,
+exit status, signals), and anything it cannot serve runs plainly."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+ROS_PY = '/usr/bin/python3'
+SUPPORT = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..',
+                       'support')
+SCRIPT = textwrap.dedent('''\
+    import json, os, signal, sys, time
+    mode = sys.argv[1]
+
+
+    def report():
+        print(json.dumps({
+            'argv': sys.argv, 'cwd': os.getcwd(),
+            'foo': os.environ.get('FOO'), 'pid': os.getpid(),
+            'path0': sys.path[0], 'rospy_before': 'rospy' in sys.modules,
+            'numpy_before': 'numpy' in sys.modules,
+            'sigint_ignored':
+                signal.getsignal(signal.SIGINT) == signal.SIG_IGN}),
+              flush=True)
+
+
+    sys.stderr.write('to stderr\\n')
+    if mode == 'sleep':
+        try:
+            report()
+            time.sleep(60)
+        except KeyboardInterrupt:
+            print('interrupted', flush=True)
+            sys.exit(7)
+    report()
+    if mode == 'exit':
+        sys.exit(int(sys.argv[2]))
+    if mode == 'raise':
+        raise ValueError('boom')
+    ''')
+DRIVER = textwrap.dedent('''\
+    import json, os, signal, subprocess, sys, time
+    script, how = sys.argv[1], sys.argv[2]
+    if how == 'ignore-int':
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    mode = 'sleep' if how in ('int', 'kill', 'ignore-int') else how
+    args = [sys.executable, script, mode] + (['5'] if mode == 'exit' else [])
+    p = subprocess.Popen(args, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True,
+                         env=dict(os.environ, FOO='bar'))
+    first = p.stdout.readline()
+    if how in ('int', 'ignore-int'):
+        os.kill(p.pid, signal.SIGINT)
+        if how == 'ignore-int':
+            time.sleep(0.5)
+            os.kill(p.pid, signal.SIGTERM)
+    elif how == 'kill':
+        copy = json.loads(first)['pid']
+        os.kill(p.pid, signal.SIGKILL)
+    out, err = p.communicate(timeout=30)
+    result = {'first': json.loads(first), 'rest': out, 'err': err,
+              'code': p.returncode, 'proxy': p.pid}
+    if how == 'kill':
+        time.sleep(0.5)
+        try:
+            os.kill(copy, 0)
+            state = open('/proc/%d/stat' % copy).read().split()[2]
+            result['copy_alive'] = state != 'Z'
+        except ProcessLookupError:
+            result['copy_alive'] = False
+    print(json.dumps(result))
+    ''')
+
+pytestmark = pytest.mark.skipif(not os.path.exists(ROS_PY),
+                                reason='needs ' + ROS_PY)
+
+
+def run(tmp_path, how, served=True):
+    """The driver's report of the script run ``how``, under a server
+    (``served``) or plainly."""
+    script = tmp_path / 'script.py'
+    script.write_text(SCRIPT)
+    driver = tmp_path / 'driver.py'
+    driver.write_text(DRIVER)
+    env = dict(os.environ, PYTHONPATH=os.path.abspath(SUPPORT),
+               OPENBLAS_NUM_THREADS='1')
+    env.pop('PYTHONHOME', None)
+    command = [ROS_PY, str(driver), str(script), how]
+    if served:
+        command = [ROS_PY, '-m', 'hri_sync_support.forkserver',
+                   str(tmp_path / 'fork.sock'), '--'] + command
+    out = subprocess.run(command, cwd=str(tmp_path), env=env, timeout=120,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, check=True,
+                         preexec_fn=lambda: signal.signal(
+                             signal.SIGINT, signal.default_int_handler))
+    return json.loads(out.stdout.splitlines()[-1])
+
+
+def test_a_served_script_is_a_preloaded_copy_with_the_proxys_settings(
+        tmp_path):
+    served = run(tmp_path, 'exit')
+    plain = run(tmp_path, 'exit', served=False)
+    for r in (served, plain):
+        assert r['code'] == 5
+        assert r['first']['argv'][1:] == ['exit', '5']
+        assert r['first']['cwd'] == str(tmp_path)
+        assert r['first']['foo'] == 'bar'
+        assert r['first']['path0'] == str(tmp_path)
+        assert r['err'] == 'to stderr\n'
+        assert not r['first']['rospy_before']
+    # the copy is not the proxy roslaunch would see, and has numpy already
+    assert served['first']['pid'] != served['proxy']
+    assert served['first']['numpy_before']
+    assert plain['first']['pid'] == plain['proxy']
+    assert not plain['first']['numpy_before']
+
+
+def test_an_uncaught_exception_exits_1_with_its_traceback(tmp_path):
+    r = run(tmp_path, 'raise')
+    assert r['code'] == 1
+    assert 'ValueError: boom' in r['err']
+
+
+def test_sigint_to_the_proxy_interrupts_the_copy(tmp_path):
+    r = run(tmp_path, 'int')
+    assert r['code'] == 7
+    assert r['rest'] == 'interrupted\n'
+
+
+def test_a_signal_ignored_by_the_proxy_is_ignored_by_the_copy(tmp_path):
+    r = run(tmp_path, 'ignore-int')
+    assert r['first']['sigint_ignored']
+    assert r['code'] == -signal.SIGTERM
+    assert 'interrupted' not in r['rest']
+
+
+def test_a_proxy_killed_takes_its_copy_with_it(tmp_path):
+    r = run(tmp_path, 'kill')
+    assert r['code'] == -signal.SIGKILL
+    assert r['copy_alive'] is False
+
+
+def test_without_a_server_the_hook_runs_the_script_plainly(tmp_path):
+    script = tmp_path / 'script.py'
+    script.write_text(SCRIPT)
+    env = dict(os.environ, PYTHONPATH=os.path.join(
+        os.path.abspath(SUPPORT), 'forkserver'),
+        HRI_SYNC_FORKSERVER=str(tmp_path / 'absent.sock'),
+        HRI_SYNC_FORKSERVER_PYTHON=ROS_PY)
+    env.pop('PYTHONHOME', None)
+    env['HRI_SYNC_FORKSERVER_ENV'] = repr(sorted(
+        (k, v) for k, v in env.items()
+        if k.startswith('PYTHON') and k != 'PYTHONPATH'))
+    out = subprocess.run([ROS_PY, str(script), 'exit', '3'], env=env,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, timeout=60)
+    assert out.returncode == 3
+    assert 'running %s here' % script in out.stderr
+    assert json.loads(out.stdout)['argv'][1:] == ['exit', '3']
+
+
+def test_the_server_exits_with_its_commands_status(tmp_path):
+    env = dict(os.environ, PYTHONPATH=os.path.abspath(SUPPORT))
+    out = subprocess.run(
+        [ROS_PY, '-m', 'hri_sync_support.forkserver',
+         str(tmp_path / 'fork.sock'), '--', 'sh', '-c', 'exit 4'],
+        env=env, timeout=120)
+    assert out.returncode == 4
+    assert not (tmp_path / 'fork.sock').exists()
+
