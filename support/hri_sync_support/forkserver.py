@@ -22,7 +22,11 @@ is this server, not roslaunch, so a lifeline (PR_SET_PDEATHSIG) fires
 when the server ends, not when roslaunch dies; a test about process
 lifetimes runs its launch with ``HRI_SYNC_FORKSERVER`` set to ``off``.
 """
+import atexit
+import importlib
+import json
 import os
+import pkgutil
 import runpy
 import selectors
 import signal
@@ -31,8 +35,6 @@ import struct
 import subprocess
 import sys
 import threading
-import atexit
-import json
 import traceback
 
 os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')  # no thread to fork
@@ -47,17 +49,28 @@ PRELOAD = ('numpy', 'yaml', 'genpy', 'genpy.rostime', 'roslib',
            'geometry_msgs.msg', 'sensor_msgs.msg', 'diagnostic_msgs.msg',
            'visualization_msgs.msg', 'tf2_msgs.msg', 'nav_msgs.msg',
            'rosgraph_msgs.msg', 'hri_sync.msg')
+# hri_sync's core packages: no rospy, no process state (test_layers.py).
+CORE = ('hri_sync.timing', 'hri_sync.dance_off', 'hri_sync.robot',
+        'hri_sync.people', 'hri_sync.sensors')
 ENV = 'HRI_SYNC_FORKSERVER'
 _KEEP = []  # the server's objects a copy must not close on collection
 
 
 def preload():
-    """Import PRELOAD (those that exist); rospy must not come with them."""
-    for name in PRELOAD:
+    """Import PRELOAD and CORE's modules (those that import here); rospy
+    must not come with them."""
+    names = list(PRELOAD)
+    for package in CORE:
         try:
-            __import__(name)
+            path = importlib.import_module(package).__path__
         except ImportError:
-            pass
+            continue
+        names += [m.name for m in pkgutil.iter_modules(path, package + '.')]
+    for name in names:
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            pass    # e.g. pylsl, which only the venv has
     if 'rospy' in sys.modules:
         raise RuntimeError('a preloaded module imported rospy')
 
