@@ -30,6 +30,7 @@ import os
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 import xml.etree.ElementTree as ET
@@ -180,7 +181,11 @@ class Runner:
                    'hri_sync', os.path.basename(path)]
         if not self.fork:
             return xml, rostest
-        sock = os.path.join(self.results, '.%s.fork' % name)
+        # (a short path: a socket's is at most 107 bytes)
+        with self.lock:
+            self.count += 1
+            sock = os.path.join(tempfile.gettempdir(), 'hri_sync_fork_%d_%d'
+                                % (os.getpid(), self.count))
         return xml, [sys.executable, '-m', 'hri_sync_support.forkserver',
                      sock, '--'] + rostest
 

@@ -113,6 +113,8 @@ class Server:
     def __init__(self, path):
         self.path = path
         self.listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        if os.path.exists(path):
+            os.unlink(path)     # a server killed before it could remove it
         self.listener.bind(path)
         self.listener.listen(64)
         self.selector = selectors.DefaultSelector()
