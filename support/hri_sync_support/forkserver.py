@@ -23,6 +23,7 @@ when the server ends, not when roslaunch dies; a test about process
 lifetimes runs its launch with ``HRI_SYNC_FORKSERVER`` set to ``off``.
 """
 import atexit
+import ctypes
 import importlib
 import json
 import os
@@ -53,6 +54,7 @@ PRELOAD = ('numpy', 'yaml', 'genpy', 'genpy.rostime', 'roslib',
 CORE = ('hri_sync.timing', 'hri_sync.dance_off', 'hri_sync.robot',
         'hri_sync.people', 'hri_sync.sensors')
 ENV = 'HRI_SYNC_FORKSERVER'
+PR_SET_NAME = 15
 _KEEP = []  # the server's objects a copy must not close on collection
 
 
@@ -236,6 +238,7 @@ class Server:
             sys.argv = argv
             sys.orig_argv = [sys.executable] + argv
             script = os.path.realpath(argv[0])
+            _name(os.path.basename(argv[0]))
             sys.path[:] = [os.path.dirname(script)] + [
                 p for p in os.environ.get('PYTHONPATH', '').split(os.pathsep)
                 if p] + self.base_path
@@ -246,6 +249,13 @@ class Server:
                 sys.stderr.flush()
             finally:
                 os._exit(code)
+
+
+def _name(name):
+    """The process's name (``ps -o comm``, ``top``): the script's, as a
+    plain process's would be (its command line stays the server's)."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl(PR_SET_NAME, name.encode()[:15], 0, 0, 0)
 
 
 def _signals(ignored):
