@@ -237,7 +237,13 @@ class DanceOffRound(unittest.TestCase):
                           len(window), int(self.dur * self.rate))
             if r.status == 'ok':
                 self.assertGreaterEqual(r.coverage, 0.9, c)
-                self.assertLessEqual(r.frames, self.dur * self.rate + 1)
+                # A device map that moved s earlier mid-window (a slow
+                # start of the transport) stamped a stretch twice.
+                shift = float(diag(r, 'device_map_shift') or 0.0)
+                self.assertLessEqual(r.frames,
+                                     (self.dur + shift) * self.rate + 1,
+                                     '%s: device_map_shift %.3f s'
+                                     % (c, shift))
             elif r.status == 'partial':
                 self.assertLess(r.coverage, 0.9, c)
                 self.assertGreater(r.coverage, 0.0, c)

@@ -315,6 +315,27 @@ def test_device_stamps_map_to_global_capture_time():
     assert r.first_frame_offset == pytest.approx(DELAY, abs=1e-9)
     assert r.frames == 20 and r.status == 'ok'
     assert r.diagnostics['device_clock_settling_total'] == 4
+    assert r.diagnostics['device_map_shift'] == 0.0
+
+
+def test_a_map_that_moves_earlier_widens_the_windows_bound():
+    # The sensor's first 10 samples came 250 ms late (a slow start of the
+    # transport), so the settled map stamped them 250 ms late; the next
+    # ones come in a burst as the reader catches up, moving the map
+    # 250 ms earlier.  The window holds both stampings of that stretch:
+    # 25 samples in its 1 s of 20 Hz, which its bound and
+    # device_map_shift own up to.
+    d = dp(DeviceMean)
+    start = L0 + OFFSET + 0.3
+    d.open(1, start, start + 1.0)
+    steps = device_run(d, 60, jitter=lambda k: 0.25 if k < 10
+                       else max(0.0, 9 * P + 0.25 - k * P))
+    (r,) = results(steps)
+    shift = r.diagnostics['device_map_shift']
+    assert shift == pytest.approx(0.25)
+    assert r.frames == 25
+    assert r.frames <= (1.0 + shift) * RATE + 1
+    assert r.timing_uncertainty >= shift
 
 
 def test_the_first_samples_of_a_map_are_stamped_once_it_settles():

@@ -87,7 +87,10 @@ class DataProcess:
     (``ClockModel.uncertainty_at``; the CPM's own convention, conservative
     in a holdover, whose published uncertainty has grown already); a
     window's bound is its worst sample's (its end's, without samples) plus
-    the device map's residual.
+    the device map's residual, plus every move of the map towards earlier
+    stamps while the window's samples were stamped (``device_map_shift``):
+    a sample stamped before such a move of s seconds was stamped s late,
+    and the window may hold s x rate samples more than its span.
 
     A window is due for lack of samples ``margin`` s, plus the recent
     delivery lag of device-stamped samples, after the next sample was
@@ -150,6 +153,8 @@ class DataProcess:
         self._gaps: deque[float] = deque(maxlen=31)
         self._lags: deque[float] = deque(maxlen=32)
         self._last_stamp: float | None = None
+        # (arrival, s): each move of the device map to stamps s earlier
+        self._shifts: deque[tuple[float, float]] = deque(maxlen=256)
 
     # -- clock and stamps -------------------------------------------------
 
@@ -212,10 +217,15 @@ class DataProcess:
                 m.to_global(DeviceTime(device)) <= arrival + self.jump):
             return self._held(sample)
         self._drop_pending(arrival)
+        # (samples stamped by the map as it is: none while it settles)
+        before = m.to_global(DeviceTime(device)) if m.ready else None
         m.add(DeviceTime(device), arrival)
         if not (m.ready and 0 <= device - self._fitted < self.refit):
             m.refit()
             self._fitted = device
+            if before is not None and m.to_global(DeviceTime(device)) < before:
+                self._shifts.append(
+                    (arrival, before - m.to_global(DeviceTime(device))))
         self._settling.append(sample)
         if not m.ready:
             # Alone, a sample that arrived late would set the map's offset
@@ -446,15 +456,20 @@ class DataProcess:
         self.closed.append((w.round, w.start, w.end))
         status, res, stats, error = w.finish(self.min_coverage)
         residual = self.mapping.residual
+        # A sample in the window was stamped at its arrival, at most
+        # ``jump`` s before its stamp: the map's moves since then count.
+        shift = sum(s for a, s in self._shifts if a >= w.start - self.jump)
         clock = self.clock
-        bound = residual + (w.bound if len(w.stamps) or clock is None
-                            else self.clock_bound(clock.to_local(w.end)))
+        bound = residual + shift + (
+            w.bound if len(w.stamps) or clock is None
+            else self.clock_bound(clock.to_local(w.end)))
         diagnostics = dict(res.diagnostics) if res else {'error': error}
         diagnostics.update(self._totals())
         diagnostics.update({
             'completed_by': w.completed_by, 'late_samples': w.late,
             'period': stats['period'],
             'device_map_residual': residual,
+            'device_map_shift': shift,
             'unstamped': sum(w.rejected[k] for k in (
                 'no_device_stamp', 'bad_device_stamp')),
             'bad_device_stamps': w.rejected['bad_device_stamp']})
