@@ -252,8 +252,8 @@ def main():
     restore_signals()
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('-j', '--jobs', type=int,
-                        default=int(os.environ.get('ROSTEST_JOBS', 3)),
-                        help='tests at once (default $ROSTEST_JOBS or 3)')
+                        default=int(os.environ.get('ROSTEST_JOBS', 4)),
+                        help='tests at once (default $ROSTEST_JOBS or 4)')
     parser.add_argument('test_dir')
     parser.add_argument('wanted', nargs='*', help='name substrings')
     args = parser.parse_args()
