@@ -77,6 +77,16 @@ def netns_pids(ns):
     return [int(p) for p in out.split()]
 
 
+def can_fork_serve():
+    """Whether the fork server can run here: it watches its forks with
+    pidfds (Linux 5.3, Python 3.9)."""
+    try:
+        os.close(os.pidfd_open(os.getpid()))
+    except (AttributeError, OSError):
+        return False
+    return True
+
+
 def remove_netns(ns):
     """Kill what still runs in namespace ns, then delete it."""
     for sig in (signal.SIGTERM, signal.SIGKILL):
@@ -267,8 +277,8 @@ def main():
     jobs = max(1, args.jobs) if isolate else 1
     if isolate:
         remove_stale_netns()
-    runner = Runner(root, isolate,
-                    os.environ.get('ROSTEST_FORKSERVER', '1') != '0')
+    runner = Runner(root, isolate, os.environ.get(
+        'ROSTEST_FORKSERVER', '1') != '0' and can_fork_serve())
     durations_file = os.path.join(runner.logs, 'durations.json')
     durations = {}
     for path in (os.path.join(test_dir, 'durations.json'), durations_file):
