@@ -217,15 +217,17 @@ class DataProcess:
                 m.to_global(DeviceTime(device)) <= arrival + self.jump):
             return self._held(sample)
         self._drop_pending(arrival)
-        # (samples stamped by the map as it is: none while it settles)
-        before = m.to_global(DeviceTime(device)) if m.ready else None
+        stamping = m.ready      # (none stamped by a map that settles)
         m.add(DeviceTime(device), arrival)
         if not (m.ready and 0 <= device - self._fitted < self.refit):
+            # add kept the last fit: this stamp, before and after the refit
+            before = m.to_global(DeviceTime(device)) if stamping else None
             m.refit()
             self._fitted = device
-            if before is not None and m.to_global(DeviceTime(device)) < before:
-                self._shifts.append(
-                    (arrival, before - m.to_global(DeviceTime(device))))
+            if before is not None:
+                moved = before - m.to_global(DeviceTime(device))
+                if moved > 0:
+                    self._shifts.append((arrival, moved))
         self._settling.append(sample)
         if not m.ready:
             # Alone, a sample that arrived late would set the map's offset
