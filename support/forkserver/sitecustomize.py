@@ -1,7 +1,8 @@
 """Hands a Python script over to the rostests' fork server, if one serves.
 
 On the ``PYTHONPATH`` of a rostest run by ``scripts/run_rostests.py``
-only (never installed).  Python imports this at startup.  When
+only (never installed); what it shares with the server is
+``hri_sync_support.fork_protocol``.  Python imports this at startup.  When
 ``HRI_SYNC_FORKSERVER`` names the socket of ``hri_sync_support.forkserver``
 and this process runs a script plainly (``python3 SCRIPT ARGS``, no
 interpreter option, the server's interpreter and ``PYTHON*`` variables,
@@ -18,10 +19,6 @@ Debian's own sitecustomize (an apport hook, absent here) is shadowed.
 import os
 import sys
 
-ENV = 'HRI_SYNC_FORKSERVER'
-FORWARDED = ('SIGINT', 'SIGTERM', 'SIGHUP', 'SIGQUIT', 'SIGUSR1', 'SIGUSR2',
-             'SIGCONT')
-
 
 def _plain_script():
     """The script's path when this is ``python3 SCRIPT ARGS``, else None."""
@@ -33,17 +30,16 @@ def _plain_script():
     return argv[0] if os.path.isfile(argv[0]) else None
 
 
-def _same_interpreter(env):
+def _same_interpreter(env, protocol):
     """This interpreter and its PYTHON* settings (but its path) are the
     server's."""
-    ours = sorted((k, v) for k, v in env.items()
-                  if k.startswith('PYTHON') and k != 'PYTHONPATH')
-    return (env.get(ENV + '_PYTHON') == sys.executable
-            and env.get(ENV + '_ENV') == repr(ours)
+    return (env.get(protocol.ENV_PYTHON) == sys.executable
+            and env.get(protocol.ENV_SETTINGS)
+            == protocol.python_settings(env)
             and 'LD_PRELOAD' not in env and sys.prefix == sys.base_prefix)
 
 
-def _hand_over(path, script):
+def _hand_over(path, script, forwarded):
     """Runs ``script`` in the server: never returns once it started."""
     import json
     import signal
@@ -56,9 +52,9 @@ def _hand_over(path, script):
     # Signals wait until they can be passed on (a SIGINT now would
     # otherwise leave the script running both here and there).
     # A signal ignored here stays ignored, here and in the copy.
-    ignored = [getattr(signal, name) for name in FORWARDED
+    ignored = [getattr(signal, name) for name in forwarded
                if signal.getsignal(getattr(signal, name)) == signal.SIG_IGN]
-    signals = [getattr(signal, name) for name in FORWARDED
+    signals = [getattr(signal, name) for name in forwarded
                if getattr(signal, name) not in ignored]
     signal.pthread_sigmask(signal.SIG_BLOCK, signals)
     try:
@@ -100,13 +96,17 @@ def _hand_over(path, script):
 
 
 def _main():
-    path = os.environ.get(ENV, '')
+    try:
+        from hri_sync_support import fork_protocol
+    except ImportError:
+        return      # support/ not on the path: no server of ours
+    path = os.environ.get(fork_protocol.ENV, '')
     script = _plain_script()
     if not os.path.isabs(path) or script is None \
-            or not _same_interpreter(os.environ):
+            or not _same_interpreter(os.environ, fork_protocol):
         return
     try:
-        _hand_over(path, script)
+        _hand_over(path, script, fork_protocol.FORWARDED)
     except OSError as e:
         sys.stderr.write('hri_sync forkserver: %s; running %s here\n'
                          % (e, script))

@@ -38,6 +38,9 @@ import sys
 import threading
 import traceback
 
+from hri_sync_support.fork_protocol import (ENV, ENV_PYTHON, ENV_SETTINGS,
+                                            FORWARDED, python_settings)
+
 os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')  # no thread to fork
 
 # rospy's dependencies that hold no state of the process (rospy, which
@@ -53,7 +56,6 @@ PRELOAD = ('numpy', 'yaml', 'genpy', 'genpy.rostime', 'roslib',
 # hri_sync's core packages: no rospy, no process state (test_layers.py).
 CORE = ('hri_sync.timing', 'hri_sync.dance_off', 'hri_sync.robot',
         'hri_sync.people', 'hri_sync.sensors')
-ENV = 'HRI_SYNC_FORKSERVER'
 PR_SET_NAME = 15
 _KEEP = []  # the server's objects a copy must not close on collection
 
@@ -75,13 +77,6 @@ def preload():
             pass    # e.g. pylsl, which only the venv has
     if 'rospy' in sys.modules:
         raise RuntimeError('a preloaded module imported rospy')
-
-
-def python_settings(env):
-    """The PYTHON* variables a copy must share with the server (its
-    ``PYTHONPATH`` may differ: a copy's path is built from its own)."""
-    return repr(sorted((k, v) for k, v in env.items()
-                       if k.startswith('PYTHON') and k != 'PYTHONPATH'))
 
 
 def _receive(conn):
@@ -136,8 +131,8 @@ class Server:
         env['PYTHONPATH'] = os.pathsep.join(
             [hook] + [p for p in env.get('PYTHONPATH', '').split(os.pathsep)
                       if p])
-        env.update({ENV: self.path, ENV + '_PYTHON': sys.executable,
-                    ENV + '_ENV': python_settings(env)})
+        env.update({ENV: self.path, ENV_PYTHON: sys.executable,
+                    ENV_SETTINGS: python_settings(env)})
         main = subprocess.Popen(command, env=env)
         self.main_fd = os.pidfd_open(main.pid)
         self.selector.register(self.main_fd, selectors.EVENT_READ, 'main')
@@ -146,9 +141,7 @@ class Server:
                 if key.fileobj is self.listener:
                     self.accept()
                 elif key.data == 'main':
-                    code = main.wait()
-                    self.close()
-                    return code
+                    return main.wait()      # main() closes the server
                 elif key.data[0] == 'copy':
                     self.copy_ended(key.data[1])
                 else:
@@ -262,8 +255,7 @@ def _signals(ignored):
     """The dispositions Python starts with, as the proxy had them:
     ``ignored`` (signal numbers) ignored, SIGINT raising
     KeyboardInterrupt, the rest by default."""
-    for name in ('SIGINT', 'SIGTERM', 'SIGHUP', 'SIGQUIT', 'SIGUSR1',
-                 'SIGUSR2', 'SIGCONT'):
+    for name in FORWARDED:
         signum = getattr(signal, name)
         if signum in ignored:
             signal.signal(signum, signal.SIG_IGN)

@@ -9,6 +9,7 @@ import sys
 import textwrap
 
 import pytest
+from hri_sync_support.fork_protocol import python_settings
 
 ROS_PY = '/usr/bin/python3'
 SUPPORT = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..',
@@ -149,14 +150,13 @@ def test_a_proxy_killed_takes_its_copy_with_it(tmp_path):
 def test_without_a_server_the_hook_runs_the_script_plainly(tmp_path):
     script = tmp_path / 'script.py'
     script.write_text(SCRIPT)
-    env = dict(os.environ, PYTHONPATH=os.path.join(
-        os.path.abspath(SUPPORT), 'forkserver'),
+    support = os.path.abspath(SUPPORT)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [os.path.join(support, 'forkserver'), support]),
         HRI_SYNC_FORKSERVER=str(tmp_path / 'absent.sock'),
         HRI_SYNC_FORKSERVER_PYTHON=ROS_PY)
     env.pop('PYTHONHOME', None)
-    env['HRI_SYNC_FORKSERVER_ENV'] = repr(sorted(
-        (k, v) for k, v in env.items()
-        if k.startswith('PYTHON') and k != 'PYTHONPATH'))
+    env['HRI_SYNC_FORKSERVER_ENV'] = python_settings(env)
     out = subprocess.run([ROS_PY, str(script), 'exit', '3'], env=env,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                          text=True, timeout=60)
