@@ -38,7 +38,8 @@ def publish_constant_samples(values, rate=50.0, observers=(),
                     pub.publish(msg)
                 sleeper.sleep()
             except rospy.ROSException:
-                if not rospy.is_shutdown():
+                # rospy closes its topics before is_shutdown() turns true
+                if not rospy.core.is_shutdown_requested():
                     raise
                 return          # closed at shutdown
             index += 1

@@ -56,3 +56,22 @@ def test_publisher_refuses_before_publishing(monkeypatch):
     with pytest.raises(Unsendable):
         pub.publish(seq=2 ** 33)
     assert [m.seq for m in sent] == [1]
+
+
+@pytest.mark.parametrize('shutting_down', [False, True])
+def test_a_closed_topic_raises_unless_the_node_shuts_down(monkeypatch,
+                                                           shutting_down):
+    # rospy closes its topics in its shutdown hooks, before is_shutdown()
+    # turns true: a heartbeat thread's last publish meets a closed topic.
+    def closed(self, msg):
+        raise outbox.rospy.ROSException('publish() to a closed topic')
+    monkeypatch.setattr(outbox.rospy.Publisher, 'publish', closed)
+    monkeypatch.setattr(outbox.rospy.core, 'is_shutdown_requested',
+                        lambda: shutting_down)
+    pub = outbox.Publisher.__new__(outbox.Publisher)
+    pub.data_class = Header
+    if shutting_down:
+        pub.publish(Header(seq=1))
+    else:
+        with pytest.raises(outbox.rospy.ROSException, match='closed topic'):
+            pub.publish(Header(seq=1))

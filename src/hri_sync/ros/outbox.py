@@ -30,9 +30,16 @@ def check_sendable(msg):
 
 class Publisher(rospy.Publisher):
     """rospy.Publisher whose ``publish`` refuses (Unsendable) a message
-    it cannot serialise instead of corrupting the link."""
+    it cannot serialise instead of corrupting the link, and does nothing
+    once the node shuts down (rospy closes its topics before
+    ``rospy.is_shutdown()`` turns true, so a thread's last publish would
+    raise)."""
 
     def publish(self, *args, **kwds):
         msg = args_kwds_to_message(self.data_class, args, kwds)
         check_sendable(msg)
-        super().publish(msg)
+        try:
+            super().publish(msg)
+        except rospy.ROSException:
+            if not rospy.core.is_shutdown_requested():
+                raise
