@@ -166,9 +166,9 @@ def remove_stale_netns():
 class Runner:
     """Runs test files, each alone in a namespace when isolate is set."""
 
-    def __init__(self, root, isolate, fork):
+    def __init__(self, root, isolate, mother):
         self.support = os.path.join(root, 'support')
-        self.fork = fork
+        self.mother = mother     # the mother fork server's socket, or None
         self.logs = os.path.join(root, '.ws', 'test_logs')
         self.results = os.path.join(root, '.ws', 'test_results')
         self.isolate = isolate
@@ -189,7 +189,7 @@ class Runner:
         rostest = ['rostest', '--results-base-dir', results,
                    '--results-filename', '%s.xml' % name,
                    'hri_sync', os.path.basename(path)]
-        if not self.fork:
+        if not self.mother:
             return xml, rostest
         # (a short path: a socket's is at most 107 bytes)
         with self.lock:
@@ -197,7 +197,31 @@ class Runner:
             sock = os.path.join(tempfile.gettempdir(), 'hri_sync_fork_%d_%d'
                                 % (os.getpid(), self.count))
         return xml, [sys.executable, '-m', 'hri_sync_support.forkserver',
-                     sock, '--'] + rostest
+                     '--from', self.mother, sock, '--'] + rostest
+
+    def env(self):
+        """The environment of a test (and of the mother): support/ first
+        on the PYTHONPATH."""
+        env = dict(os.environ)
+        env['PYTHONPATH'] = os.pathsep.join(
+            [self.support] + [p for p in env.get('PYTHONPATH', '').split(
+                os.pathsep) if p])
+        return env
+
+    def start_mother(self):
+        """The mother fork server (the preloading done once for every
+        test), or None."""
+        if not self.mother:
+            return None
+        proc = subprocess.Popen(
+            [sys.executable, '-m', 'hri_sync_support.forkserver',
+             '--mother', self.mother], env=self.env(),
+            start_new_session=True)
+        deadline = time.monotonic() + 60
+        while not os.path.exists(self.mother) and proc.poll() is None \
+                and time.monotonic() < deadline:
+            time.sleep(0.05)
+        return proc
 
     def run(self, path):
         """(name, ok, seconds, summary line) of one test file."""
@@ -208,10 +232,7 @@ class Runner:
             os.remove(xml)
         ns = None
         cpu = None
-        env = dict(os.environ)
-        env['PYTHONPATH'] = os.pathsep.join(
-            [self.support] + [p for p in env.get('PYTHONPATH', '').split(
-                os.pathsep) if p])
+        env = self.env()
         if self.isolate:
             with self.lock:
                 self.count += 1
@@ -277,8 +298,11 @@ def main():
     jobs = max(1, args.jobs) if isolate else 1
     if isolate:
         remove_stale_netns()
-    runner = Runner(root, isolate, os.environ.get(
-        'ROSTEST_FORKSERVER', '1') != '0' and can_fork_serve())
+    fork = os.environ.get('ROSTEST_FORKSERVER', '1') != '0' \
+        and can_fork_serve()
+    runner = Runner(root, isolate, os.path.join(
+        tempfile.gettempdir(), 'hri_sync_mother_%d' % os.getpid())
+        if fork else None)
     durations_file = os.path.join(runner.logs, 'durations.json')
     durations = {}
     for path in (os.path.join(test_dir, 'durations.json'), durations_file):
@@ -292,19 +316,25 @@ def main():
     print('rostest: %d files, %d at once%s%s' % (
         len(files), jobs, ', one network namespace each' if isolate else
         ' (not root: no network namespaces, one at a time)',
-        ', Python forked from a preloaded server' if runner.fork else ''),
+        ', Python forked from a preloaded server' if runner.mother else ''),
         flush=True)
     passed, failed = [], []
     cpu_total = 0.0
     t0 = time.monotonic()
-    with concurrent.futures.ThreadPoolExecutor(jobs) as pool:
-        for future in concurrent.futures.as_completed(
-                [pool.submit(runner.run, f) for f in files]):
-            name, ok, seconds, cpu_seconds, line = future.result()
-            durations[name] = round(seconds, 1)
-            cpu_total += cpu_seconds or 0.0
-            (passed if ok else failed).append(name)
-            print(line, flush=True)
+    mother = runner.start_mother()
+    try:
+        with concurrent.futures.ThreadPoolExecutor(jobs) as pool:
+            for future in concurrent.futures.as_completed(
+                    [pool.submit(runner.run, f) for f in files]):
+                name, ok, seconds, cpu_seconds, line = future.result()
+                durations[name] = round(seconds, 1)
+                cpu_total += cpu_seconds or 0.0
+                (passed if ok else failed).append(name)
+                print(line, flush=True)
+    finally:
+        if mother:
+            mother.terminate()
+            mother.wait()
     with open(durations_file, 'w') as f:
         json.dump(durations, f, indent=1, sort_keys=True)
     print('rostest: wall %.1f s, sum of test times %.1f s, cpu %.1f s' % (

@@ -1,6 +1,8 @@
 """A fork server for a rostest's Python processes (test tooling only).
 
     python3 -m hri_sync_support.forkserver SOCKET -- COMMAND ...
+    python3 -m hri_sync_support.forkserver --mother MOTHER
+    python3 -m hri_sync_support.forkserver --from MOTHER SOCKET -- COMMAND ...
 
 A rostest starts ~15 Python processes, and each spends ~0.35 CPU s
 importing rospy's dependencies (numpy, genpy, yaml, catkin_pkg, the
@@ -16,6 +18,13 @@ a session of its own, while its proxy stands where roslaunch started it
 it reads argv and the environment at import, so each copy imports it
 (~0.02 CPU s).  The server exits with COMMAND's status, after SIGKILL to
 any copy left.
+
+A suite of rostests starts one mother (``--mother``), which imports them
+once for all the tests; each test's ``--from`` asks it for a server, which
+the mother forks and moves into the asking process's network namespace
+and cgroups, and which then serves as above (the asking process waits
+and exits with COMMAND's status; killed, it takes the server and its
+copies with it).  Without a mother to reach, ``--from`` serves itself.
 
 What differs from a plain process, and where it matters: a copy's parent
 is this server, not roslaunch, so a lifeline (PR_SET_PDEATHSIG) fires
@@ -52,11 +61,14 @@ PRELOAD = ('numpy', 'yaml', 'genpy', 'genpy.rostime', 'roslib',
            'logging.config', 'socketserver', 'std_msgs.msg',
            'geometry_msgs.msg', 'sensor_msgs.msg', 'diagnostic_msgs.msg',
            'visualization_msgs.msg', 'tf2_msgs.msg', 'nav_msgs.msg',
-           'rosgraph_msgs.msg', 'hri_sync.msg')
+           'rosgraph_msgs.msg', 'hri_sync.msg',
+           # rostest's own: roslaunch pulls in setuptools (0.35 CPU s)
+           'roslaunch', 'rostest')
 # hri_sync's core packages: no rospy, no process state (test_layers.py).
 CORE = ('hri_sync.timing', 'hri_sync.dance_off', 'hri_sync.robot',
         'hri_sync.people', 'hri_sync.sensors')
 PR_SET_NAME = 15
+CLONE_NEWNET = 0x40000000
 _KEEP = []  # the server's objects a copy must not close on collection
 
 
@@ -77,6 +89,25 @@ def preload():
             pass    # e.g. pylsl, which only the venv has
     if 'rospy' in sys.modules:
         raise RuntimeError('a preloaded module imported rospy')
+
+
+def _listen(path):
+    """A Unix socket listening at ``path`` (a file left there by a server
+    killed before it could remove it is replaced)."""
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    if os.path.exists(path):
+        os.unlink(path)
+    listener.bind(path)
+    listener.listen(64)
+    return listener
+
+
+def _unlisten(listener, path):
+    listener.close()
+    try:
+        os.unlink(path)
+    except OSError:
+        pass
 
 
 def _receive(conn):
@@ -104,27 +135,35 @@ def _receive(conn):
     return json.loads(body), fds
 
 
+def _request(conn):
+    """_receive, or (None, None) after saying why (``conn`` closed)."""
+    try:
+        return _receive(conn)
+    except (OSError, EOFError, ValueError) as e:
+        sys.stderr.write('hri_sync forkserver: %s\n' % e)
+        conn.close()
+        return None, None
+
+
 class Server:
     """Forks a copy per proxy; reports each copy's end to its proxy."""
 
     def __init__(self, path):
         self.path = path
-        self.listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-        if os.path.exists(path):
-            os.unlink(path)     # a server killed before it could remove it
-        self.listener.bind(path)
-        self.listener.listen(64)
+        self.listener = _listen(path)
         self.selector = selectors.DefaultSelector()
         self.selector.register(self.listener, selectors.EVENT_READ)
         self.copies = {}     # pid: (its proxy's connection, its pidfd)
         self.main_fd = None
+        self.launcher = None
         # sys.path without -m's working folder and PYTHONPATH's entries
         pythonpath = [p for p in os.environ.get('PYTHONPATH', '').split(
             os.pathsep) if p]
         self.base_path = [p for p in sys.path[1:] if p not in pythonpath]
 
-    def serve(self, command):
-        """Runs ``command`` under the server; its exit status."""
+    def serve(self, command, launcher=None):
+        """Runs ``command`` under the server; its exit status (None when
+        the ``launcher`` connection, if given, closed first)."""
         env = dict(os.environ)
         hook = os.path.join(os.path.dirname(os.path.dirname(
             os.path.abspath(__file__))), 'forkserver')
@@ -136,12 +175,20 @@ class Server:
         main = subprocess.Popen(command, env=env)
         self.main_fd = os.pidfd_open(main.pid)
         self.selector.register(self.main_fd, selectors.EVENT_READ, 'main')
+        if launcher is not None:
+            self.launcher = launcher
+            self.selector.register(launcher, selectors.EVENT_READ,
+                                   'launcher')
         while True:
             for key, _ in self.selector.select():
                 if key.fileobj is self.listener:
                     self.accept()
                 elif key.data == 'main':
                     return main.wait()      # main() closes the server
+                elif key.data == 'launcher':
+                    main.kill()
+                    main.wait()
+                    return None
                 elif key.data[0] == 'copy':
                     self.copy_ended(key.data[1])
                 else:
@@ -149,11 +196,8 @@ class Server:
 
     def accept(self):
         conn, _ = self.listener.accept()
-        try:
-            request, fds = _receive(conn)
-        except (OSError, EOFError, ValueError) as e:
-            sys.stderr.write('hri_sync forkserver: %s\n' % e)
-            conn.close()
+        request, fds = _request(conn)
+        if request is None:
             return
         sys.stdout.flush()
         sys.stderr.flush()
@@ -201,21 +245,18 @@ class Server:
                 os.killpg(pid, signal.SIGKILL)
             except ProcessLookupError:
                 pass
-        self.listener.close()
-        try:
-            os.unlink(self.path)
-        except OSError:
-            pass
+        _unlisten(self.listener, self.path)
 
     def run_copy(self, conn, request, fds):
         """In the forked copy: become the script's process; never returns."""
         code = 1
         try:
             os.setsid()
-            _KEEP.extend([self.listener, self.selector, conn] +
-                         [c for c, _ in self.copies.values()])
-            for fd in [self.listener.fileno(), conn.fileno()] + [
-                    c.fileno() for c, _ in self.copies.values()] + [
+            theirs = [self.listener, conn] + [
+                c for c, _ in self.copies.values()] + (
+                    [self.launcher] if self.launcher else [])
+            _KEEP.extend(theirs + [self.selector])
+            for fd in [c.fileno() for c in theirs] + [
                     p for _, p in self.copies.values()] + [self.main_fd]:
                 os.close(fd)
             self.selector.close()
@@ -242,6 +283,145 @@ class Server:
                 sys.stderr.flush()
             finally:
                 os._exit(code)
+
+
+class Mother:
+    """Forks a Server per launcher (``--from``), in the launcher's
+    network namespace and cgroups, with its streams, environment and
+    folder."""
+
+    def __init__(self, path):
+        self.path = path
+        self.listener = _listen(path)
+
+    def serve(self):
+        """Until SIGTERM or SIGINT."""
+        signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
+        self.listener.settimeout(1.0)
+        try:
+            while True:
+                _reap()
+                try:
+                    conn, _ = self.listener.accept()
+                except socket.timeout:
+                    continue
+                conn.settimeout(None)
+                request, fds = _request(conn)
+                if request is None:
+                    continue
+                if os.fork() == 0:
+                    self.run_server(conn, request, fds)
+                for fd in fds:
+                    os.close(fd)
+                conn.close()
+        finally:
+            _unlisten(self.listener, self.path)
+
+    def run_server(self, conn, request, fds):
+        """In the forked server: serve the launcher's command, send its
+        status; never returns."""
+        code = 1
+        try:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            os.setsid()
+            self.listener.close()
+            _join(request['pid'])
+            conn.sendall(struct.pack('!i', os.getpid()))    # ready
+            for target, fd in enumerate(fds):
+                os.dup2(fd, target)
+                os.close(fd)
+            os.chdir(request['cwd'])
+            os.environ.clear()
+            os.environ.update(request['env'])
+            server = Server(request['path'])
+            try:
+                status = server.serve(request['command'], launcher=conn)
+            finally:
+                server.close()
+            if status is not None:
+                conn.sendall(struct.pack('!i', status))
+            code = 0
+        except BaseException:
+            traceback.print_exc()
+        finally:
+            os._exit(code)
+
+
+def _reap():
+    """Collects the mother's servers that ended."""
+    try:
+        while os.waitpid(-1, os.WNOHANG)[0]:
+            pass
+    except ChildProcessError:
+        pass
+
+
+def _join(pid):
+    """Moves this process into process ``pid``'s network namespace and
+    cgroups (those that differ from its own)."""
+    mine = '/proc/self/ns/net'
+    theirs = '/proc/%d/ns/net' % pid
+    if os.stat(mine).st_ino != os.stat(theirs).st_ino:
+        libc = ctypes.CDLL(None, use_errno=True)
+        fd = os.open(theirs, os.O_RDONLY)
+        try:
+            if libc.setns(fd, CLONE_NEWNET) != 0:
+                raise OSError(ctypes.get_errno(), 'setns %s' % theirs)
+        finally:
+            os.close(fd)
+
+    def groups(path):
+        with open(path) as f:
+            return dict(line.rstrip('\n').split(':', 2)[1:] for line in f)
+    own = groups('/proc/self/cgroup')
+    for controllers, group in groups('/proc/%d/cgroup' % pid).items():
+        if own.get(controllers) == group:
+            continue
+        root = os.path.join('/sys/fs/cgroup', controllers or 'unified')
+        with open(os.path.join(root, group.lstrip('/'), 'cgroup.procs'),
+                  'w') as f:
+            f.write(str(os.getpid()))
+
+
+def launch(mother, path, command):
+    """Runs ``command`` under a server the mother at ``mother`` forks for
+    this process; serves it here when there is no mother to reach."""
+    conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    try:
+        conn.connect(mother)
+    except OSError as e:
+        sys.stderr.write('hri_sync forkserver: mother %s: %s; serving '
+                         'here\n' % (mother, e))
+        conn.close()
+        return serve_here(path, command)
+    body = json.dumps({'pid': os.getpid(), 'path': path,
+                       'command': command, 'cwd': os.getcwd(),
+                       'env': dict(os.environ)}).encode()
+    conn.sendmsg([struct.pack('!I', len(body)), body],
+                 [(socket.SOL_SOCKET, socket.SCM_RIGHTS,
+                   struct.pack('3i', 0, 1, 2))])
+    if len(conn.recv(4, socket.MSG_WAITALL)) != 4:
+        sys.stderr.write('hri_sync forkserver: mother %s could not start a '
+                         'server here (its output says why); serving here\n'
+                         % mother)
+        conn.close()
+        return serve_here(path, command)
+    status = conn.recv(4, socket.MSG_WAITALL)
+    if len(status) != 4:
+        sys.stderr.write('hri_sync forkserver: lost the server of %s\n'
+                         % mother)
+        return 1
+    return struct.unpack('!i', status)[0]
+
+
+def serve_here(path, command):
+    """Preloads, serves ``command``; its status."""
+    preload()
+    server = Server(path)
+    try:
+        return server.serve(command)
+    finally:
+        server.close()
 
 
 def _name(name):
@@ -299,16 +479,20 @@ def _run(script):
 
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
+    if len(argv) == 2 and argv[0] == '--mother':
+        preload()
+        Mother(argv[1]).serve()
+        return 0
+    mother = None
+    if argv[:1] == ['--from'] and len(argv) > 1:
+        mother, argv = argv[1], argv[2:]
     if len(argv) < 3 or argv[1] != '--':
         sys.stderr.write(__doc__.split('\n\n')[1] + '\n')
         return 2
     path, command = argv[0], argv[2:]
-    preload()
-    server = Server(path)
-    try:
-        return server.serve(command)
-    finally:
-        server.close()
+    if mother:
+        return launch(mother, path, command)
+    return serve_here(path, command)
 
 
 if __name__ == '__main__':

@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import time
 
 import pytest
 from hri_sync_support.fork_protocol import python_settings
@@ -81,20 +82,50 @@ pytestmark = pytest.mark.skipif(not os.path.exists(ROS_PY),
                                 reason='needs ' + ROS_PY)
 
 
-def run(tmp_path, how, served=True):
+def support_env():
+    env = dict(os.environ, PYTHONPATH=os.path.abspath(SUPPORT),
+               OPENBLAS_NUM_THREADS='1')
+    env.pop('PYTHONHOME', None)
+    return env
+
+
+@pytest.fixture(scope='module')
+def mother(tmp_path_factory):
+    """A mother server's socket (``--mother``), stopped after the tests."""
+    path = str(tmp_path_factory.mktemp('mother') / 'mother.sock')
+    proc = subprocess.Popen([ROS_PY, '-m', 'hri_sync_support.forkserver',
+                             '--mother', path], env=support_env())
+    deadline = time.monotonic() + 60
+    while not os.path.exists(path) and proc.poll() is None \
+            and time.monotonic() < deadline:
+        time.sleep(0.05)
+    yield path
+    proc.terminate()
+    assert proc.wait(timeout=30) == 0
+    assert not os.path.exists(path)
+
+
+@pytest.fixture(params=['own', 'mother'])
+def server(request):
+    """The forkserver arguments before SOCKET: a server of its own, or
+    one forked by a mother."""
+    if request.param == 'own':
+        return []
+    return ['--from', request.getfixturevalue('mother')]
+
+
+def run(tmp_path, how, server=None):
     """The driver's report of the script run ``how``, under a server
-    (``served``) or plainly."""
+    (``server``: the arguments before its socket) or plainly (None)."""
     script = tmp_path / 'script.py'
     script.write_text(SCRIPT)
     driver = tmp_path / 'driver.py'
     driver.write_text(DRIVER)
-    env = dict(os.environ, PYTHONPATH=os.path.abspath(SUPPORT),
-               OPENBLAS_NUM_THREADS='1')
-    env.pop('PYTHONHOME', None)
+    env = support_env()
     command = [ROS_PY, str(driver), str(script), how]
-    if served:
-        command = [ROS_PY, '-m', 'hri_sync_support.forkserver',
-                   str(tmp_path / 'fork.sock'), '--'] + command
+    if server is not None:
+        command = [ROS_PY, '-m', 'hri_sync_support.forkserver'] + server + [
+            str(tmp_path / 'fork.sock'), '--'] + command
     out = subprocess.run(command, cwd=str(tmp_path), env=env, timeout=120,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                          text=True, check=True,
@@ -104,9 +135,9 @@ def run(tmp_path, how, served=True):
 
 
 def test_a_served_script_is_a_preloaded_copy_with_the_proxys_settings(
-        tmp_path):
-    served = run(tmp_path, 'exit')
-    plain = run(tmp_path, 'exit', served=False)
+        tmp_path, server):
+    served = run(tmp_path, 'exit', server)
+    plain = run(tmp_path, 'exit')
     for r in (served, plain):
         assert r['code'] == 5
         assert r['first']['argv'][1:] == ['exit', '5']
@@ -122,27 +153,27 @@ def test_a_served_script_is_a_preloaded_copy_with_the_proxys_settings(
     assert not plain['first']['numpy_before']
 
 
-def test_an_uncaught_exception_exits_1_with_its_traceback(tmp_path):
-    r = run(tmp_path, 'raise')
+def test_an_uncaught_exception_exits_1_with_its_traceback(tmp_path, server):
+    r = run(tmp_path, 'raise', server)
     assert r['code'] == 1
     assert 'ValueError: boom' in r['err']
 
 
-def test_sigint_to_the_proxy_interrupts_the_copy(tmp_path):
-    r = run(tmp_path, 'int')
+def test_sigint_to_the_proxy_interrupts_the_copy(tmp_path, server):
+    r = run(tmp_path, 'int', server)
     assert r['code'] == 7
     assert r['rest'] == 'interrupted\n'
 
 
-def test_a_signal_ignored_by_the_proxy_is_ignored_by_the_copy(tmp_path):
-    r = run(tmp_path, 'ignore-int')
+def test_a_signal_ignored_by_the_proxy_is_ignored_by_the_copy(tmp_path, server):
+    r = run(tmp_path, 'ignore-int', server)
     assert r['first']['sigint_ignored']
     assert r['code'] == -signal.SIGTERM
     assert 'interrupted' not in r['rest']
 
 
-def test_a_proxy_killed_takes_its_copy_with_it(tmp_path):
-    r = run(tmp_path, 'kill')
+def test_a_proxy_killed_takes_its_copy_with_it(tmp_path, server):
+    r = run(tmp_path, 'kill', server)
     assert r['code'] == -signal.SIGKILL
     assert r['copy_alive'] is False
 
@@ -165,12 +196,55 @@ def test_without_a_server_the_hook_runs_the_script_plainly(tmp_path):
     assert json.loads(out.stdout)['argv'][1:] == ['exit', '3']
 
 
-def test_the_server_exits_with_its_commands_status(tmp_path):
-    env = dict(os.environ, PYTHONPATH=os.path.abspath(SUPPORT))
+def test_the_server_exits_with_its_commands_status(tmp_path, server):
     out = subprocess.run(
-        [ROS_PY, '-m', 'hri_sync_support.forkserver',
-         str(tmp_path / 'fork.sock'), '--', 'sh', '-c', 'exit 4'],
-        env=env, timeout=120)
+        [ROS_PY, '-m', 'hri_sync_support.forkserver'] + server + [
+            str(tmp_path / 'fork.sock'), '--', 'sh', '-c', 'exit 4'],
+        env=support_env(), timeout=120)
     assert out.returncode == 4
     assert not (tmp_path / 'fork.sock').exists()
+
+
+def test_without_a_mother_the_launcher_serves_itself(tmp_path):
+    out = subprocess.run(
+        [ROS_PY, '-m', 'hri_sync_support.forkserver', '--from',
+         str(tmp_path / 'absent.sock'), str(tmp_path / 'fork.sock'), '--',
+         'sh', '-c', 'exit 3'], env=support_env(), timeout=120,
+        stderr=subprocess.PIPE, text=True)
+    assert out.returncode == 3
+    assert 'serving here' in out.stderr
+
+
+def test_a_killed_launcher_takes_its_server_and_copies_with_it(
+        tmp_path, mother):
+    # the command: a served script that sleeps, its pid written out
+    script = tmp_path / 'sleeper.py'
+    script.write_text('import os, time\n'
+                      'open(%r, "w").write(str(os.getpid()))\n'
+                      'time.sleep(120)\n' % str(tmp_path / 'copy.pid'))
+    launcher = subprocess.Popen(
+        [ROS_PY, '-m', 'hri_sync_support.forkserver', '--from', mother,
+         str(tmp_path / 'fork.sock'), '--', ROS_PY, str(script)],
+        env=support_env())
+    deadline = time.monotonic() + 60
+    while not (tmp_path / 'copy.pid').exists():
+        assert time.monotonic() < deadline and launcher.poll() is None
+        time.sleep(0.05)
+    copy = int((tmp_path / 'copy.pid').read_text())
+    launcher.kill()
+    launcher.wait()
+    deadline = time.monotonic() + 30
+    while alive(copy) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not alive(copy)
+    assert not (tmp_path / 'fork.sock').exists()
+
+
+def alive(pid):
+    """Whether ``pid`` runs (a zombie does not)."""
+    try:
+        with open('/proc/%d/stat' % pid) as f:
+            return f.read().rsplit(')', 1)[1].split()[0] != 'Z'
+    except OSError:
+        return False
 
