@@ -269,8 +269,10 @@ class Server:
             os.environ.clear()
             os.environ.update(request['env'])
             argv = request['argv']
-            sys.argv = argv
-            sys.orig_argv = [sys.executable] + argv
+            # in place: a preloaded function's default may be this list
+            # (roslaunch.main(argv=sys.argv), rosmaster_main's)
+            sys.argv[:] = argv
+            sys.orig_argv[:] = [sys.executable] + argv
             script = os.path.realpath(argv[0])
             _name(os.path.basename(argv[0]))
             sys.path[:] = [os.path.dirname(script)] + [

@@ -21,14 +21,15 @@ SCRIPT = textwrap.dedent('''\
 
 
     def report():
-        print(json.dumps({
-            'argv': sys.argv, 'cwd': os.getcwd(),
-            'foo': os.environ.get('FOO'), 'pid': os.getpid(),
-            'path0': sys.path[0], 'rospy_before': 'rospy' in sys.modules,
-            'numpy_before': 'numpy' in sys.modules,
-            'sigint_ignored':
-                signal.getsignal(signal.SIGINT) == signal.SIG_IGN}),
-              flush=True)
+        r = {'argv': sys.argv, 'cwd': os.getcwd(),
+             'foo': os.environ.get('FOO'), 'pid': os.getpid(),
+             'path0': sys.path[0], 'rospy_before': 'rospy' in sys.modules,
+             'numpy_before': 'numpy' in sys.modules,
+             'sigint_ignored':
+                 signal.getsignal(signal.SIGINT) == signal.SIG_IGN}
+        import roslaunch    # preloaded by the server: main(argv=sys.argv)
+        r['argv_default'] = roslaunch.main.__defaults__[0]
+        print(json.dumps(r), flush=True)
 
 
     sys.stderr.write('to stderr\\n')
@@ -141,6 +142,7 @@ def test_a_served_script_is_a_preloaded_copy_with_the_proxys_settings(
     for r in (served, plain):
         assert r['code'] == 5
         assert r['first']['argv'][1:] == ['exit', '5']
+        assert r['first']['argv_default'] == r['first']['argv']
         assert r['first']['cwd'] == str(tmp_path)
         assert r['first']['foo'] == 'bar'
         assert r['first']['path0'] == str(tmp_path)
