@@ -109,10 +109,17 @@ def mother(tmp_path_factory):
 @pytest.fixture(params=['own', 'mother'])
 def server(request):
     """The forkserver arguments before SOCKET: a server of its own, or
-    one forked by a mother."""
+    one forked by a mother (the same Server once it runs)."""
     if request.param == 'own':
         return []
     return ['--from', request.getfixturevalue('mother')]
+
+
+@pytest.fixture
+def served(mother):
+    """As ``server``, a mother's only: what follows the copy's start is
+    the same Server code whoever started it."""
+    return ['--from', mother]
 
 
 def run(tmp_path, how, server=None):
@@ -155,27 +162,27 @@ def test_a_served_script_is_a_preloaded_copy_with_the_proxys_settings(
     assert not plain['first']['numpy_before']
 
 
-def test_an_uncaught_exception_exits_1_with_its_traceback(tmp_path, server):
-    r = run(tmp_path, 'raise', server)
+def test_an_uncaught_exception_exits_1_with_its_traceback(tmp_path, served):
+    r = run(tmp_path, 'raise', served)
     assert r['code'] == 1
     assert 'ValueError: boom' in r['err']
 
 
-def test_sigint_to_the_proxy_interrupts_the_copy(tmp_path, server):
-    r = run(tmp_path, 'int', server)
+def test_sigint_to_the_proxy_interrupts_the_copy(tmp_path, served):
+    r = run(tmp_path, 'int', served)
     assert r['code'] == 7
     assert r['rest'] == 'interrupted\n'
 
 
-def test_a_signal_ignored_by_the_proxy_is_ignored_by_the_copy(tmp_path, server):
-    r = run(tmp_path, 'ignore-int', server)
+def test_a_signal_ignored_by_the_proxy_is_ignored_by_the_copy(tmp_path, served):
+    r = run(tmp_path, 'ignore-int', served)
     assert r['first']['sigint_ignored']
     assert r['code'] == -signal.SIGTERM
     assert 'interrupted' not in r['rest']
 
 
-def test_a_proxy_killed_takes_its_copy_with_it(tmp_path, server):
-    r = run(tmp_path, 'kill', server)
+def test_a_proxy_killed_takes_its_copy_with_it(tmp_path, served):
+    r = run(tmp_path, 'kill', served)
     assert r['code'] == -signal.SIGKILL
     assert r['copy_alive'] is False
 
