@@ -13,7 +13,9 @@ SOURCE := source $(WS)/devel/setup.bash
 	test-load demo demo-sensors bench bench-sensors \
 	bench-dj-rob clean
 
-setup: apt venv build
+# The venv (pip) and the build (the compiler) at once, after apt.
+setup: apt
+	@$(MAKE) --no-print-directory -j2 venv build
 
 apt:
 	@missing=$$(dpkg-query -W -f='$${Package} $${Status}\n' $(APT_PACKAGES) 2>/dev/null \

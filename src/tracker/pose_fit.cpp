@@ -19,13 +19,6 @@ constexpr double kLengthPrior = 1e-3;  // prior energy per kept frame per (log o
 constexpr double kOverRelax = 2.0;  // steps beyond the mean pull converge in fewer iterations
 constexpr double kFloorBand = 0.06;  // segmentUser drops points within 5 cm of the floor (+1 cm noise)
 
-// Closest point parameter of p on segment a-b (0..1).
-double closestT(const Vec3& p, const Vec3& a, const Vec3& b) {
-  Vec3 ab = b - a;
-  double l2 = ab.dot(ab);
-  return l2 < 1e-12 ? 0.0 : std::clamp((p - a).dot(ab) / l2, 0.0, 1.0);
-}
-
 // Per-joint weighted sums of displacements.
 struct Pull {
   std::array<Vec3, NUM_JOINTS> sum;
@@ -96,13 +89,17 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
                         bool move) const {
   const Joints& pose = *j;
   std::array<Vec3, kNumParts * 2> ends;
-  std::array<Vec3, kNumParts> centre;
+  std::array<Vec3, kNumParts> centre, axis;  // axis: end a to end b
   std::array<double, kNumParts> reach;  // bounding sphere: no surface point is farther from centre
+  std::array<double, kNumParts> len2, radius;
   for (int c = 0; c < kNumParts; ++c) {
     ends[2 * c] = part(c).a.at(pose);
     ends[2 * c + 1] = part(c).b.at(pose);
     centre[c] = (ends[2 * c] + ends[2 * c + 1]) * 0.5;
     reach[c] = (ends[2 * c + 1] - ends[2 * c]).norm() * 0.5 + part(c).radius;
+    axis[c] = ends[2 * c + 1] - ends[2 * c];
+    len2[c] = axis[c].dot(axis[c]);
+    radius[c] = part(c).radius;
   }
   Pull pull;
   double energy = 0;
@@ -112,9 +109,10 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
     const Vec3& pt = g_.points[seg_.cells[n]];
     int best = -1;
     double best_d = 1e18, best_t = 0;
-    auto consider = [&](int c) {
-      double t = closestT(pt, ends[2 * c], ends[2 * c + 1]);
-      double d = (pt - (ends[2 * c] + (ends[2 * c + 1] - ends[2 * c]) * t)).norm() - part(c).radius;
+    auto consider = [&](int c) {  // closestT's arithmetic, its per-capsule terms computed once
+      const Vec3 ap = pt - ends[2 * c];
+      double t = len2[c] < 1e-12 ? 0.0 : std::clamp(ap.dot(axis[c]) / len2[c], 0.0, 1.0);
+      double d = (pt - (ends[2 * c] + axis[c] * t)).norm() - radius[c];
       if (d < best_d) { best_d = d; best = c; best_t = t; }
     };
     // Last iteration's capsule first: its distance prunes most others.
