@@ -7,7 +7,13 @@ Runs TEST_DIR/rostest/*.test with rostest, and the script-driven tests,
 TEST_DIR/system/test_*.py, with pytest: those need what rostest cannot
 give (e.g. a master they restart) and start their own processes.
 
-Up to N tests run at once.  Run as root, each test gets a network
+Up to N tests run at once, and up to M (--max-jobs, default N + 2) while
+the machine's cores sit idle: a test above N starts only after the CPU
+was at least a quarter idle over the last 3 s, and 5 s after the last
+such start (a test's start is a burst).  Most tests wait much of their
+time (on a window, a round, a restart), so N tests can leave a core idle;
+under load (``make test-load``) the CPU is never idle and N is the limit.
+Run as root, each test gets a network
 namespace of its own (loopback only), so the tests' masters, NTP servers
 and node ports never meet, whatever ports they hard-code; the namespace
 and every process left in it are removed when the test ends.  Not root,
@@ -38,6 +44,9 @@ import xml.etree.ElementTree as ET
 TIMEOUT = 600  # s per test file
 NETNS_PREFIX = 'hrit'
 CPUACCT = '/sys/fs/cgroup/cpuacct'
+IDLE_SHARE = 0.25   # of all cores idle, over IDLE_WINDOW, to start one more
+IDLE_WINDOW = 3.0   # s
+RAMP = 5.0          # s between starts above --jobs
 
 
 def junit_counts(path):
@@ -100,6 +109,60 @@ def remove_netns(ns):
         while pids and netns_pids(ns) and time.monotonic() < deadline:
             time.sleep(0.1)
     subprocess.run(['ip', 'netns', 'del', ns], stderr=subprocess.DEVNULL)
+
+
+class IdleMeter:
+    """The share of this machine's CPU time that was idle over the last
+    IDLE_WINDOW s (from /proc/stat; 0.0 where it cannot be read)."""
+
+    def __init__(self):
+        self.samples = []   # (monotonic time, idle ticks, all ticks)
+
+    def idle(self):
+        try:
+            with open('/proc/stat') as f:
+                ticks = [int(x) for x in f.readline().split()[1:]]
+        except (OSError, ValueError):
+            return 0.0
+        now = time.monotonic()
+        self.samples.append((now, ticks[3] + ticks[4], sum(ticks)))
+        while len(self.samples) > 2 and \
+                now - self.samples[1][0] >= IDLE_WINDOW:
+            self.samples.pop(0)
+        t0, idle0, all0 = self.samples[0]
+        if now - t0 < IDLE_WINDOW or self.samples[-1][2] == all0:
+            return 0.0
+        return (self.samples[-1][1] - idle0) / (self.samples[-1][2] - all0)
+
+
+def schedule(files, run, report, jobs, max_jobs, idle=None, ramp=RAMP):
+    """Runs ``run(file)`` for each of ``files`` in order, ``jobs`` at once
+    and up to ``max_jobs`` while ``idle()`` (the idle share of the CPU;
+    default IdleMeter's) is IDLE_SHARE or more, one every ``ramp`` s;
+    ``report`` gets each result as it comes.  Returns the most that ran
+    at once."""
+    pending = list(files)
+    running = set()
+    idle = idle or IdleMeter().idle
+    last_extra = -ramp
+    most = 0
+    with concurrent.futures.ThreadPoolExecutor(max_jobs) as pool:
+        while pending or running:
+            share = idle()
+            while pending and (len(running) < jobs or (
+                    len(running) < max_jobs and share >= IDLE_SHARE
+                    and time.monotonic() - last_extra >= ramp)):
+                if len(running) >= jobs:
+                    last_extra = time.monotonic()
+                    share = 0.0     # one extra start per look
+                running.add(pool.submit(run, pending.pop(0)))
+                most = max(most, len(running))
+            done, running = concurrent.futures.wait(
+                running, timeout=1.0,
+                return_when=concurrent.futures.FIRST_COMPLETED)
+            for future in done:
+                report(future.result())
+    return most
 
 
 class CpuAccount:
@@ -285,6 +348,10 @@ def main():
     parser.add_argument('-j', '--jobs', type=int,
                         default=int(os.environ.get('ROSTEST_JOBS', 4)),
                         help='tests at once (default $ROSTEST_JOBS or 4)')
+    parser.add_argument('--max-jobs', type=int,
+                        default=os.environ.get('ROSTEST_MAX_JOBS'),
+                        help='tests at once while the CPU idles (default '
+                        '$ROSTEST_MAX_JOBS or JOBS + 2)')
     parser.add_argument('test_dir')
     parser.add_argument('wanted', nargs='*', help='name substrings')
     args = parser.parse_args()
@@ -296,6 +363,8 @@ def main():
              if not args.wanted or any(w in f for w in args.wanted)]
     isolate = can_isolate()
     jobs = max(1, args.jobs) if isolate else 1
+    max_jobs = max(jobs, int(args.max_jobs) if args.max_jobs is not None
+                   else jobs + 2) if isolate else 1
     if isolate:
         remove_stale_netns()
     fork = os.environ.get('ROSTEST_FORKSERVER', '1') != '0' \
@@ -313,34 +382,37 @@ def main():
             pass
     files.sort(key=lambda f: -durations.get(
         os.path.splitext(os.path.basename(f))[0], 60.0))
-    print('rostest: %d files, %d at once%s%s' % (
-        len(files), jobs, ', one network namespace each' if isolate else
+    print('rostest: %d files, %d at once (up to %d while a core idles)%s%s'
+          % (len(files), jobs, max_jobs,
+             ', one network namespace each' if isolate else
         ' (not root: no network namespaces, one at a time)',
         ', Python forked from a preloaded server' if runner.mother else ''),
         flush=True)
     passed, failed = [], []
     cpu_total = 0.0
     t0 = time.monotonic()
+
+    def report(result):
+        nonlocal cpu_total
+        name, ok, seconds, cpu_seconds, line = result
+        durations[name] = round(seconds, 1)
+        cpu_total += cpu_seconds or 0.0
+        (passed if ok else failed).append(name)
+        print(line, flush=True)
     mother = runner.start_mother()
     try:
-        with concurrent.futures.ThreadPoolExecutor(jobs) as pool:
-            for future in concurrent.futures.as_completed(
-                    [pool.submit(runner.run, f) for f in files]):
-                name, ok, seconds, cpu_seconds, line = future.result()
-                durations[name] = round(seconds, 1)
-                cpu_total += cpu_seconds or 0.0
-                (passed if ok else failed).append(name)
-                print(line, flush=True)
+        most = schedule(files, runner.run, report, jobs, max_jobs)
     finally:
         if mother:
             mother.terminate()
             mother.wait()
     with open(durations_file, 'w') as f:
         json.dump(durations, f, indent=1, sort_keys=True)
-    print('rostest: wall %.1f s, sum of test times %.1f s, cpu %.1f s' % (
-        time.monotonic() - t0, sum(durations.get(
-            os.path.splitext(os.path.basename(f))[0], 0) for f in files),
-        cpu_total))
+    print('rostest: wall %.1f s, sum of test times %.1f s, cpu %.1f s, '
+          'up to %d at once' % (
+              time.monotonic() - t0, sum(durations.get(
+                  os.path.splitext(os.path.basename(f))[0], 0)
+                  for f in files), cpu_total, most))
     if failed:
         print('rostest: failed: %s' % ' '.join(sorted(failed)))
     print('rostest: %d passed, %d failed' % (len(passed), len(failed)))
