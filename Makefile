@@ -83,15 +83,18 @@ rostest: setup
 	@$(ROSTESTS)
 
 # The rostests (each in a network namespace of its own, several at once)
-# run beside the other stages; their report is printed after them.
+# run beside the other stages, and take more at once (--max-jobs) when
+# those are done; their report is printed after them.
 test: setup
-	@status=0; \
-	( $(ROSTESTS) > $(WS)/rostest.out 2>&1; echo $$? > $(WS)/rostest.rc ) & \
+	@status=0; rm -f $(WS)/rostest.more; \
+	( $(ROSTESTS) --more-when $(WS)/rostest.more > $(WS)/rostest.out 2>&1; \
+	  echo $$? > $(WS)/rostest.rc ) & \
 	rostests=$$!; \
 	( $(UNIT) ) || status=1; \
 	$(CHECK) || status=1; \
 	$(INSTALL_CHECK) || status=1; \
 	( $(SITE) ) || status=1; \
+	touch $(WS)/rostest.more; \
 	wait $$rostests; cat $(WS)/rostest.out; \
 	[ "$$(cat $(WS)/rostest.rc)" = 0 ] || status=1; \
 	exit $$status

@@ -7,13 +7,11 @@ Runs TEST_DIR/rostest/*.test with rostest, and the script-driven tests,
 TEST_DIR/system/test_*.py, with pytest: those need what rostest cannot
 give (e.g. a master they restart) and start their own processes.
 
-Up to N tests run at once, and up to M (--max-jobs, default N + 2) while
-the machine's cores sit idle: a test above N starts only after the CPU
-was at least a quarter idle over the last 3 s, and 5 s after the last
-such start (a test's start is a burst).  Most tests wait much of their
-time (on a window, a round, a restart), so N tests can leave a core idle;
-under load (``make test-load``) the CPU is never idle and N is the limit.
-Run as root, each test gets a network
+Up to N tests run at once, and up to M (--max-jobs, default N + 2) once
+the file given by --more-when exists, one more every 5 s (a test's start
+is a burst): ``make test`` creates it when its other stages, which run
+beside the rostests, are done, and the rostests take the cores they
+leave.  Run as root, each test gets a network
 namespace of its own (loopback only), so the tests' masters, NTP servers
 and node ports never meet, whatever ports they hard-code; the namespace
 and every process left in it are removed when the test ends.  Not root,
@@ -44,8 +42,6 @@ import xml.etree.ElementTree as ET
 TIMEOUT = 600  # s per test file
 NETNS_PREFIX = 'hrit'
 CPUACCT = '/sys/fs/cgroup/cpuacct'
-IDLE_SHARE = 0.25   # of all cores idle, over IDLE_WINDOW, to start one more
-IDLE_WINDOW = 3.0   # s
 RAMP = 5.0          # s between starts above --jobs
 
 
@@ -111,50 +107,22 @@ def remove_netns(ns):
     subprocess.run(['ip', 'netns', 'del', ns], stderr=subprocess.DEVNULL)
 
 
-class IdleMeter:
-    """The share of this machine's CPU time that was idle over the last
-    IDLE_WINDOW s (from /proc/stat; 0.0 where it cannot be read)."""
-
-    def __init__(self):
-        self.samples = []   # (monotonic time, idle ticks, all ticks)
-
-    def idle(self):
-        try:
-            with open('/proc/stat') as f:
-                ticks = [int(x) for x in f.readline().split()[1:]]
-        except (OSError, ValueError):
-            return 0.0
-        now = time.monotonic()
-        self.samples.append((now, ticks[3] + ticks[4], sum(ticks)))
-        while len(self.samples) > 2 and \
-                now - self.samples[1][0] >= IDLE_WINDOW:
-            self.samples.pop(0)
-        t0, idle0, all0 = self.samples[0]
-        if now - t0 < IDLE_WINDOW or self.samples[-1][2] == all0:
-            return 0.0
-        return (self.samples[-1][1] - idle0) / (self.samples[-1][2] - all0)
-
-
-def schedule(files, run, report, jobs, max_jobs, idle=None, ramp=RAMP):
+def schedule(files, run, report, jobs, max_jobs, more, ramp=RAMP):
     """Runs ``run(file)`` for each of ``files`` in order, ``jobs`` at once
-    and up to ``max_jobs`` while ``idle()`` (the idle share of the CPU;
-    default IdleMeter's) is IDLE_SHARE or more, one every ``ramp`` s;
+    and up to ``max_jobs`` once ``more()`` is true, one every ``ramp`` s;
     ``report`` gets each result as it comes.  Returns the most that ran
     at once."""
     pending = list(files)
     running = set()
-    idle = idle or IdleMeter().idle
     last_extra = -ramp
     most = 0
     with concurrent.futures.ThreadPoolExecutor(max_jobs) as pool:
         while pending or running:
-            share = idle()
             while pending and (len(running) < jobs or (
-                    len(running) < max_jobs and share >= IDLE_SHARE
+                    len(running) < max_jobs and more()
                     and time.monotonic() - last_extra >= ramp)):
                 if len(running) >= jobs:
                     last_extra = time.monotonic()
-                    share = 0.0     # one extra start per look
                 running.add(pool.submit(run, pending.pop(0)))
                 most = max(most, len(running))
             done, running = concurrent.futures.wait(
@@ -350,8 +318,10 @@ def main():
                         help='tests at once (default $ROSTEST_JOBS or 4)')
     parser.add_argument('--max-jobs', type=int,
                         default=os.environ.get('ROSTEST_MAX_JOBS'),
-                        help='tests at once while the CPU idles (default '
-                        '$ROSTEST_MAX_JOBS or JOBS + 2)')
+                        help='tests at once once --more-when exists '
+                        '(default $ROSTEST_MAX_JOBS or JOBS + 2)')
+    parser.add_argument('--more-when', metavar='FILE',
+                        help='run up to --max-jobs once FILE exists')
     parser.add_argument('test_dir')
     parser.add_argument('wanted', nargs='*', help='name substrings')
     args = parser.parse_args()
@@ -382,8 +352,9 @@ def main():
             pass
     files.sort(key=lambda f: -durations.get(
         os.path.splitext(os.path.basename(f))[0], 60.0))
-    print('rostest: %d files, %d at once (up to %d while a core idles)%s%s'
-          % (len(files), jobs, max_jobs,
+    print('rostest: %d files, %d at once%s%s%s'
+          % (len(files), jobs, ' (up to %d once %s exists)' % (
+              max_jobs, args.more_when) if args.more_when else '',
              ', one network namespace each' if isolate else
         ' (not root: no network namespaces, one at a time)',
         ', Python forked from a preloaded server' if runner.mother else ''),
@@ -401,7 +372,9 @@ def main():
         print(line, flush=True)
     mother = runner.start_mother()
     try:
-        most = schedule(files, runner.run, report, jobs, max_jobs)
+        most = schedule(
+            files, runner.run, report, jobs, max_jobs,
+            lambda: bool(args.more_when) and os.path.exists(args.more_when))
     finally:
         if mother:
             mother.terminate()

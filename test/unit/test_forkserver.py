@@ -230,7 +230,9 @@ def test_a_killed_launcher_takes_its_server_and_copies_with_it(
     script = tmp_path / 'sleeper.py'
     script.write_text('import os, time\n'
                       'open(%r, "w").write(str(os.getpid()))\n'
-                      'time.sleep(120)\n' % str(tmp_path / 'copy.pid'))
+                      'os.rename(%r, %r)\n'       # whole when it appears
+                      'time.sleep(120)\n' % tuple(str(tmp_path / f) for f in (
+                          'copy.tmp', 'copy.tmp', 'copy.pid')))
     launcher = subprocess.Popen(
         [ROS_PY, '-m', 'hri_sync_support.forkserver', '--from', mother,
          str(tmp_path / 'fork.sock'), '--', ROS_PY, str(script)],

@@ -1,5 +1,5 @@
-"""scripts/run_rostests.py's scheduler: JOBS tests at once while the CPU
-is busy, up to MAX_JOBS while it idles, every result reported once."""
+"""scripts/run_rostests.py's scheduler: JOBS tests at once, up to
+MAX_JOBS once the other stages are done, every result reported once."""
 import importlib.util
 import os
 import threading
@@ -40,13 +40,13 @@ class Fake:
         self.reported.append(result)
 
 
-@pytest.mark.parametrize('idle, want', [(0.0, 2), (0.9, 4)])
-def test_more_tests_run_only_while_the_cpu_idles(idle, want):
+@pytest.mark.parametrize('more, want', [(False, 2), (True, 4)])
+def test_more_tests_run_only_once_told(more, want):
     # one more start per look (a second at most), up to 4
     t = Fake(enough=4)
     files = ['t%d' % i for i in range(4)]
     most = run_rostests.schedule(files, t.run, t.report, 2, 4,
-                                 idle=lambda: idle, ramp=0.0)
+                                 lambda: more, ramp=0.0)
     assert sorted(t.reported) == sorted(files)
     assert t.most == most == want
 
@@ -56,14 +56,6 @@ def test_the_tests_above_jobs_start_one_per_ramp():
     files = ['t%d' % i for i in range(4)]
     # a ramp longer than the run: one extra test at the start, no other
     most = run_rostests.schedule(files, t.run, t.report, 2, 5,
-                                 idle=lambda: 1.0, ramp=60.0)
+                                 lambda: True, ramp=60.0)
     assert t.most == most == 3
     assert len(t.reported) == 4
-
-
-def test_the_idle_meter_reads_a_share():
-    meter = run_rostests.IdleMeter()
-    assert meter.idle() == 0.0      # one sample: no window yet
-    meter.samples[0] = (meter.samples[0][0] - run_rostests.IDLE_WINDOW,
-                        meter.samples[0][1], meter.samples[0][2] - 1)
-    assert 0.0 <= meter.idle() <= 1.0
