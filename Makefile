@@ -41,10 +41,11 @@ FORCE:
 build:
 	@mkdir -p $(WS)/src $(WS)/devel/lib/python3/dist-packages
 	@[ -e $(WS)/src/hri_sync ] || ln -s $(ROOT) $(WS)/src/hri_sync
-	@# (not on setup's jobserver, which pip holds a slot of: catkin_make
-	@# takes -j from MAKEFLAGS, and runs as many jobs as cores without)
+	@# A job per core, off setup's jobserver (where pip holds a slot) and
+	@# without catkin_make's default load limit (-l: a load left by a
+	@# previous run would hold the build to one job).
 	@cd $(WS) && source /usr/share/catkin/setup.bash 2>/dev/null; \
-	  env -u MAKEFLAGS -u MFLAGS catkin_make -DPYTHON_EXECUTABLE=$(ROS_PY) -DCMAKE_BUILD_TYPE=Release \
+	  env -u MAKEFLAGS -u MFLAGS catkin_make -j$$(nproc) -DPYTHON_EXECUTABLE=$(ROS_PY) -DCMAKE_BUILD_TYPE=Release \
 	  -DCATKIN_ENABLE_TESTING=ON > $(WS)/build.log 2>&1 \
 	  || { tail -40 $(WS)/build.log; exit 1; }
 	@# rosrun searches the package folder, which holds .ws: keep the devel
