@@ -86,13 +86,11 @@ rostest: setup
 	@$(ROSTESTS)
 
 # The rostests (each in a network namespace of its own, several at once)
-# run beside the other stages, at a lower priority (nice 5: those finish
-# first, where they were the run's tail), and take more at once
-# (--max-jobs) when those are done; their report is printed after them.
+# run beside the other stages, and take more at once (--max-jobs) when
+# those are done; their report is printed after them.
 test: setup
 	@status=0; rm -f $(WS)/rostest.more; \
-	( $(SOURCE) && nice -n 5 $(ROS_PY) $(ROOT)/scripts/run_rostests.py $(ROOT)/test \
-	  --more-when $(WS)/rostest.more > $(WS)/rostest.out 2>&1; \
+	( $(ROSTESTS) --more-when $(WS)/rostest.more > $(WS)/rostest.out 2>&1; \
 	  echo $$? > $(WS)/rostest.rc ) & \
 	rostests=$$!; \
 	( $(UNIT) ) || status=1; \
