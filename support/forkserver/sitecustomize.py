@@ -39,12 +39,11 @@ def _same_interpreter(env, protocol):
             and 'LD_PRELOAD' not in env and sys.prefix == sys.base_prefix)
 
 
-def _hand_over(path, script, forwarded):
+def _hand_over(path, script, protocol):
     """Runs ``script`` in the server: never returns once it started."""
-    import json
     import signal
     import socket
-    import struct
+    forwarded = protocol.FORWARDED
     for fd in (0, 1, 2):
         os.fstat(fd)        # OSError: a closed stream, run here
     conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
@@ -58,20 +57,16 @@ def _hand_over(path, script, forwarded):
                if getattr(signal, name) not in ignored]
     signal.pthread_sigmask(signal.SIG_BLOCK, signals)
     try:
-        body = json.dumps({'argv': sys.argv, 'cwd': os.getcwd(),
-                           'env': dict(os.environ),
-                           'ignored': [int(s) for s in ignored]}).encode()
-        conn.sendmsg([struct.pack('!I', len(body)), body],
-                     [(socket.SOL_SOCKET, socket.SCM_RIGHTS,
-                       struct.pack('3i', 0, 1, 2))])
-        reply = conn.recv(4, socket.MSG_WAITALL)
-        if len(reply) != 4:
+        protocol.send_request(conn, {
+            'argv': sys.argv, 'cwd': os.getcwd(), 'env': dict(os.environ),
+            'ignored': [int(s) for s in ignored]})
+        pid = protocol.receive_int(conn)
+        if pid is None:
             raise OSError('the fork server did not start %s' % script)
     except BaseException:
         conn.close()
         signal.pthread_sigmask(signal.SIG_UNBLOCK, signals)
         raise
-    pid = struct.unpack('!i', reply)[0]
 
     def forward(signum, _frame):
         try:
@@ -81,12 +76,11 @@ def _hand_over(path, script, forwarded):
     for signum in signals:
         signal.signal(signum, forward)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, signals)
-    status = conn.recv(4, socket.MSG_WAITALL)
-    if len(status) != 4:
+    status = protocol.receive_int(conn)
+    if status is None:
         sys.stderr.write('hri_sync forkserver: lost the server running %s\n'
                          % script)
         os._exit(1)
-    status = struct.unpack('!i', status)[0]
     if os.WIFSIGNALED(status):
         sig = os.WTERMSIG(status)
         signal.signal(sig, signal.SIG_DFL)
@@ -106,7 +100,7 @@ def _main():
             or not _same_interpreter(os.environ, fork_protocol):
         return
     try:
-        _hand_over(path, script, fork_protocol.FORWARDED)
+        _hand_over(path, script, fork_protocol)
     except OSError as e:
         sys.stderr.write('hri_sync forkserver: %s; running %s here\n'
                          % (e, script))

@@ -34,21 +34,20 @@ lifetimes runs its launch with ``HRI_SYNC_FORKSERVER`` set to ``off``.
 import atexit
 import ctypes
 import importlib
-import json
 import os
 import pkgutil
 import runpy
 import selectors
 import signal
 import socket
-import struct
 import subprocess
 import sys
 import threading
 import traceback
 
-from hri_sync_support.fork_protocol import (ENV, ENV_PYTHON, ENV_SETTINGS,
-                                            FORWARDED, python_settings)
+from hri_sync_support.fork_protocol import (
+    ENV, ENV_PYTHON, ENV_SETTINGS, FORWARDED, python_settings,
+    receive_int, receive_request, send_int, send_request)
 
 os.environ.setdefault('OPENBLAS_NUM_THREADS', '1')  # no thread to fork
 
@@ -110,35 +109,11 @@ def _unlisten(listener, path):
         pass
 
 
-def _receive(conn):
-    """(request, [fd 0, fd 1, fd 2]) from a proxy."""
-    head, fds = b'', []
-    while len(head) < 4:
-        data, ancdata, _, _ = conn.recvmsg(4 - len(head),
-                                           socket.CMSG_SPACE(3 * 4))
-        if not data:
-            raise EOFError('proxy closed before its request')
-        head += data
-        for level, kind, payload in ancdata:
-            if level == socket.SOL_SOCKET and kind == socket.SCM_RIGHTS:
-                fds += list(struct.unpack('%di' % (len(payload) // 4),
-                                          payload))
-    size = struct.unpack('!I', head)[0]
-    body = b''
-    while len(body) < size:
-        chunk = conn.recv(size - len(body))
-        if not chunk:
-            raise EOFError('proxy closed mid-request')
-        body += chunk
-    if len(fds) != 3:
-        raise EOFError('proxy sent %d streams, not 3' % len(fds))
-    return json.loads(body), fds
-
-
 def _request(conn):
-    """_receive, or (None, None) after saying why (``conn`` closed)."""
+    """receive_request, or (None, None) after saying why (``conn``
+    closed)."""
     try:
-        return _receive(conn)
+        return receive_request(conn)
     except (OSError, EOFError, ValueError) as e:
         sys.stderr.write('hri_sync forkserver: %s\n' % e)
         conn.close()
@@ -211,7 +186,7 @@ class Server:
         self.selector.register(pidfd, selectors.EVENT_READ, ('copy', pid))
         self.selector.register(conn, selectors.EVENT_READ, ('proxy', pid))
         try:
-            conn.sendall(struct.pack('!i', pid))
+            send_int(conn, pid)
         except OSError:
             self.proxy_gone(pid)
 
@@ -223,7 +198,7 @@ class Server:
             self.selector.unregister(conn)
         os.close(pidfd)
         try:
-            conn.sendall(struct.pack('!i', status))
+            send_int(conn, status)
         except OSError:
             pass
         conn.close()
@@ -260,14 +235,9 @@ class Server:
                     p for _, p in self.copies.values()] + [self.main_fd]:
                 os.close(fd)
             self.selector.close()
-            for target, fd in enumerate(fds):
-                os.dup2(fd, target)
-                os.close(fd)
+            _adopt(request, fds)
             sys.stdout.reconfigure(line_buffering=os.isatty(1))
             _signals(request.get('ignored', []))
-            os.chdir(request['cwd'])
-            os.environ.clear()
-            os.environ.update(request['env'])
             argv = request['argv']
             # in place: a preloaded function's default may be this list
             # (roslaunch.main(argv=sys.argv), rosmaster_main's)
@@ -328,25 +298,30 @@ class Mother:
             os.setsid()
             self.listener.close()
             _join(request['pid'])
-            conn.sendall(struct.pack('!i', os.getpid()))    # ready
-            for target, fd in enumerate(fds):
-                os.dup2(fd, target)
-                os.close(fd)
-            os.chdir(request['cwd'])
-            os.environ.clear()
-            os.environ.update(request['env'])
+            send_int(conn, os.getpid())    # ready
+            _adopt(request, fds)
             server = Server(request['path'])
             try:
                 status = server.serve(request['command'], launcher=conn)
             finally:
                 server.close()
             if status is not None:
-                conn.sendall(struct.pack('!i', status))
+                send_int(conn, status)
             code = 0
         except BaseException:
             traceback.print_exc()
         finally:
             os._exit(code)
+
+
+def _adopt(request, fds):
+    """Takes the sender's standard streams, folder and environment."""
+    for target, fd in enumerate(fds):
+        os.dup2(fd, target)
+        os.close(fd)
+    os.chdir(request['cwd'])
+    os.environ.clear()
+    os.environ.update(request['env'])
 
 
 def _reap():
@@ -391,29 +366,22 @@ def launch(mother, path, command):
     conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     try:
         conn.connect(mother)
+        send_request(conn, {'pid': os.getpid(), 'path': path,
+                            'command': command, 'cwd': os.getcwd(),
+                            'env': dict(os.environ)})
+        if receive_int(conn) is None:
+            raise OSError('no server started here (the mother says why)')
     except OSError as e:
         sys.stderr.write('hri_sync forkserver: mother %s: %s; serving '
                          'here\n' % (mother, e))
         conn.close()
         return serve_here(path, command)
-    body = json.dumps({'pid': os.getpid(), 'path': path,
-                       'command': command, 'cwd': os.getcwd(),
-                       'env': dict(os.environ)}).encode()
-    conn.sendmsg([struct.pack('!I', len(body)), body],
-                 [(socket.SOL_SOCKET, socket.SCM_RIGHTS,
-                   struct.pack('3i', 0, 1, 2))])
-    if len(conn.recv(4, socket.MSG_WAITALL)) != 4:
-        sys.stderr.write('hri_sync forkserver: mother %s could not start a '
-                         'server here (its output says why); serving here\n'
-                         % mother)
-        conn.close()
-        return serve_here(path, command)
-    status = conn.recv(4, socket.MSG_WAITALL)
-    if len(status) != 4:
+    status = receive_int(conn)
+    if status is None:
         sys.stderr.write('hri_sync forkserver: lost the server of %s\n'
                          % mother)
         return 1
-    return struct.unpack('!i', status)[0]
+    return status
 
 
 def serve_here(path, command):
