@@ -39,6 +39,10 @@ import threading
 import time
 import xml.etree.ElementTree as ET
 
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path[:0] = [os.path.join(ROOT, 'src'), os.path.join(ROOT, 'support')]
+from hri_sync_support.harness import wait_until  # noqa: E402
+
 TIMEOUT = 600  # s per test file
 NETNS_PREFIX = 'hrit'
 CPUACCT = '/sys/fs/cgroup/cpuacct'
@@ -248,10 +252,11 @@ class Runner:
             [sys.executable, '-m', 'hri_sync_support.forkserver',
              '--mother', self.mother], env=self.env(),
             start_new_session=True)
-        deadline = time.monotonic() + 60
-        while not os.path.exists(self.mother) and proc.poll() is None \
-                and time.monotonic() < deadline:
-            time.sleep(0.05)
+        try:
+            wait_until('its socket', lambda: os.path.exists(self.mother),
+                       60, [('it', proc)], poll=0.05)
+        except RuntimeError as e:   # each test's launcher serves itself
+            print('rostest: fork server mother: %s' % e, flush=True)
         return proc
 
     def run(self, path):
@@ -333,7 +338,7 @@ def main():
              if not args.wanted or any(w in f for w in args.wanted)]
     isolate = can_isolate()
     jobs = max(1, args.jobs) if isolate else 1
-    max_jobs = max(jobs, int(args.max_jobs) if args.max_jobs is not None
+    max_jobs = max(jobs, args.max_jobs if args.max_jobs is not None
                    else jobs + 2) if isolate else 1
     if isolate:
         remove_stale_netns()

@@ -7,10 +7,11 @@ import signal
 import subprocess
 import sys
 import textwrap
-import time
 
 import pytest
+from hri_sync.tools.procs import alive
 from hri_sync_support.fork_protocol import python_settings
+from hri_sync_support.harness import wait_until
 
 ROS_PY = '/usr/bin/python3'
 SUPPORT = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..',
@@ -96,10 +97,8 @@ def mother(tmp_path_factory):
     path = str(tmp_path_factory.mktemp('mother') / 'mother.sock')
     proc = subprocess.Popen([ROS_PY, '-m', 'hri_sync_support.forkserver',
                              '--mother', path], env=support_env())
-    deadline = time.monotonic() + 60
-    while not os.path.exists(path) and proc.poll() is None \
-            and time.monotonic() < deadline:
-        time.sleep(0.05)
+    wait_until('the mother\'s socket', lambda: os.path.exists(path), 60,
+               [('the mother', proc)], poll=0.05)
     yield path
     proc.terminate()
     assert proc.wait(timeout=30) == 0
@@ -237,25 +236,11 @@ def test_a_killed_launcher_takes_its_server_and_copies_with_it(
         [ROS_PY, '-m', 'hri_sync_support.forkserver', '--from', mother,
          str(tmp_path / 'fork.sock'), '--', ROS_PY, str(script)],
         env=support_env())
-    deadline = time.monotonic() + 60
-    while not (tmp_path / 'copy.pid').exists():
-        assert time.monotonic() < deadline and launcher.poll() is None
-        time.sleep(0.05)
+    wait_until('the copy\'s pid', (tmp_path / 'copy.pid').exists, 60,
+               [('the launcher', launcher)], poll=0.05)
     copy = int((tmp_path / 'copy.pid').read_text())
     launcher.kill()
     launcher.wait()
-    deadline = time.monotonic() + 30
-    while alive(copy) and time.monotonic() < deadline:
-        time.sleep(0.05)
-    assert not alive(copy)
+    wait_until('the copy to end', lambda: not alive(copy), 30, poll=0.05)
     assert not (tmp_path / 'fork.sock').exists()
-
-
-def alive(pid):
-    """Whether ``pid`` runs (a zombie does not)."""
-    try:
-        with open('/proc/%d/stat' % pid) as f:
-            return f.read().rsplit(')', 1)[1].split()[0] != 'Z'
-    except OSError:
-        return False
 
