@@ -96,10 +96,10 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
     ends[2 * c] = part(c).a.at(pose);
     ends[2 * c + 1] = part(c).b.at(pose);
     centre[c] = (ends[2 * c] + ends[2 * c + 1]) * 0.5;
-    reach[c] = (ends[2 * c + 1] - ends[2 * c]).norm() * 0.5 + part(c).radius;
     axis[c] = ends[2 * c + 1] - ends[2 * c];
     len2[c] = axis[c].dot(axis[c]);
     radius[c] = part(c).radius;
+    reach[c] = axis[c].norm() * 0.5 + radius[c];
   }
   Pull pull;
   double energy = 0;
@@ -109,7 +109,7 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
     const Vec3& pt = g_.points[seg_.cells[n]];
     int best = -1;
     double best_d = 1e18, best_t = 0;
-    auto consider = [&](int c) {  // closestT's arithmetic, its per-capsule terms computed once
+    auto consider = [&](int c) {  // t: the closest point's place on the axis (0..1)
       const Vec3 ap = pt - ends[2 * c];
       double t = len2[c] < 1e-12 ? 0.0 : std::clamp(ap.dot(axis[c]) / len2[c], 0.0, 1.0);
       double d = (pt - (ends[2 * c] + axis[c] * t)).norm() - radius[c];
@@ -142,13 +142,13 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
   // what the sensor sees, nor off the user's silhouette.
   double fs_energy = 0;
   for (int c = 0; c < kNumParts; ++c) {
-    const double r = part(c).radius;
-    const Vec3 &a = ends[2 * c], &b = ends[2 * c + 1];
-    const Vec3 ax = (b - a).normalized();
-    const int samples = std::clamp(static_cast<int>((b - a).norm() / 0.06), 1, 8);
+    const double r = radius[c];
+    const Vec3& a = ends[2 * c];
+    const Vec3 ax = axis[c].normalized();
+    const int samples = std::clamp(static_cast<int>(axis[c].norm() / 0.06), 1, 8);
     for (int s = 0; s <= samples; ++s) {
       double t = static_cast<double>(s) / samples;
-      Vec3 q = a + (b - a) * t;
+      Vec3 q = a + axis[c] * t;
       Vec3 view = (q * -1.0).normalized();
       Vec3 toward = (view - ax * view.dot(ax)).normalized();
       Vec3 across = ax.norm() > 0 ? ax.cross(view).normalized() : Vec3(1, 0, 0).cross(view).normalized();
