@@ -85,22 +85,15 @@ test-site: setup
 rostest: setup
 	@$(ROSTESTS)
 
-# The rostests (each in a network namespace of its own, several at once)
-# run beside the other stages, and take more at once (--max-jobs) when
-# those are done; their report is printed after them.
+# One pool runs the rostests (each in a network namespace of its own) and
+# the other stages, ROSTEST_JOBS (4) + 1 jobs at once, longest first, up
+# to ROSTEST_MAX_JOBS (JOBS + 2) once the stages are done; a failed
+# stage's or test's log tail is printed (all logs: .ws/test_logs/).
 test: setup
-	@status=0; rm -f $(WS)/rostest.more; \
-	( $(ROSTESTS) --more-when $(WS)/rostest.more > $(WS)/rostest.out 2>&1; \
-	  echo $$? > $(WS)/rostest.rc ) & \
-	rostests=$$!; \
-	( $(UNIT) ) || status=1; \
-	$(CHECK) || status=1; \
-	$(INSTALL_CHECK) || status=1; \
-	( $(SITE) ) || status=1; \
-	touch $(WS)/rostest.more; \
-	wait $$rostests; cat $(WS)/rostest.out; \
-	[ "$$(cat $(WS)/rostest.rc)" = 0 ] || status=1; \
-	exit $$status
+	@j=$${ROSTEST_JOBS:-4}; $(ROSTESTS) --jobs $$((j + 1)) \
+	  --max-jobs $${ROSTEST_MAX_JOBS:-$$((j + 2))} \
+	  --stage 'unit=$(UNIT)' --stage 'check=$(CHECK)' \
+	  --stage 'install_space=$(INSTALL_CHECK)' --stage 'site_multihost=$(SITE)'
 
 # `make test` RUNS times in a row beside one busy loop per core, JSON
 # summary last (scripts/test_under_load.py; e.g. make test-load RUNS=1).

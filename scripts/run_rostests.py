@@ -1,17 +1,20 @@
 #!/usr/bin/python3
 """Run every rostest in a folder, several at once, and summarise.
 
-    run_rostests.py [-j N] TEST_DIR [NAME_SUBSTRING ...]
+    run_rostests.py [-j N] [--stage NAME=COMMAND ...] TEST_DIR [NAME ...]
 
 Runs TEST_DIR/rostest/*.test with rostest, and the script-driven tests,
 TEST_DIR/system/test_*.py, with pytest: those need what rostest cannot
-give (e.g. a master they restart) and start their own processes.
+give (e.g. a master they restart) and start their own processes.  Each
+--stage is a shell command run beside them, as one more job of the same
+pool (``make test`` gives it pytest, check_package, install_space and
+site_multihost): on a CPU-bound suite one pool, longest job first, ends
+its jobs together, where a chain of stages run beside the pool ended
+up to a minute after it on half the cores.
 
-Up to N tests run at once, and up to M (--max-jobs, default N + 2) once
-the file given by --more-when exists, one more every 5 s (a test's start
-is a burst): ``make test`` creates it when its other stages, which run
-beside the rostests, are done, and the rostests take the cores they
-leave.  Run as root, each test gets a network
+Up to N jobs run at once, and up to M (--max-jobs, default N + 2) once
+every stage is done, one more every 5 s (a test's start is a burst): the
+rostests then take the cores the stages left.  Run as root, each test gets a network
 namespace of its own (loopback only), so the tests' masters, NTP servers
 and node ports never meet, whatever ports they hard-code; the namespace
 and every process left in it are removed when the test ends.  Not root,
@@ -20,8 +23,9 @@ The longest tests start first: by the durations of the last run, kept in
 .ws/test_logs/durations.json, or on a fresh clone by those of a run on
 this project's machine (TEST_DIR/durations.json, refreshed by hand).
 
-Each test's full output goes to .ws/test_logs/<name>.log; a failing
-test's tail is printed.  Where the cgroup v1 cpuacct controller is
+Each test's (and stage's) full output goes to .ws/test_logs/<name>.log;
+a failing one's tail is printed.  A stage runs in this host's network
+namespace, its processes plain (no fork server).  Where the cgroup v1 cpuacct controller is
 mounted, each test's processes share a cgroup and the line gives the CPU
 time they used.  The last line is 'rostest: N passed, N failed';
 the exit status is non-zero when any test failed or none ran.
@@ -44,6 +48,8 @@ sys.path[:0] = [os.path.join(ROOT, 'src'), os.path.join(ROOT, 'support')]
 from hri_sync_support.harness import wait_until  # noqa: E402
 
 TIMEOUT = 600  # s per test file
+STAGE_TIMEOUT = 3600  # s per stage (pytest beside the rostests on a busy machine)
+TAIL = 60     # lines of a failed job's log printed
 NETNS_PREFIX = 'hrit'
 CPUACCT = '/sys/fs/cgroup/cpuacct'
 RAMP = 5.0          # s between starts above --jobs
@@ -109,6 +115,27 @@ def remove_netns(ns):
         while pids and netns_pids(ns) and time.monotonic() < deadline:
             time.sleep(0.1)
     subprocess.run(['ip', 'netns', 'del', ns], stderr=subprocess.DEVNULL)
+
+
+class Stage:
+    """A --stage: a shell command run as one job of the pool."""
+
+    def __init__(self, spec):
+        self.name, sep, self.command = spec.partition('=')
+        if not sep or not self.name or not self.command:
+            raise argparse.ArgumentTypeError(
+                'a stage is NAME=COMMAND, not %r' % spec)
+        self.done = False
+
+    def __repr__(self):
+        return 'Stage(%r)' % self.name
+
+
+def job_name(job):
+    """A test file's name without its extension, or a stage's name."""
+    if isinstance(job, Stage):
+        return job.name
+    return os.path.splitext(os.path.basename(job))[0]
 
 
 def schedule(files, run, report, jobs, max_jobs, more, ramp=RAMP):
@@ -259,20 +286,19 @@ class Runner:
             print('rostest: fork server mother: %s' % e, flush=True)
         return proc
 
-    def run(self, path):
-        """(name, ok, seconds, summary line) of one test file."""
-        name = os.path.splitext(os.path.basename(path))[0]
-        log = os.path.join(self.logs, name + '.log')
-        xml, command = self.command(path, name)
+    def run(self, job):
+        """(name, ok, seconds, cpu seconds, summary line) of one job."""
+        if isinstance(job, Stage):
+            return self.run_stage(job)
+        name = job_name(job)
+        xml, command = self.command(job, name)
         if os.path.exists(xml):
             os.remove(xml)
         ns = None
         cpu = None
         env = self.env()
         if self.isolate:
-            with self.lock:
-                self.count += 1
-                ns = '%s_%d_%d' % (NETNS_PREFIX, os.getpid(), self.count)
+            ns = self.unique_name()
             cpu = CpuAccount(ns)
             subprocess.run(['ip', 'netns', 'add', ns], check=True)
             subprocess.run(['ip', 'netns', 'exec', ns, 'ip', 'link', 'set',
@@ -284,32 +310,60 @@ class Runner:
             env.pop('ROS_IP', None)
         t0 = time.monotonic()
         try:
-            with open(log, 'w') as out:
-                proc = subprocess.Popen(command, stdout=out,
-                                        stderr=subprocess.STDOUT, env=env,
-                                        start_new_session=True)
-                try:
-                    code = proc.wait(timeout=TIMEOUT)
-                except subprocess.TimeoutExpired:
-                    os.killpg(proc.pid, signal.SIGKILL)
-                    proc.wait()
-                    code = 'timeout after %d s' % TIMEOUT
+            code = self.execute(command, env, name, TIMEOUT)
         finally:
             if ns:
                 remove_netns(ns)
         seconds = time.monotonic() - t0
-        cpu_seconds = cpu.close() if cpu else None
         counts = junit_counts(xml)
         ok = code == 0 and counts is not None and counts[0] > 0 \
             and counts[1] == 0
+        return self.result(name, ok, seconds, cpu, code, '%d tests, %d failed'
+                           % counts if counts else 'no result file')
+
+    def run_stage(self, stage):
+        """As run, for a --stage: its command in bash, on this host's
+        network, its processes plain; passed when it exits 0."""
+        cpu = CpuAccount(self.unique_name()) if self.isolate else None
+        command = ['bash', '-c', stage.command]
+        t0 = time.monotonic()
+        code = self.execute(cpu.wrap(command) if cpu else command,
+                            dict(os.environ), stage.name, STAGE_TIMEOUT)
+        return self.result(stage.name, code == 0, time.monotonic() - t0,
+                           cpu, code, 'stage')
+
+    def unique_name(self):
+        """A namespace or cgroup name of this run (see stale)."""
+        with self.lock:
+            self.count += 1
+            return '%s_%d_%d' % (NETNS_PREFIX, os.getpid(), self.count)
+
+    def execute(self, command, env, name, timeout):
+        """command's exit status (its output in name's log), or a
+        timeout's description after SIGKILL to its process group."""
+        with open(os.path.join(self.logs, name + '.log'), 'w') as out:
+            proc = subprocess.Popen(command, stdout=out,
+                                    stderr=subprocess.STDOUT, env=env,
+                                    start_new_session=True)
+            try:
+                return proc.wait(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+                return 'timeout after %d s' % timeout
+
+    def result(self, name, ok, seconds, cpu, code, what):
+        """The job's result tuple; a failed job's line ends with the tail
+        of its log."""
+        cpu_seconds = cpu.close() if cpu else None
         line = '%-4s %-40s %6.1f s%s  (exit %s, %s)' % (
             'PASS' if ok else 'FAIL', name, seconds,
             '' if cpu_seconds is None else ', cpu %5.1f s' % cpu_seconds,
-            code,
-            '%d tests, %d failed' % counts if counts else 'no result file')
+            code, what)
         if not ok:
+            log = os.path.join(self.logs, name + '.log')
             with open(log) as lf:
-                tail = lf.readlines()[-40:]
+                tail = lf.readlines()[-TAIL:]
             line += '\n  --- tail of %s ---\n%s' % (
                 log, ''.join('  ' + t for t in tail))
         return name, ok, seconds, cpu_seconds, line
@@ -320,13 +374,14 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('-j', '--jobs', type=int,
                         default=int(os.environ.get('ROSTEST_JOBS', 4)),
-                        help='tests at once (default $ROSTEST_JOBS or 4)')
+                        help='jobs at once (default $ROSTEST_JOBS or 4)')
     parser.add_argument('--max-jobs', type=int,
                         default=os.environ.get('ROSTEST_MAX_JOBS'),
-                        help='tests at once once --more-when exists '
+                        help='jobs at once once every stage is done '
                         '(default $ROSTEST_MAX_JOBS or JOBS + 2)')
-    parser.add_argument('--more-when', metavar='FILE',
-                        help='run up to --max-jobs once FILE exists')
+    parser.add_argument('--stage', type=Stage, action='append', default=[],
+                        metavar='NAME=COMMAND', help='a shell command run '
+                        'as one more job; passed when it exits 0')
     parser.add_argument('test_dir')
     parser.add_argument('wanted', nargs='*', help='name substrings')
     args = parser.parse_args()
@@ -355,11 +410,14 @@ def main():
                 durations.update(json.load(f))
         except (OSError, ValueError):
             pass
-    files.sort(key=lambda f: -durations.get(
-        os.path.splitext(os.path.basename(f))[0], 60.0))
-    print('rostest: %d files, %d at once%s%s%s'
-          % (len(files), jobs, ' (up to %d once %s exists)' % (
-              max_jobs, args.more_when) if args.more_when else '',
+    stages = args.stage
+    pool = sorted(stages + files,
+                  key=lambda job: -durations.get(job_name(job), 60.0))
+    print('rostest: %d files%s, %d at once%s%s%s'
+          % (len(files), ' and %d stages (%s)' % (
+              len(stages), ', '.join(s.name for s in stages))
+             if stages else '', jobs, ' (up to %d once the stages are '
+             'done)' % max_jobs if stages and max_jobs > jobs else '',
              ', one network namespace each' if isolate else
         ' (not root: no network namespaces, one at a time)',
         ', Python forked from a preloaded server' if runner.mother else ''),
@@ -371,26 +429,26 @@ def main():
     def report(result):
         nonlocal cpu_total
         name, ok, seconds, cpu_seconds, line = result
+        for stage in stages:
+            stage.done = stage.done or stage.name == name
         durations[name] = round(seconds, 1)
         cpu_total += cpu_seconds or 0.0
         (passed if ok else failed).append(name)
         print(line, flush=True)
     mother = runner.start_mother()
     try:
-        most = schedule(
-            files, runner.run, report, jobs, max_jobs,
-            lambda: bool(args.more_when) and os.path.exists(args.more_when))
+        most = schedule(pool, runner.run, report, jobs, max_jobs,
+                        lambda: bool(stages) and all(s.done for s in stages))
     finally:
         if mother:
             mother.terminate()
             mother.wait()
     with open(durations_file, 'w') as f:
         json.dump(durations, f, indent=1, sort_keys=True)
-    print('rostest: wall %.1f s, sum of test times %.1f s, cpu %.1f s, '
+    print('rostest: wall %.1f s, sum of job times %.1f s, cpu %.1f s, '
           'up to %d at once' % (
-              time.monotonic() - t0, sum(durations.get(
-                  os.path.splitext(os.path.basename(f))[0], 0)
-                  for f in files), cpu_total, most))
+              time.monotonic() - t0, sum(durations.get(job_name(job), 0)
+                                         for job in pool), cpu_total, most))
     if failed:
         print('rostest: failed: %s' % ' '.join(sorted(failed)))
     print('rostest: %d passed, %d failed' % (len(passed), len(failed)))

@@ -59,3 +59,26 @@ def test_the_tests_above_jobs_start_one_per_ramp():
                                  lambda: True, ramp=60.0)
     assert t.most == most == 3
     assert len(t.reported) == 4
+
+
+def test_a_stage_is_a_named_shell_command():
+    stage = run_rostests.Stage('unit=cd x && pytest -q a=b')
+    assert (stage.name, stage.command) == ('unit', 'cd x && pytest -q a=b')
+    assert run_rostests.job_name(stage) == 'unit'
+    assert run_rostests.job_name('/t/rostest/fuzz.test') == 'fuzz'
+    for bad in ('unit', '=pytest', 'unit='):
+        with pytest.raises(Exception, match='NAME=COMMAND'):
+            run_rostests.Stage(bad)
+
+
+def test_a_stage_passes_on_exit_0_and_a_failed_one_shows_its_log(tmp_path):
+    runner = run_rostests.Runner(str(tmp_path), False, None)
+    name, ok, _, cpu, line = runner.run(run_rostests.Stage('good=exit 0'))
+    assert (name, ok, cpu) == ('good', True, None)
+    assert line.startswith('PASS good')
+    name, ok, _, _, line = runner.run(
+        run_rostests.Stage('bad=echo "the reason"; exit 3'))
+    assert not ok and line.startswith('FAIL bad')
+    assert '(exit 3, stage)' in line and 'the reason' in line
+    with open(tmp_path / '.ws' / 'test_logs' / 'bad.log') as log:
+        assert log.read() == 'the reason\n'
