@@ -169,8 +169,8 @@ class FuzzDanceOff(unittest.TestCase):
         return thread, reply
 
     def clean_round(self, name):
-        """Run a round and return (decision, {client: result}) published
-        by the DM and the DPMs after it started."""
+        """Run a round and return the DM's last decision since it started
+        and the DPMs' results of that decision's round ({client: result})."""
         t0 = time.time()
         thread, reply = self.start_round()
         thread.join(rospy.get_param('~dur', 5.0) + 60.0)
@@ -182,16 +182,24 @@ class FuzzDanceOff(unittest.TestCase):
             with self.lock:
                 return [m for t, c, m in items if t >= t0 and c in senders]
         dpms = {'/%s/dpm' % c for c in self.participants}
+
+        def decided():
+            """The last decision and its round's results by client."""
+            decisions = mine(self.decisions, {'/decision_module'})
+            if not decisions:
+                return None, {}
+            return decisions[-1], {
+                m.client_id: m for m in mine(self.results, dpms)
+                if m.round == decisions[-1].round}
         # Every result comes before its decision, but on a connection of
-        # its own: a loaded checker may read it after.  Wait for both.
-        wait_for(lambda: mine(self.decisions, {'/decision_module'}) and {
-            m.client_id for m in mine(self.results, dpms)} >= set(
-                self.participants), 10.0)
-        decisions = mine(self.decisions, {'/decision_module'})
-        self.assertTrue(decisions, '%s round: no decision from the DM'
-                        % name)
-        results = {m.client_id: m for m in mine(self.results, dpms)}
-        return decisions[-1], results
+        # its own: a loaded checker may read it after.  Wait for both, by
+        # round: a forged round's window (the fuzzer's capture commands)
+        # can end inside this one, and its result come in first.
+        wait_for(lambda: decided()[0] and set(decided()[1]) >= set(
+            self.participants), 10.0)
+        decision, results = decided()
+        self.assertTrue(decision, '%s round: no decision from the DM' % name)
+        return decision, results
 
     def nodes(self):
         return set(rosnode.get_node_names()) - {

@@ -20,10 +20,12 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from hri_sync.tools import layouts, mcap_export
 from hri_sync.tools.mcap_export import McapError, write_mcap
+from hri_sync_support.harness import run_script
 
 ROOT = os.path.join(os.path.dirname(__file__), '..', '..')
 BAGS = os.path.join(ROOT, 'test', 'bags')
 SESSION = os.path.join(BAGS, 'session_still.bag')
+REPORT = os.path.join(ROOT, 'nodes', 'report')
 OLD = os.path.join(BAGS, 'session_robot.bag')   # before std_msgs/Header
 
 
@@ -299,24 +301,20 @@ def test_a_killed_export_leaves_only_a_part_file_and_is_replaced(tmp_path):
 
 def test_report_cli_writes_the_mcap_and_layouts(tmp_path):
     out = str(tmp_path)
-    p = subprocess.run(
-        [sys.executable, os.path.join(ROOT, 'nodes', 'report'), SESSION,
-         '--out', os.path.join(out, 'r'), '--export', 'mcap',
-         '--mcap-dir', out], stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT, text=True, timeout=600)
-    assert p.returncode == 0, p.stdout
-    assert 'MCAP: 1241 messages' in p.stdout
+    code, text = run_script(REPORT, [
+        SESSION, '--out', os.path.join(out, 'r'), '--export', 'mcap',
+        '--mcap-dir', out])
+    assert code == 0, text
+    assert 'MCAP: 1241 messages' in text
     assert sorted(os.listdir(out)) == [
         'r', 'session_still.foxglove.json', 'session_still.mcap',
         'session_still.plotjuggler.xml']
 
 
 def test_report_cli_says_when_the_mcap_cannot_be_written(tmp_path):
-    p = subprocess.run(
-        [sys.executable, os.path.join(ROOT, 'nodes', 'report'), SESSION,
-         '--out', str(tmp_path / 'r'), '--export', 'mcap', '--mcap-dir',
-         str(tmp_path / 'no' / 'such')], stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT, text=True, timeout=600)
-    assert p.returncode == 2
-    assert 'MCAP of %s not written' % SESSION in p.stdout
-    assert 'No such file or directory' in p.stdout
+    code, text = run_script(REPORT, [
+        SESSION, '--out', str(tmp_path / 'r'), '--export', 'mcap',
+        '--mcap-dir', str(tmp_path / 'no' / 'such')])
+    assert code == 2
+    assert 'MCAP of %s not written' % SESSION in text
+    assert 'No such file or directory' in text

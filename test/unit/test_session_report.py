@@ -14,8 +14,7 @@ import json
 import math
 import os
 import re
-import subprocess
-import sys
+from types import SimpleNamespace
 
 import pytest
 
@@ -25,6 +24,7 @@ pytest.importorskip('matplotlib', reason='python3-matplotlib (make setup)')
 import matplotlib.image  # noqa: E402
 
 import bag_edit  # noqa: E402
+from hri_sync_support.harness import run_script  # noqa: E402
 from hri_sync.tools import report  # noqa: E402
 from hri_sync.tools.bag import BagError  # noqa: E402
 
@@ -177,10 +177,9 @@ def test_no_bag_readable_is_an_error(tmp_path):
 
 
 def run(tool, *args):
-    return subprocess.run(
-        [sys.executable, os.path.join(ROOT, 'nodes', tool)] + list(args),
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        timeout=300)
+    """nodes/TOOL ARGS, in this process: .returncode, .stdout."""
+    code, out = run_script(os.path.join(ROOT, 'nodes', tool), args)
+    return SimpleNamespace(returncode=code, stdout=out)
 
 
 def test_verify_decisions_agrees_on_a_whole_session():
