@@ -89,13 +89,19 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
                         bool move) const {
   const Joints& pose = *j;
   std::array<Vec3, kNumParts * 2> ends;
-  std::array<Vec3, kNumParts> centre, axis;  // axis: end a to end b
+  std::array<Vec3, kNumParts> axis;  // end a to end b
   std::array<double, kNumParts> reach;  // bounding sphere: no surface point is farther from centre
   std::array<double, kNumParts> len2, radius;
+  // The centres, one array per coordinate: the bounding-sphere test of a
+  // point against every capsule runs as one vectorised loop.
+  std::array<double, kNumParts> cx, cy, cz;
   for (int c = 0; c < kNumParts; ++c) {
     ends[2 * c] = part(c).a.at(pose);
     ends[2 * c + 1] = part(c).b.at(pose);
-    centre[c] = (ends[2 * c] + ends[2 * c + 1]) * 0.5;
+    const Vec3 centre = (ends[2 * c] + ends[2 * c + 1]) * 0.5;
+    cx[c] = centre.x;
+    cy[c] = centre.y;
+    cz[c] = centre.z;
     axis[c] = ends[2 * c + 1] - ends[2 * c];
     len2[c] = axis[c].dot(axis[c]);
     radius[c] = part(c).radius;
@@ -118,11 +124,15 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
     // Last iteration's capsule first: its distance prunes most others.
     const int first = (*hint)[n];
     if (first >= 0) consider(first);
+    std::array<double, kNumParts> off2;  // squared distance to each centre (as Vec3::dot)
+    for (int c = 0; c < kNumParts; ++c) {
+      const double dx = pt.x - cx[c], dy = pt.y - cy[c], dz = pt.z - cz[c];
+      off2[c] = dx * dx + dy * dy + dz * dz;
+    }
     for (int c = 0; c < kNumParts; ++c) {
       if (c == first) continue;
       const double bound = best_d + reach[c];  // nearer than best_d only within this of the centre
-      const Vec3 off = pt - centre[c];
-      if (bound < 1e9 && (bound <= 0 || off.dot(off) >= bound * bound)) continue;
+      if (bound < 1e9 && (bound <= 0 || off2[c] >= bound * bound)) continue;
       consider(c);
     }
     (*hint)[n] = static_cast<int8_t>(best);
