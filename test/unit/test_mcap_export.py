@@ -273,7 +273,7 @@ def test_a_failed_first_export_leaves_no_mcap(tmp_path):
 
 KILLER = '''
 import sys
-sys.path[:0] = [%r, %r]
+sys.path[:0] = [%r, %r, %r]
 from hri_sync.tools.mcap_export import write_mcap
 from test_mcap_export import FullDisk, killed
 # killed at the first write past 1000 bytes (after the first chunk)
@@ -285,8 +285,9 @@ def test_a_killed_export_leaves_only_a_part_file_and_is_replaced(tmp_path):
     dst = str(tmp_path / 'session.mcap')
     before = sha(SESSION)
     p = subprocess.run([sys.executable, '-c', KILLER % (
-        os.path.join(ROOT, 'src'), os.path.dirname(os.path.abspath(__file__)),
-        SESSION, dst)], timeout=600)
+        os.path.join(ROOT, 'src'), os.path.join(ROOT, 'support'),
+        os.path.dirname(os.path.abspath(__file__)), SESSION, dst)],
+        timeout=600)
     assert p.returncode == -signal.SIGKILL
     assert not os.path.exists(dst)
     assert os.path.getsize(dst + mcap_export.PART) > 0
