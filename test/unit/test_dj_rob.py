@@ -339,6 +339,7 @@ class Sim:
         self.inputs = []
         self.next_odom = clock.t
         self.ticks = []             # (job kind, round, tick)
+        self.stalls = []            # (from, to): the runner starved
 
     def at(self, t, action):
         self.inputs.append((t, action))
@@ -374,6 +375,11 @@ class Sim:
             if run is not None:
                 self.advance(run.start)
                 while True:
+                    stall = [e for b, e in self.stalls
+                             if b <= self.clock.t < e]
+                    if stall:           # no tick: the base keeps its last
+                        self.advance(stall[0])      # command, then times out
+                        continue
                     tick = run.tick()
                     if tick is None:
                         break
@@ -398,6 +404,36 @@ def test_a_round_ends_facing_the_winner_within_the_limits():
     assert math.hypot(s.x, s.y) < 0.01
     assert sim.base.health().ok and sim.base.timeouts == 0
     assert log.texts('error') == [] and log.texts('warn') == []
+
+
+@pytest.mark.parametrize('stall', [(6.6, 7.4), (6.9, 8.0)])
+def test_a_starved_turn_is_turned_again_on_odometry(stall):
+    # the runner stalls in the turn to the winner: its command times out
+    # and the base stops short; the check after the turn turns it again
+    rob, clock, log = make(t=0.0)
+    sim = Sim(rob, clock)
+    sim.stalls.append(stall)
+    sim.at(0.5, lambda: rob.on_capture(1, 1.0, 6.0, 0.5))
+    sim.at(6.3, lambda: rob.on_decision(1, 'winner', 2))
+    sim.run(18.0)
+    s = sim.base.state
+    assert math.degrees(s.theta) == pytest.approx(-30.0, abs=2.0)
+    assert math.hypot(s.x, s.y) < 0.01
+    [again] = log.texts('warn')
+    assert 'round 1: the turn to the winner ended at' in again
+    assert 'turning again' in again
+    assert sim.base.timeouts == 1
+
+
+def test_a_turn_with_no_fresh_odometry_is_not_checked():
+    rob, clock, log = make(distance=None)
+    rob.on_late(1, clock.t, 'test')
+    rob.on_decision(1, 'winner', 2)
+    run = rob.begin(rob.take())
+    run_to_end(rob, clock, run)
+    run.finish()
+    assert rob.dead_heading == pytest.approx(BEARINGS[1])
+    assert log.texts('warn') == []
 
 
 def test_next_round_cuts_the_gesture_short_and_dances_on_the_beat():

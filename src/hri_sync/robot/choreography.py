@@ -26,6 +26,8 @@ from hri_sync.robot.geometry import TWO_PI, wrap_angle
 from hri_sync.robot.kobuki import (LED_BLACK, LED_GREEN, SOUND_CLEANINGEND,
                                    ZERO, Limits, Twist)
 
+TURN_TO_WINNER = 'turn to winner'   # the winner gesture's turn (a Move name)
+
 
 def min_move_duration(displacement, max_velocity, max_accel):
     """Shortest raised-cosine move of ``displacement`` within the limits."""
@@ -246,7 +248,7 @@ def winner_gesture(heading, target, limits=Limits(), approach=0.3,
     t = 0.0
     turn = wrap_angle(target - heading)
     if abs(turn) > 1e-4:
-        moves.append(_move(t, turn, lim, False, name='turn to winner'))
+        moves.append(_move(t, turn, lim, False, name=TURN_TO_WINNER))
         t = moves[-1].end + pause
     events = []
     if approach > 0.0:

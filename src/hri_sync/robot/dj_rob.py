@@ -23,6 +23,10 @@ publishes each :class:`Tick`.
 - The heading a plan starts from is the odometry's, relative to the first
   odometry pose (:func:`hri_sync.robot.geometry.relative_pose`), or, when
   no fresh odometry came, the dead-reckoned heading of the motions run.
+- A gesture's turn is checked on fresh odometry once it is over: a base
+  that turned short or past the winner by more than ``TURN_SLACK`` (a
+  starved runner whose commands timed out, a slipping wheel) turns again
+  before it approaches, up to ``TURN_RETRIES`` times (logged as warnings).
 """
 import bisect
 import math
@@ -38,6 +42,9 @@ from hri_sync.timing.vocabulary import Outcome
 WINNER, NO_WINNER, TIE, ABORTED = OUTCOMES = Outcome.ALL
 DANCE, GESTURE = 'dance', 'gesture'
 JOIN_SLACK = 0.05       # s: a dance this close before a beat skips it
+TURN_SLACK = math.radians(2.0)  # a gesture's turn error that turns again
+TURN_SETTLE = 0.15      # s after the turn's end that its heading is read
+TURN_RETRIES = 2
 
 
 def float_list(value):
@@ -286,10 +293,18 @@ class DjRob:
                       'after the window start: the dance joins %.2f s late, '
                       'on the beat', job.round, late * 1e3,
                       job.start - job.scheduled)
-        return Run(self, job, self._plan(job))
+        motion, goal = self._plan(job)
+        return Run(self, job, motion, goal)
+
+    def gesture(self, heading, goal):
+        """The winner gesture from ``heading`` to face ``goal`` (rad)."""
+        c = self.config
+        return ch.winner_gesture(heading, goal, c.limits, c.approach,
+                                 margin=c.margin)
 
     def _plan(self, job):
-        """The job's motion from its start (the base is at rest)."""
+        """The job's motion from its start (the base is at rest) and, for
+        a gesture, the heading it turns to."""
         c, t0 = self.config, job.start
         if job.kind == DANCE:
             heading = self.pose().heading
@@ -300,23 +315,34 @@ class DjRob:
                       '%.2f s, from heading %.1f deg', job.round,
                       len(plan.moves), t0, job.end - t0,
                       math.degrees(heading))
-            return plan
+            return plan, None
         x, y, heading, source = self.pose()
         goal = ch.target_heading(x, y, c.bearings[job.winner - 1], c.distance)
         self._say('info', 'round %d: participant %d wins; turning from %.1f '
                   'to %.1f deg (%s)', job.round, job.winner,
                   math.degrees(heading), math.degrees(goal), source)
-        return ch.winner_gesture(heading, goal, c.limits, c.approach,
-                                 margin=c.margin)
+        return self.gesture(heading, goal), goal
+
+
+def turn_checked_at(plan):
+    """Plan time at which ``plan``'s turn to the winner is checked, or
+    None (no turn)."""
+    for move in plan.moves:
+        if move.name == ch.TURN_TO_WINNER:
+            return move.end + TURN_SETTLE
+    return None
 
 
 class Run:
     """One job being run: what to command at each tick, on the clock."""
 
-    def __init__(self, rob, job, motion):
+    def __init__(self, rob, job, motion, goal=None):
         self.rob = rob
         self.job = job
         self.motion = motion
+        self.goal = goal            # a gesture's heading (rad), or None
+        self.check_at = None if goal is None else turn_checked_at(motion)
+        self.retries = 0
         self.start = job.start      # global; plan time 0
         self.t0 = job.start
         self.last = ZERO
@@ -336,6 +362,8 @@ class Run:
                 job.kind == GESTURE and rob.dance_pending())):
             self.motion = ch.Brake(self.last, c.limits)
             self.t0, t, self.braking = now, 0.0, True
+        elif self.check_at is not None and t >= self.check_at:
+            t = self._check_turn(now, t)
         twist = self.motion.twist(t)
         bobble = None
         if job.kind == DANCE:
@@ -349,6 +377,27 @@ class Run:
         # now - t0 may come out a hair short) is not repeated.
         k = math.floor(t / c.period + 1e-6) + 1
         return Tick(now, twist, first, bobble, events, self.t0 + k * c.period)
+
+    def _check_turn(self, now, t):
+        """After the turn: on fresh odometry off the goal by more than
+        TURN_SLACK, the gesture again from the heading reached (plan
+        time 0 now).  Returns the plan time to run."""
+        self.check_at = None
+        pose = self.rob.pose()
+        error = wrap_angle(self.goal - pose.heading)
+        if pose.source != 'odometry' or abs(error) <= TURN_SLACK \
+                or self.retries >= TURN_RETRIES:
+            return t
+        self.retries += 1
+        self.rob._say('warn', 'round %d: the turn to the winner ended at '
+                      '%.1f deg, %.1f deg off (odometry): turning again',
+                      self.job.round, math.degrees(pose.heading),
+                      math.degrees(error))
+        self.rob.dead_heading += self.motion.heading(t)
+        self.motion = self.rob.gesture(pose.heading, self.goal)
+        self.check_at = turn_checked_at(self.motion)
+        self.t0, self.t_prev = now, -math.inf
+        return 0.0
 
     def finish(self):
         """The events still due after the last tick (LEDs off when braked);
