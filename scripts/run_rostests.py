@@ -79,6 +79,11 @@ def restore_signals():
         signal.signal(signal.SIGQUIT, signal.SIG_DFL)
 
 
+def interrupt(_signum, _frame):
+    """SIGTERM's handler: as SIGINT, the run stops and kills its jobs."""
+    raise KeyboardInterrupt
+
+
 def can_isolate():
     """True when this process may make network namespaces."""
     return os.geteuid() == 0 and subprocess.run(
@@ -138,29 +143,40 @@ def job_name(job):
     return os.path.splitext(os.path.basename(job))[0]
 
 
-def schedule(files, run, report, jobs, max_jobs, more, ramp=RAMP):
+def schedule(files, run, report, jobs, max_jobs, more, ramp=RAMP,
+             stop=lambda: None):
     """Runs ``run(file)`` for each of ``files`` in order, ``jobs`` at once
     and up to ``max_jobs`` once ``more()`` is true, one every ``ramp`` s;
-    ``report`` gets each result as it comes.  Returns the most that ran
-    at once."""
-    pending = list(files)
+    ``report`` gets each result as it comes.  Interrupted (SIGINT, or
+    SIGTERM as main sets it), it starts no more, calls ``stop()`` to end
+    the running ones and raises.  Returns the most that ran at once."""
+    with concurrent.futures.ThreadPoolExecutor(max_jobs) as pool:
+        try:
+            return _run_all(pool, list(files), run, report, jobs, max_jobs,
+                            more, ramp)
+        except BaseException:
+            stop()
+            raise
+
+
+def _run_all(pool, pending, run, report, jobs, max_jobs, more, ramp):
+    """schedule's loop, on ``pool``."""
     running = set()
     last_extra = -ramp
     most = 0
-    with concurrent.futures.ThreadPoolExecutor(max_jobs) as pool:
-        while pending or running:
-            while pending and (len(running) < jobs or (
-                    len(running) < max_jobs and more()
-                    and time.monotonic() - last_extra >= ramp)):
-                if len(running) >= jobs:
-                    last_extra = time.monotonic()
-                running.add(pool.submit(run, pending.pop(0)))
-                most = max(most, len(running))
-            done, running = concurrent.futures.wait(
-                running, timeout=1.0,
-                return_when=concurrent.futures.FIRST_COMPLETED)
-            for future in done:
-                report(future.result())
+    while pending or running:
+        while pending and (len(running) < jobs or (
+                len(running) < max_jobs and more()
+                and time.monotonic() - last_extra >= ramp)):
+            if len(running) >= jobs:
+                last_extra = time.monotonic()
+            running.add(pool.submit(run, pending.pop(0)))
+            most = max(most, len(running))
+        done, running = concurrent.futures.wait(
+            running, timeout=1.0,
+            return_when=concurrent.futures.FIRST_COMPLETED)
+        for future in done:
+            report(future.result())
     return most
 
 
@@ -182,6 +198,14 @@ class CpuAccount:
         procs = os.path.join(self.path, 'cgroup.procs')
         return ['sh', '-c', 'echo $$ > %s && exec "$@"' % procs,
                 'sh'] + command
+
+    def pids(self):
+        """The processes in the cgroup now."""
+        try:
+            with open(os.path.join(self.path, 'cgroup.procs')) as f:
+                return [int(p) for p in f.read().split()]
+        except (OSError, TypeError, ValueError):
+            return []
 
     def close(self):
         """CPU seconds used, or None; removes the cgroup (left behind,
@@ -236,6 +260,7 @@ class Runner:
         self.isolate = isolate
         self.lock = threading.Lock()
         self.count = 0
+        self.running = {}       # a running job's pid: its CpuAccount or None
         os.makedirs(self.logs, exist_ok=True)
 
     def command(self, path, name):
@@ -310,7 +335,7 @@ class Runner:
             env.pop('ROS_IP', None)
         t0 = time.monotonic()
         try:
-            code = self.execute(command, env, name, TIMEOUT)
+            code = self.execute(command, env, name, TIMEOUT, cpu)
         finally:
             if ns:
                 remove_netns(ns)
@@ -328,7 +353,7 @@ class Runner:
         command = ['bash', '-c', stage.command]
         t0 = time.monotonic()
         code = self.execute(cpu.wrap(command) if cpu else command,
-                            dict(os.environ), stage.name, STAGE_TIMEOUT)
+                            dict(os.environ), stage.name, STAGE_TIMEOUT, cpu)
         return self.result(stage.name, code == 0, time.monotonic() - t0,
                            cpu, code, 'stage')
 
@@ -338,19 +363,41 @@ class Runner:
             self.count += 1
             return '%s_%d_%d' % (NETNS_PREFIX, os.getpid(), self.count)
 
-    def execute(self, command, env, name, timeout):
+    def execute(self, command, env, name, timeout, cpu):
         """command's exit status (its output in name's log), or a
-        timeout's description after SIGKILL to its process group."""
+        timeout's description after it was killed (``kill``)."""
         with open(os.path.join(self.logs, name + '.log'), 'w') as out:
             proc = subprocess.Popen(command, stdout=out,
                                     stderr=subprocess.STDOUT, env=env,
                                     start_new_session=True)
+            with self.lock:
+                self.running[proc.pid] = cpu
             try:
                 return proc.wait(timeout=timeout)
             except subprocess.TimeoutExpired:
-                os.killpg(proc.pid, signal.SIGKILL)
+                self.kill(proc.pid, cpu)
                 proc.wait()
                 return 'timeout after %d s' % timeout
+            finally:
+                with self.lock:
+                    self.running.pop(proc.pid, None)
+
+    @staticmethod
+    def kill(pid, cpu):
+        """SIGKILL to a job's process group and to every process of its
+        cgroup (a node in a group of its own, a stage's too)."""
+        for target in [-pid] + (cpu.pids() if cpu else []):
+            try:
+                os.kill(target, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+
+    def kill_all(self):
+        """Kill every running job (an interrupted run)."""
+        with self.lock:
+            jobs = list(self.running.items())
+        for pid, cpu in jobs:
+            self.kill(pid, cpu)
 
     def result(self, name, ok, seconds, cpu, code, what):
         """The job's result tuple; a failed job's line ends with the tail
@@ -371,6 +418,7 @@ class Runner:
 
 def main():
     restore_signals()
+    signal.signal(signal.SIGTERM, interrupt)
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('-j', '--jobs', type=int,
                         default=int(os.environ.get('ROSTEST_JOBS', 4)),
@@ -438,7 +486,12 @@ def main():
     mother = runner.start_mother()
     try:
         most = schedule(pool, runner.run, report, jobs, max_jobs,
-                        lambda: bool(stages) and all(s.done for s in stages))
+                        lambda: bool(stages) and all(s.done for s in stages),
+                        stop=runner.kill_all)
+    except KeyboardInterrupt:
+        print('rostest: interrupted: the running jobs were killed',
+              flush=True)
+        sys.exit(130)
     finally:
         if mother:
             mother.terminate()

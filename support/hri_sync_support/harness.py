@@ -233,6 +233,22 @@ def wait_until(what, predicate, timeout, procs=(), poll=0.1):
         time.sleep(poll)
 
 
+def wait_for_master(master_uri, timeout, procs=()):
+    """Wait until a ROS master answers at ``master_uri`` (its getPid), as
+    wait_until: a port from ``free_port`` may be taken by another
+    process's server (a node's XML-RPC port) before the master binds it."""
+    import rosgraph
+    master = rosgraph.Master('/hri_sync_wait', master_uri=master_uri)
+
+    def up():
+        try:
+            master.getPid()
+            return True
+        except Exception:   # refused, or not a master (yet)
+            return False
+    return wait_until('a ROS master at %s' % master_uri, up, timeout, procs)
+
+
 def run_script(path, args):
     """Runs the script at ``path`` as ``__main__`` in this process, as
     its command line ``path ARGS`` would run: (its exit status, what it

@@ -209,15 +209,7 @@ class SkewBench:
         node recording the rounds."""
         core = self.procs.start('roscore', core_argv)
         master = rosgraph.Master('/' + self.name, master_uri=master_uri)
-
-        def master_up():
-            try:
-                master.getPid()
-                return True
-            except Exception:
-                return False
-        harness.wait_until('the roscore at %s' % master_uri, master_up, 30,
-                           [('roscore', core)])
+        harness.wait_for_master(master_uri, 30, [('roscore', core)])
         os.environ['ROS_MASTER_URI'] = master_uri
         rospy.init_node(self.name, anonymous=True, disable_signals=True)
         self.rec = Recorder(self.clients)

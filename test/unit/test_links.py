@@ -4,12 +4,13 @@ import os
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 
 import pytest
 
 from hri_sync.ros.links import LinkCheck
-from hri_sync_support.harness import free_port
+from hri_sync_support.harness import free_port, wait_for_master, wait_until
 
 A, B = 'http://h:1/', 'http://h:2/'
 
@@ -99,13 +100,20 @@ def test_a_lost_publisher_update_is_repaired(tmp_path):
                               stdout=subprocess.DEVNULL,
                               stderr=subprocess.DEVNULL)]
     try:
+        # Up before the talker: the talker's own XML-RPC server once took
+        # the port first (make test-load), and registered with itself.
+        wait_for_master(env['ROS_MASTER_URI'], 60, [('rosmaster', procs[0])])
         talker = subprocess.Popen(['/usr/bin/python3', '-c', PUBLISHER],
                                   env=env, stdout=subprocess.PIPE,
                                   stderr=subprocess.DEVNULL, text=True)
         procs.append(talker)
         # (rospy says on stdout while it waits for the master)
-        assert any(line.strip() == 'published'
-                   for line in iter(talker.stdout.readline, ''))
+        lines = []
+        threading.Thread(target=lambda: [lines.append(line.strip())
+                                         for line in talker.stdout],
+                         daemon=True).start()
+        wait_until('the talker to publish', lambda: 'published' in lines,
+                   120, [('the talker', talker)])
         listener = subprocess.Popen(
             ['/usr/bin/python3', '-c', SUBSCRIBER], env=env,
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

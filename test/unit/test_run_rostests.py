@@ -6,6 +6,8 @@ import threading
 
 import pytest
 
+from hri_sync_support.harness import wait_until
+
 SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..',
                       '..', 'scripts', 'run_rostests.py')
 spec = importlib.util.spec_from_file_location('run_rostests', SCRIPT)
@@ -82,3 +84,34 @@ def test_a_stage_passes_on_exit_0_and_a_failed_one_shows_its_log(tmp_path):
     assert '(exit 3, stage)' in line and 'the reason' in line
     with open(tmp_path / '.ws' / 'test_logs' / 'bad.log') as log:
         assert log.read() == 'the reason\n'
+
+
+def test_an_interrupted_schedule_stops_its_running_jobs():
+    stopped = threading.Event()
+
+    def run(name):
+        if name != 'quick':
+            stopped.wait(30)        # runs until stopped
+        return name
+
+    def report(result):
+        raise KeyboardInterrupt     # as SIGINT or SIGTERM would
+
+    with pytest.raises(KeyboardInterrupt):
+        run_rostests.schedule(['quick', 'long1', 'long2'], run, report, 3,
+                              3, lambda: False, stop=stopped.set)
+    assert stopped.is_set()
+
+
+def test_kill_all_ends_a_running_stage(tmp_path):
+    runner = run_rostests.Runner(str(tmp_path), False, None)
+    results = []
+    job = threading.Thread(target=lambda: results.append(
+        runner.run(run_rostests.Stage('long=sleep 60'))))
+    job.start()
+    wait_until('the stage to start', lambda: runner.running, 30)
+    runner.kill_all()
+    job.join(30)
+    [(name, ok, _, _, line)] = results
+    assert (name, ok) == ('long', False) and '(exit -9, stage)' in line
+    assert runner.running == {}
