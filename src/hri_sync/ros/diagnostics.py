@@ -94,7 +94,13 @@ class NodeDiagnostics:
             if versions != seen or time.monotonic() >= due:
                 seen = versions
                 due = time.monotonic() + self.period
-                self.updater.force_update()
+                try:
+                    self.updater.force_update()
+                except rospy.ROSException:
+                    # rospy closes the topics before is_shutdown() is true
+                    if not rospy.core.is_shutdown_requested():
+                        raise
+                    return
 
 
 def round_diagnostics(hardware_id, tally, synced_clock=None,
