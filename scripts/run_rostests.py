@@ -45,6 +45,7 @@ import xml.etree.ElementTree as ET
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path[:0] = [os.path.join(ROOT, 'src'), os.path.join(ROOT, 'support')]
+from hri_sync.tools.procs import signal_each  # noqa: E402
 from hri_sync_support.harness import wait_until  # noqa: E402
 
 TIMEOUT = 600  # s per test file
@@ -130,7 +131,6 @@ class Stage:
         if not sep or not self.name or not self.command:
             raise argparse.ArgumentTypeError(
                 'a stage is NAME=COMMAND, not %r' % spec)
-        self.done = False
 
     def __repr__(self):
         return 'Stage(%r)' % self.name
@@ -386,11 +386,7 @@ class Runner:
     def kill(pid, cpu):
         """SIGKILL to a job's process group and to every process of its
         cgroup (a node in a group of its own, a stage's too)."""
-        for target in [-pid] + (cpu.pids() if cpu else []):
-            try:
-                os.kill(target, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
+        signal_each([-pid] + (cpu.pids() if cpu else []), signal.SIGKILL)
 
     def kill_all(self):
         """Kill every running job (an interrupted run)."""
@@ -477,17 +473,16 @@ def main():
     def report(result):
         nonlocal cpu_total
         name, ok, seconds, cpu_seconds, line = result
-        for stage in stages:
-            stage.done = stage.done or stage.name == name
         durations[name] = round(seconds, 1)
         cpu_total += cpu_seconds or 0.0
         (passed if ok else failed).append(name)
         print(line, flush=True)
+    stage_names = {s.name for s in stages}
     mother = runner.start_mother()
     try:
         most = schedule(pool, runner.run, report, jobs, max_jobs,
-                        lambda: bool(stages) and all(s.done for s in stages),
-                        stop=runner.kill_all)
+                        lambda: bool(stages) and stage_names <= set(
+                            passed + failed), stop=runner.kill_all)
     except KeyboardInterrupt:
         print('rostest: interrupted: the running jobs were killed',
               flush=True)
