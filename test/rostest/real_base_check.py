@@ -29,6 +29,7 @@ from rosgraph_msgs.msg import Log
 
 from constant_samples import publish_constant_samples
 from hri_sync.msg import Decision, Led, Sound
+from hri_sync.ros.outbox import closed_at_shutdown
 from hri_sync.ros.params import init_checker
 
 # kobuki_msgs/msg/Led.msg and Sound.msg (yujinrobot/kobuki_msgs): their
@@ -112,8 +113,9 @@ class RealBase(unittest.TestCase):
             msg.pose.pose.orientation = Quaternion(
                 0.0, 0.0, math.sin(p[2] / 2), math.cos(p[2] / 2))
             msg.twist.twist.linear.x, msg.twist.twist.angular.z = v, w
-            pub.publish(msg)
-            rate.sleep()
+            with closed_at_shutdown():
+                pub.publish(msg)
+                rate.sleep()
 
     @classmethod
     def wait_round(cls):

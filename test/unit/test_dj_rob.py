@@ -4,6 +4,7 @@ import math
 
 import pytest
 
+from hri_sync.robot.choreography import check_limits, max_move_displacement
 from hri_sync.robot.dj_rob import (DANCE, GESTURE, Config, DjRob, Job,
                                    float_list)
 from hri_sync.robot.kobuki import (LED_BLACK, LED_GREEN, SOUND_CLEANINGEND,
@@ -434,6 +435,70 @@ def test_a_turn_with_no_fresh_odometry_is_not_checked():
     run.finish()
     assert rob.dead_heading == pytest.approx(BEARINGS[1])
     assert log.texts('warn') == []
+
+
+def dance_with_stalls(*stalls):
+    """A dance over 1..6 s (forward, back, turn to participant 1 over
+    3..4.5 s, turn to centre over 4.5..6 s) with the runner starved."""
+    rob, clock, log = make(t=0.0)
+    sim = Sim(rob, clock)
+    sim.stalls.extend(stalls)
+    sim.at(0.5, lambda: rob.on_capture(1, 1.0, 6.0, 0.5))
+    sim.run(6.5)
+    return rob, sim, log
+
+
+def test_a_dance_turn_takes_up_an_earlier_turns_error():
+    # starved in the first turn: without the re-aim it ends 1.8 deg off
+    rob, sim, log = dance_with_stalls((3.0, 3.3))
+    assert math.degrees(sim.base.state.theta) == pytest.approx(0.0, abs=0.1)
+    [reaim] = log.texts('warn')
+    assert "1.8 deg off the dance's heading (odometry) as its turn to " \
+        'centre begins: turning -28.2 deg, not -30.0' in reaim
+    lim = rob.config.limits
+    assert check_limits([(t.now, t.twist) for _, _, t in sim.ticks],
+                        lim) == []
+
+
+def test_a_dance_turn_takes_up_no_more_than_the_limits_allow():
+    rob, clock, log = make(t=0.0)
+    rob.on_odom(0.0, 0.0, 0.0)
+    rob.on_capture(1, 1.0, 6.0, 0.5)
+    run = rob.begin(rob.take())
+    clock.t = 3.0                       # the first turn, on its heading
+    run.tick()
+    clock.t = 4.5                       # the base is 70 deg past it
+    rob.on_odom(0.0, 0.0, math.radians(100.0))
+    run.tick()
+    c = rob.config
+    lim = c.limits.scaled(c.margin)
+    most = max_move_displacement(1.5, lim.angular, lim.angular_accel)
+    assert [m.angle for m in run.motion.moves[2:]] == pytest.approx(
+        [math.radians(30.0), -most])
+    [reaim] = log.texts('warn')
+    assert '-70.0 deg off' in reaim
+    assert 'turning %.1f deg, not -30.0' % -math.degrees(most) in reaim
+
+
+def test_a_dance_turn_begun_late_is_not_reaimed():
+    # the runner starved over the turn's start: its first tick comes
+    # mid-turn, where a new angle would jump the velocity
+    rob, clock, log = make(t=0.0)
+    rob.on_odom(0.0, 0.0, 0.0)
+    rob.on_capture(1, 1.0, 6.0, 0.5)
+    run = rob.begin(rob.take())
+    clock.t = 3.3
+    rob.on_odom(0.0, 0.0, math.radians(-10.0))
+    run.tick()
+    assert run.motion == run.planned and log.texts('warn') == []
+
+
+def test_the_last_turns_own_error_is_left_to_the_next_plan():
+    # a short stall in the last turn: no turn is left to take it up
+    rob, sim, log = dance_with_stalls((5.2, 5.5))
+    assert math.degrees(sim.base.state.theta) == pytest.approx(-0.68,
+                                                               abs=0.05)
+    assert log.texts('warn') == [] and log.texts('error') == []
 
 
 def test_next_round_cuts_the_gesture_short_and_dances_on_the_beat():

@@ -24,14 +24,19 @@ publishes each :class:`Tick`.
   odometry pose (:func:`hri_sync.robot.geometry.relative_pose`), or, when
   no fresh odometry came, the dead-reckoned heading of the motions run.
 - A gesture's turn is checked on fresh odometry once it is over: a base
-  that turned short or past the winner by more than ``TURN_SLACK`` (a
+  that turned short or past the winner by more than ``HEADING_SLACK`` (a
   starved runner whose commands timed out, a slipping wheel) turns again
   before it approaches, up to ``TURN_RETRIES`` times (logged as warnings).
+- A dance's turns are re-aimed on fresh odometry as each begins: a base
+  off the dance's heading by more than ``HEADING_SLACK`` (an earlier move
+  starved) turns by the error more (within the limits, logged as a
+  warning), so a dance still ends facing heading 0.  The last turn's own
+  error is left to the next plan, which starts from odometry.
 """
 import bisect
 import math
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple, Optional, Tuple
 
 from hri_sync.robot import choreography as ch
@@ -42,7 +47,10 @@ from hri_sync.timing.vocabulary import Outcome
 WINNER, NO_WINNER, TIE, ABORTED = OUTCOMES = Outcome.ALL
 DANCE, GESTURE = 'dance', 'gesture'
 JOIN_SLACK = 0.05       # s: a dance this close before a beat skips it
-TURN_SLACK = math.radians(2.0)  # a gesture's turn error that turns again
+# A heading error on odometry that a turn takes up: a gesture's turn turns
+# again, a dance's next turn turns by it more.  Under half the 2 degrees
+# that robots dancing in unison keep between them at rest.
+HEADING_SLACK = math.radians(0.75)
 TURN_SETTLE = 0.15      # s after the turn's end that its heading is read
 TURN_RETRIES = 2
 
@@ -160,16 +168,25 @@ class DjRob:
         """True once an odometry pose came."""
         return self.odom is not None
 
+    def odom_pose(self):
+        """The pose relative to the start pose from odometry no older than
+        ``odom_max_age``, or None."""
+        with self._lock:
+            odom, origin = self.odom, self.origin
+        if odom is None or self.odom_clock() - odom[0] > self.odom_max_age:
+            return None
+        return Pose(*relative_pose(origin, *odom[1:]), 'odometry')
+
     def pose(self):
         """The pose relative to the start pose: from odometry no older than
         ``odom_max_age``, else (logged as an error) dead reckoning."""
+        pose = self.odom_pose()
+        if pose is not None:
+            return pose
         with self._lock:
-            odom, origin = self.odom, self.origin
-        now = self.odom_clock()
-        if odom is not None and now - odom[0] <= self.odom_max_age:
-            return Pose(*relative_pose(origin, *odom[1:]), 'odometry')
+            odom = self.odom
         age = ('never received' if odom is None else 'last %.1f s ago'
-               % (now - odom[0]))
+               % (self.odom_clock() - odom[0]))
         self._say('error', 'no fresh /odom (%s): turning by dead reckoning '
                   'of the commanded motion', age)
         return Pose(0.0, 0.0, wrap_angle(self.dead_heading),
@@ -293,8 +310,7 @@ class DjRob:
                       'after the window start: the dance joins %.2f s late, '
                       'on the beat', job.round, late * 1e3,
                       job.start - job.scheduled)
-        motion, goal = self._plan(job)
-        return Run(self, job, motion, goal)
+        return Run(self, job, *self._plan(job))
 
     def gesture(self, heading, goal):
         """The winner gesture from ``heading`` to face ``goal`` (rad)."""
@@ -303,8 +319,9 @@ class DjRob:
                                  margin=c.margin)
 
     def _plan(self, job):
-        """The job's motion from its start (the base is at rest) and, for
-        a gesture, the heading it turns to."""
+        """The job's motion from its start (the base is at rest), the
+        heading a gesture turns to (None for a dance) and the heading a
+        dance starts from (None for a gesture)."""
         c, t0 = self.config, job.start
         if job.kind == DANCE:
             heading = self.pose().heading
@@ -315,13 +332,13 @@ class DjRob:
                       '%.2f s, from heading %.1f deg', job.round,
                       len(plan.moves), t0, job.end - t0,
                       math.degrees(heading))
-            return plan, None
+            return plan, None, heading
         x, y, heading, source = self.pose()
         goal = ch.target_heading(x, y, c.bearings[job.winner - 1], c.distance)
         self._say('info', 'round %d: participant %d wins; turning from %.1f '
                   'to %.1f deg (%s)', job.round, job.winner,
                   math.degrees(heading), math.degrees(goal), source)
-        return self.gesture(heading, goal), goal
+        return self.gesture(heading, goal), goal, None
 
 
 def turn_checked_at(plan):
@@ -333,15 +350,23 @@ def turn_checked_at(plan):
     return None
 
 
+def turns(plan):
+    """The indices of ``plan``'s turning moves, in time order."""
+    return [i for i, move in enumerate(plan.moves) if move.angle]
+
+
 class Run:
     """One job being run: what to command at each tick, on the clock."""
 
-    def __init__(self, rob, job, motion, goal=None):
+    def __init__(self, rob, job, motion, goal=None, heading=None):
         self.rob = rob
         self.job = job
         self.motion = motion
         self.goal = goal            # a gesture's heading (rad), or None
         self.check_at = None if goal is None else turn_checked_at(motion)
+        self.planned = motion       # a dance's plan as made
+        self.heading = heading      # where a dance started (rad), or None
+        self.turns = [] if heading is None else turns(motion)
         self.retries = 0
         self.start = job.start      # global; plan time 0
         self.t0 = job.start
@@ -364,6 +389,8 @@ class Run:
             self.t0, t, self.braking = now, 0.0, True
         elif self.check_at is not None and t >= self.check_at:
             t = self._check_turn(now, t)
+        elif self.turns and t >= self.motion.moves[self.turns[0]].start:
+            self._reaim(self.turns.pop(0), t)
         twist = self.motion.twist(t)
         bobble = None
         if job.kind == DANCE:
@@ -380,13 +407,14 @@ class Run:
 
     def _check_turn(self, now, t):
         """After the turn: on fresh odometry off the goal by more than
-        TURN_SLACK, the gesture again from the heading reached (plan
+        HEADING_SLACK, the gesture again from the heading reached (plan
         time 0 now).  Returns the plan time to run."""
         self.check_at = None
-        pose = self.rob.pose()
+        pose = self.rob.odom_pose()
+        if pose is None:
+            return t
         error = wrap_angle(self.goal - pose.heading)
-        if pose.source != 'odometry' or abs(error) <= TURN_SLACK \
-                or self.retries >= TURN_RETRIES:
+        if abs(error) <= HEADING_SLACK or self.retries >= TURN_RETRIES:
             return t
         self.retries += 1
         self.rob._say('warn', 'round %d: the turn to the winner ended at '
@@ -398,6 +426,32 @@ class Run:
         self.check_at = turn_checked_at(self.motion)
         self.t0, self.t_prev = now, -math.inf
         return 0.0
+
+    def _reaim(self, i, t):
+        """As a dance's turn ``i`` begins (plan time ``t``, at most a
+        period late): on fresh odometry off the dance's heading by more
+        than HEADING_SLACK, the turn takes the error up, as far as the limits
+        allow in its time."""
+        c, move = self.rob.config, self.motion.moves[i]
+        pose = self.rob.odom_pose() if t <= move.start + c.period else None
+        if pose is None:
+            return
+        planned = self.heading + self.planned.heading(move.start)
+        error = wrap_angle(planned - pose.heading)
+        if abs(error) <= HEADING_SLACK:
+            return
+        lim = c.limits.scaled(c.margin)
+        most = ch.max_move_displacement(move.duration, lim.angular,
+                                        lim.angular_accel)
+        angle = min(max(self.planned.moves[i].angle + error, -most), most)
+        self.rob._say('warn', 'round %d: %.1f deg off the dance\'s heading '
+                      '(odometry) as its %s begins: turning %.1f deg, not '
+                      '%.1f', self.job.round, math.degrees(error), move.name,
+                      math.degrees(angle),
+                      math.degrees(self.planned.moves[i].angle))
+        moves = list(self.motion.moves)
+        moves[i] = replace(move, angle=angle)
+        self.motion = replace(self.motion, moves=tuple(moves))
 
     def finish(self):
         """The events still due after the last tick (LEDs off when braked);

@@ -28,6 +28,7 @@ import rospy
 
 from hri_sync.ros.clock_state import model_from_msg
 from hri_sync.ros.names import protocol_topic
+from hri_sync.ros.outbox import closed_at_shutdown
 from hri_sync.ros.params import param, positive
 from hri_sync.timing import host_clock
 from hri_sync.timing.health import (ERROR, DecisionTally, RateMeter,
@@ -94,13 +95,8 @@ class NodeDiagnostics:
             if versions != seen or time.monotonic() >= due:
                 seen = versions
                 due = time.monotonic() + self.period
-                try:
+                with closed_at_shutdown():
                     self.updater.force_update()
-                except rospy.ROSException:
-                    # rospy closes the topics before is_shutdown() is true
-                    if not rospy.core.is_shutdown_requested():
-                        raise
-                    return
 
 
 def round_diagnostics(hardware_id, tally, synced_clock=None,

@@ -9,6 +9,7 @@ serialises each message into a scratch buffer first and raises
 ``Unsendable`` before rospy's buffer is touched: the message is lost, the
 link is not.
 """
+import contextlib
 import io
 
 import rospy
@@ -28,6 +29,19 @@ def check_sendable(msg):
                          % (getattr(msg, '_type', type(msg).__name__), e))
 
 
+@contextlib.contextmanager
+def closed_at_shutdown():
+    """Ends its block quietly when a publish in it meets a topic rospy
+    closed at shutdown (it closes them before ``rospy.is_shutdown()``
+    turns true, so a thread's last publish raises); any other time the
+    ROSException propagates."""
+    try:
+        yield
+    except rospy.ROSException:
+        if not rospy.core.is_shutdown_requested():
+            raise
+
+
 class Publisher(rospy.Publisher):
     """rospy.Publisher whose ``publish`` refuses (Unsendable) a message
     it cannot serialise instead of corrupting the link, and does nothing
@@ -38,8 +52,5 @@ class Publisher(rospy.Publisher):
     def publish(self, *args, **kwds):
         msg = args_kwds_to_message(self.data_class, args, kwds)
         check_sendable(msg)
-        try:
+        with closed_at_shutdown():
             super().publish(msg)
-        except rospy.ROSException:
-            if not rospy.core.is_shutdown_requested():
-                raise

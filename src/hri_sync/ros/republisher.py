@@ -8,6 +8,7 @@ import time
 
 import rospy
 
+from hri_sync.ros.outbox import closed_at_shutdown
 from hri_sync.ros.params import stamp
 from hri_sync.timing.republish import CaptureQueue, Serialized, with_stamp
 
@@ -46,8 +47,9 @@ class Republisher(CaptureQueue):
 
     def run(self):
         while not rospy.is_shutdown():
-            for n, s in enumerate(self.due(serialize), 1):
-                self.pub.publish(s)
-                if n % self.burst == 0:
-                    time.sleep(self.pause)
+            with closed_at_shutdown():
+                for n, s in enumerate(self.due(serialize), 1):
+                    self.pub.publish(s)
+                    if n % self.burst == 0:
+                        time.sleep(self.pause)
             time.sleep(self.pause)
