@@ -75,3 +75,22 @@ def test_a_closed_topic_raises_unless_the_node_shuts_down(monkeypatch,
     else:
         with pytest.raises(outbox.rospy.ROSException, match='closed topic'):
             pub.publish(Header(seq=1))
+
+
+@pytest.mark.parametrize('shutting_down', [False, True])
+def test_a_block_meeting_a_closed_topic_ends_quietly_only_at_shutdown(
+        monkeypatch, shutting_down):
+    # a timer's or thread's loop (kobuki_sim, the republisher, the
+    # diagnostics) publishing as rospy closes its topics
+    monkeypatch.setattr(outbox.rospy.core, 'is_shutdown_requested',
+                        lambda: shutting_down)
+    with pytest.raises(ZeroDivisionError):
+        with outbox.closed_at_shutdown():
+            1 / 0               # any other error goes through
+    if shutting_down:
+        with outbox.closed_at_shutdown():
+            raise outbox.rospy.ROSException('publish() to a closed topic')
+    else:
+        with pytest.raises(outbox.rospy.ROSException):
+            with outbox.closed_at_shutdown():
+                raise outbox.rospy.ROSException('publish() to a closed topic')
