@@ -46,7 +46,7 @@ class Republisher(CaptureQueue):
         threading.Thread(target=self.run, daemon=True).start()
 
     def run(self):
-        while not rospy.is_shutdown():
+        while not rospy.core.is_shutdown_requested():
             with closed_at_shutdown():
                 for n, s in enumerate(self.due(serialize), 1):
                     self.pub.publish(s)
