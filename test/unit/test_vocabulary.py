@@ -129,7 +129,8 @@ def test_the_scan_finds_a_spelled_out_word():
 # Launch-file values of the shared defaults: (tag, name) -> constant.
 DEFAULTS = {'max_uncertainty': v.MAX_UNCERTAINTY,
             'drift_bound': v.DRIFT_BOUND,
-            'min_coverage': v.MIN_COVERAGE}
+            'min_coverage': v.MIN_COVERAGE,
+            'completion_margin': v.COMPLETION_MARGIN}
 
 
 def launch_values():

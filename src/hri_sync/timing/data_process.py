@@ -25,7 +25,8 @@ from hri_sync.timing.mapping import (ArrivalStamps, DeviceClockMapper,
 from hri_sync.timing.processors import Processor
 from hri_sync.timing.times import DeviceTime, GlobalTime, LocalTime
 from hri_sync.timing.validate import Rejected
-from hri_sync.timing.vocabulary import DRIFT_BOUND, MIN_COVERAGE
+from hri_sync.timing.vocabulary import (
+    COMPLETION_MARGIN, DRIFT_BOUND, MIN_COVERAGE)
 
 STAMP_SOURCES = ('auto', 'arrival', 'device', 'host')
 
@@ -109,8 +110,8 @@ class DataProcess:
             self,
             make_processor: Callable[[], Processor],
             stamp_source: str = 'auto', min_coverage: float = MIN_COVERAGE,
-            history: float = 2.0, margin: float = 0.03, reorder: float = 0.2,
-            drift_bound: float = DRIFT_BOUND, jump: float = 0.1,
+            history: float = 2.0, margin: float = COMPLETION_MARGIN,
+            reorder: float = 0.2, drift_bound: float = DRIFT_BOUND, jump: float = 0.1,
             refit: float = 0.05, min_rate: float = 0.0) -> None:
         if stamp_source not in STAMP_SOURCES:
             raise ValueError('stamp_source must be one of %s, got %r'
