@@ -30,6 +30,21 @@ def test_accelerates_at_the_limit_then_holds_speed():
     assert base.timeouts == 0
 
 
+def test_a_step_returns_a_snapshot_a_later_step_leaves_alone():
+    # kobuki_sim publishes a tick's state outside its lock while a
+    # command's step may run: a live state gave a stamp of one instant
+    # and a velocity of a later one (an odometry acceleration of 0.76
+    # m/s^2, limit 0.5, in a fresh clone's dj_rob_right).
+    base = KobukiBase(start=0.0)
+    base.command(0.3, 0.0, 0.0)
+    tick = base.step(0.02)
+    seen = tick.__dict__.copy()
+    base.step(0.2)
+    assert tick.__dict__ == seen
+    assert base.state.stamp == pytest.approx(0.2)
+    assert tick.linear == pytest.approx(0.01)
+
+
 def test_command_timeout_stops_the_base():
     base = KobukiBase(start=0.0)
     base.command(0.2, 0.0, 0.0)

@@ -18,7 +18,7 @@ one of ours, but never more), so a test can tell a compliant commander
 from a base that merely hides a bad one.
 """
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 from hri_sync.robot.geometry import wrap_angle
@@ -193,11 +193,13 @@ class KobukiBase:
         return self.command_value
 
     def step(self, now):
-        """Advance the model to ``now`` (in sub-steps of at most 1/rate)."""
+        """Advance the model to ``now`` (in sub-steps of at most 1/rate);
+        returns a copy of the state, which a later step (a command's, in
+        another thread) cannot change while the caller reads it."""
         while self.state.stamp < now - 1e-12:
             dt = min(self.max_step, now - self.state.stamp)
             self._substep(dt)
-        return self.state
+        return replace(self.state)
 
     def _substep(self, dt):
         s = self.state
