@@ -111,8 +111,9 @@ class DataProcess:
             make_processor: Callable[[], Processor],
             stamp_source: str = 'auto', min_coverage: float = MIN_COVERAGE,
             history: float = 2.0, margin: float = COMPLETION_MARGIN,
-            reorder: float = 0.2, drift_bound: float = DRIFT_BOUND, jump: float = 0.1,
-            refit: float = 0.05, min_rate: float = 0.0) -> None:
+            reorder: float = 0.2, drift_bound: float = DRIFT_BOUND,
+            jump: float = 0.1, refit: float = 0.05,
+            min_rate: float = 0.0) -> None:
         if stamp_source not in STAMP_SOURCES:
             raise ValueError('stamp_source must be one of %s, got %r'
                              % (', '.join(STAMP_SOURCES), stamp_source))

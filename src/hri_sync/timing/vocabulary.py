@@ -79,4 +79,4 @@ ON_MISSING = ('partial', 'abort')
 DRIFT_BOUND = 15e-6         # s/s, the clock error growth without a sync
 MIN_COVERAGE = 0.9          # share of a window below which a result is partial
 MAX_UNCERTAINTY = 0.005     # s, a CPM NACKs a round with a less certain clock
-COMPLETION_MARGIN = 0.03    # s past a sample's due time before a window ends without it
+COMPLETION_MARGIN = 0.03    # s a window waits for a due sample past its end
