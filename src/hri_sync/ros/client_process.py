@@ -38,6 +38,10 @@ class ClientProcess:
     ``~sensor_timeout`` s (<= 0: no sensor to watch); a failing check
     may turn within ``~liveness_wait`` s (a DPM starting) before the
     CPM NACKs with its reason.
+
+    Nothing is ACKed or scheduled before ``start()``: a round that came
+    while the node was still being built would run its callbacks on a
+    half-made node.
     """
 
     def __init__(self, client_id, on_capture, on_late=None, inbox=None,
@@ -53,16 +57,6 @@ class ClientProcess:
         self._ack_pub = Publisher(protocol_topic('sync_ack'), SyncAck,
                                   queue_size=10)
         self.inbox = inbox if inbox is not None else Inbox()
-        self.inbox.subscribe(protocol_topic('sync_time'), SyncTime,
-                             self._on_sync_time, 'cm',
-                             context=lambda: self.context(None),
-                             queue_size=10)
-        capture_topic = protocol_topic('capture_data')
-        self.inbox.subscribe(capture_topic, CaptureData,
-                             self._on_capture_data, 'cm',
-                             context=lambda: self.context(
-                                 self.schedule.acked_round),
-                             queue_size=10)
         self.liveness = self._liveness() if liveness else None
         self.tally = client_tally()
         self.diagnostics = round_diagnostics(
@@ -72,9 +66,24 @@ class ClientProcess:
             self.diagnostics.add('dpm', lambda: self.liveness.health(
                 time.time()))
         self.diagnostics.rejections(self.inbox.summary, lambda: {
-            capture_topic + ' ' + why: n
+            protocol_topic('capture_data') + ' ' + why: n
             for why, n in dict(self.schedule.ignored).items()
             if why != 'not_a_participant'})
+
+    def start(self):
+        """Subscribe ``sync_time`` and ``capture_data``: from here on the
+        client ACKs and its callbacks may run (in rospy's threads), so a
+        node calls it once the state they use is set (``self.cpm``
+        assigned), last."""
+        self.inbox.subscribe(protocol_topic('sync_time'), SyncTime,
+                             self._on_sync_time, 'cm',
+                             context=lambda: self.context(None),
+                             queue_size=10)
+        self.inbox.subscribe(protocol_topic('capture_data'), CaptureData,
+                             self._on_capture_data, 'cm',
+                             context=lambda: self.context(
+                                 self.schedule.acked_round),
+                             queue_size=10)
 
     def _liveness(self):
         """The liveness rule from ~params, fed by the DPM's heartbeat."""
