@@ -89,9 +89,11 @@ class DataProcess:
     in a holdover, whose published uncertainty has grown already); a
     window's bound is its worst sample's (its end's, without samples) plus
     the device map's residual, plus every move of the map towards earlier
-    stamps while the window's samples were stamped (``device_map_shift``):
-    a sample stamped before such a move of s seconds was stamped s late,
-    and the window may hold s x rate samples more than its span.
+    stamps while the window's samples were stamped (``device_map_shift``,
+    over ``device_map_moves`` moves): a sample stamped before such a move
+    of s seconds was stamped s late, and the window may hold s x rate
+    samples more than its span, plus one per move (each move splits the
+    device times it holds into one stretch more, with two ends).
 
     A window is due for lack of samples ``margin`` s, plus the recent
     delivery lag of device-stamped samples, after the next sample was
@@ -462,7 +464,8 @@ class DataProcess:
         residual = self.mapping.residual
         # A sample in the window was stamped at its arrival, at most
         # ``jump`` s before its stamp: the map's moves since then count.
-        shift = sum(s for a, s in self._shifts if a >= w.start - self.jump)
+        moves = [s for a, s in self._shifts if a >= w.start - self.jump]
+        shift = sum(moves)
         clock = self.clock
         bound = residual + shift + (
             w.bound if len(w.stamps) or clock is None
@@ -474,6 +477,7 @@ class DataProcess:
             'period': stats['period'],
             'device_map_residual': residual,
             'device_map_shift': shift,
+            'device_map_moves': len(moves),
             'unstamped': sum(w.rejected[k] for k in (
                 'no_device_stamp', 'bad_device_stamp')),
             'bad_device_stamps': w.rejected['bad_device_stamp']})
