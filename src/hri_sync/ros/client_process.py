@@ -57,6 +57,7 @@ class ClientProcess:
         self._ack_pub = Publisher(protocol_topic('sync_ack'), SyncAck,
                                   queue_size=10)
         self.inbox = inbox if inbox is not None else Inbox()
+        self._capture_topic = protocol_topic('capture_data')
         self.liveness = self._liveness() if liveness else None
         self.tally = client_tally()
         self.diagnostics = round_diagnostics(
@@ -66,7 +67,7 @@ class ClientProcess:
             self.diagnostics.add('dpm', lambda: self.liveness.health(
                 time.time()))
         self.diagnostics.rejections(self.inbox.summary, lambda: {
-            protocol_topic('capture_data') + ' ' + why: n
+            self._capture_topic + ' ' + why: n
             for why, n in dict(self.schedule.ignored).items()
             if why != 'not_a_participant'})
 
@@ -79,7 +80,7 @@ class ClientProcess:
                              self._on_sync_time, 'cm',
                              context=lambda: self.context(None),
                              queue_size=10)
-        self.inbox.subscribe(protocol_topic('capture_data'), CaptureData,
+        self.inbox.subscribe(self._capture_topic, CaptureData,
                              self._on_capture_data, 'cm',
                              context=lambda: self.context(
                                  self.schedule.acked_round),
