@@ -439,6 +439,37 @@ def test_a_restarted_device_clock_starts_the_map_over():
     assert r.first_frame_offset == pytest.approx(DELAY, abs=1e-9)
 
 
+def test_a_restart_of_a_starved_sensor_is_confirmed_despite_its_jitter():
+    # A sensor starved to 2.5 Hz (every 8th frame) whose device clock
+    # restarts at frame 40: from then on its deliveries are 0-0.35 s late
+    # at random (in order), more than jump (0.1 s) apart from one another
+    # (seen: a tracker unplugged on a loaded machine; its whole window
+    # refused).  The held samples continue the restart (later on the
+    # device clock, none much quicker than the quickest), so the map
+    # starts over and the window keeps its frames.
+    d = dp(DeviceMean)
+    start = L0 + OFFSET + 3.0
+    d.open(1, start, start + 4.0)
+    rng = random.Random(0)
+    frames = range(0, 160, 8)
+    arrivals = []
+    for k in frames:
+        late = rng.uniform(0.0, 0.35) if k >= 40 else 0.0
+        arrivals.append(max(arrivals[-1] if arrivals else 0.0,
+                            L0 + DELAY + k * P + late))
+    stamps = [0.1 + (k - 40) * P if k >= 40 else 500.0 + k * P
+              for k in frames]
+    steps = feed(d, arrivals, device=lambda i, _: stamps[i])
+    assert d.mapping.resets == 1
+    (r,) = results(steps)
+    assert r.frames == 10 and r.status == 'ok'
+    # The map's offset is the quickest delivery's: no stamp after its
+    # own arrival (on the global clock).
+    arrival = dict(zip(stamps, arrivals))
+    assert all(stamp <= arrival[msg.device] + OFFSET + 1e-9
+               for stamp, msg, _ in captured(steps))
+
+
 def test_repeated_device_stamps_do_not_break_the_window():
     class DeviceSkeleton(SkeletonExpressiveness):
         pass

@@ -75,9 +75,12 @@ class DataProcess:
     the processor's ``stamp_error(msg)`` is added to its error bound.  Device stamps that are zero, not
     finite, or break with the device clock map (going back, or mapping
     after their own arrival by more than ``jump`` s) are held: if they and
-    the next samples continue consistently for ``settle`` samples, the
-    device clock was restarted and the map starts over; otherwise they are
-    rejected and counted (``bad_device_stamp``), and the map keeps going.
+    the next samples continue them for ``settle`` samples (later on the
+    device clock, none delivered more than ``jump`` s quicker than the
+    quickest of them: a starved sensor's delivery may be slower by any
+    amount), the device clock was restarted and the map starts over;
+    otherwise they are rejected and counted (``bad_device_stamp``), and
+    the map keeps going.
     The first samples of a map wait until it holds ``settle`` samples and
     are then stamped with it (``settling`` counts them).  The map is
     refitted with every sample up to 1 / ``refit`` Hz, then every
@@ -273,9 +276,12 @@ class DataProcess:
         assert isinstance(self.mapping, DeviceClockMapper)
         device, arrival = sample[:2]
         if pending:
+            # Continued as a map of the held samples would take it: later
+            # on the device clock, and not quicker than their least delay
+            # by more than ``jump`` (any slower delivery is a delay).
             base = min(p[1] - p[0] for p in pending)
             if device >= pending[-1][0] and \
-                    abs((arrival - device) - base) <= self.jump:
+                    (arrival - device) - base >= -self.jump:
                 pending.append(sample)
                 if len(pending) < self.mapping.settle:
                     return []
