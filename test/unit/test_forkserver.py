@@ -247,3 +247,23 @@ def test_a_killed_launcher_takes_its_server_and_copies_with_it(
     wait_until('the copy to end', lambda: not alive(copy), 30, poll=0.05)
     assert not (tmp_path / 'fork.sock').exists()
 
+
+
+def test_a_copy_remembers_the_nodes_it_found(monkeypatch):
+    import roslib.packages
+    from hri_sync_support import forkserver
+    calls = []
+
+    def find_node(pkg, node_type, rospack=None):
+        calls.append(node_type)
+        return [] if node_type == 'missing' \
+            else ['/lib/%s/%s' % (pkg, node_type)]
+    monkeypatch.setattr(roslib.packages, 'find_node', find_node)
+    forkserver.remember_nodes()
+    for _ in range(3):
+        assert roslib.packages.find_node('hri_sync', 'cm', rospack=object()) \
+            == ['/lib/hri_sync/cm']
+        assert roslib.packages.find_node('hri_sync', 'missing') == []
+    roslib.packages.find_node('hri_sync', 'cm').append('changed')
+    assert roslib.packages.find_node('hri_sync', 'cm') == ['/lib/hri_sync/cm']
+    assert calls == ['cm', 'missing', 'missing', 'missing']

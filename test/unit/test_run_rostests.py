@@ -2,6 +2,7 @@
 MAX_JOBS once the other stages are done, every result reported once."""
 import importlib.util
 import os
+import subprocess
 import threading
 
 import pytest
@@ -115,3 +116,42 @@ def test_kill_all_ends_a_running_stage(tmp_path):
     [(name, ok, _, _, line)] = results
     assert (name, ok) == ('long', False) and '(exit -9, stage)' in line
     assert runner.running == {}
+
+
+def fake_rosversion(folder, code=0):
+    """A ``rosversion`` in folder that logs each call and answers like the
+    real one (or fails with ``code``)."""
+    os.makedirs(folder)
+    path = os.path.join(folder, 'rosversion')
+    with open(path, 'w') as f:
+        f.write('#!/bin/sh\necho "$*" >> %s/calls\n' % folder
+                + 'case "$1" in -d) echo Debian ;; *) echo 1.15.15 ;; esac\n'
+                + 'exit %d\n' % code)
+    os.chmod(path, 0o755)
+    return folder
+
+
+def test_roslaunchs_rosversion_questions_are_answered_from_one_run(
+        tmp_path, monkeypatch):
+    real = fake_rosversion(str(tmp_path / 'real'))
+    monkeypatch.setenv('PATH', real + os.pathsep + os.environ['PATH'])
+    runner = run_rostests.Runner(str(tmp_path), False, None)
+    path = runner.env()['PATH']
+    assert path.split(os.pathsep)[0] == runner.bin != real
+    for _ in range(3):
+        for args, answer in ((['roslaunch'], '1.15.15\n'),
+                             (['-d'], 'Debian\n')):
+            out = subprocess.run(['rosversion'] + args, env={'PATH': path},
+                                 capture_output=True, text=True)
+            assert (out.returncode, out.stdout) == (0, answer)
+    subprocess.run(['rosversion', 'rospy'], env={'PATH': path}, check=True)
+    with open(os.path.join(real, 'calls')) as f:
+        assert f.read().split('\n') == ['roslaunch', '-d', 'rospy', '']
+
+
+def test_without_a_working_rosversion_nothing_is_cached(tmp_path, monkeypatch):
+    real = fake_rosversion(str(tmp_path / 'real'), code=1)
+    monkeypatch.setenv('PATH', real + os.pathsep + os.environ['PATH'])
+    runner = run_rostests.Runner(str(tmp_path), False, None)
+    assert runner.bin is None
+    assert runner.env()['PATH'] == os.environ['PATH']
