@@ -93,7 +93,7 @@ def preload():
 
 def remember_nodes():
     """roslaunch looks each node's executable up with a RosPack of its
-    own (a crawl of the package path and a parse of package.xml, ~27 CPU
+    own (a crawl of the package path and a parse of package.xml, ~20 CPU
     ms a node, ~15 nodes a test): a copy remembers each (package, type)
     it found.  Nothing installs a node while a test runs."""
     import roslib.packages
