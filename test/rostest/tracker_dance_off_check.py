@@ -34,12 +34,10 @@ PKG = 'hri_sync'
 STARVED_RATE = 10.0
 
 
-def unplug_in_window(path, at):
-    """Create ``path`` ``at`` s after the first capture window's start (the
-    global clock is this host's)."""
-    windows = []
-    rospy.Subscriber('/capture_data', CaptureData, windows.append)
-
+def unplug_in_window(path, at, windows):
+    """Create ``path`` ``at`` s after the start of the first capture window
+    of ``windows`` (a list the /capture_data subscriber fills; the global
+    clock is this host's)."""
     def run():
         while not windows and not rospy.is_shutdown():
             time.sleep(0.01)
@@ -68,7 +66,8 @@ class TrackerDanceOffTest(unittest.TestCase):
                          lambda _: cls.arrivals.append(time.time()))
         cls.unplug_file = rospy.get_param('~unplug_file', '')
         if cls.unplug_file:
-            unplug_in_window(cls.unplug_file, rospy.get_param('~unplug_at'))
+            unplug_in_window(cls.unplug_file, rospy.get_param('~unplug_at'),
+                             cls.windows)
         rospy.Subscriber('/client_result', ClientResult,
                          lambda m: cls.results.__setitem__(m.client_id, m))
         rospy.Subscriber('/decision', Decision, cls.decisions.append)
@@ -105,15 +104,14 @@ class TrackerDanceOffTest(unittest.TestCase):
         a second, too few for its DPM to map its device clock (it holds a
         new sensor's first samples until several agree).  A tracker that
         never publishes is not starved."""
-        n = self.window_arrivals()
-        return r.status == ClientResult.NO_DATA and n is not None \
-            and 0 < n < self.windows[0].dur
+        return r.status == ClientResult.NO_DATA \
+            and 0 < self.window_arrivals() < self.windows[0].dur
 
     def window_arrivals(self):
         """How many of the tracker's skeletons arrived here from the first
-        window's start to 1 s after its end (None: no window seen)."""
+        window's start to 1 s after its end (0: no window seen)."""
         if not self.windows:
-            return None
+            return 0
         w = self.windows[0]
         start = w.header.stamp.to_sec() + w.str_aft
         return sum(start <= t <= start + w.dur + 1.0 for t in self.arrivals)
