@@ -248,7 +248,6 @@ def test_a_killed_launcher_takes_its_server_and_copies_with_it(
     assert not (tmp_path / 'fork.sock').exists()
 
 
-
 def test_a_copy_remembers_the_nodes_it_found(monkeypatch):
     import roslib.packages
     from hri_sync_support import forkserver
