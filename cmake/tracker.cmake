@@ -45,6 +45,7 @@ add_library(hri_sync_tracker_core STATIC
   src/tracker/render.cpp
   src/tracker/scene.cpp
   src/tracker/depth_tracker.cpp
+  src/tracker/joint_filter.cpp
   src/tracker/multi_tracker.cpp
   src/tracker/pose_fit.cpp
   src/tracker/clock_map.cpp)

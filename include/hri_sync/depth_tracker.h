@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "hri_sync/body.h"
+#include "hri_sync/joint_filter.h"
 
 namespace hri_sync {
 
@@ -194,8 +195,7 @@ struct TrackerParams {
   int grid_step = 0;          ///< 0: width / 160
   int calibration_frames = 15;
   int hold_frames = 10;       ///< how long a lost extremity is held
-  double filter_min_cutoff = 4.0;   ///< one-euro filter (Hz)
-  double filter_beta = 2.0;
+  JointFilterParams filter;   ///< each joint's filter (joint_filter.h)
 };
 
 struct SkeletonEstimate {
@@ -226,11 +226,6 @@ class DepthTracker {
   void reset();
 
  private:
-  struct OneEuro {
-    bool init = false;
-    double x = 0, dx = 0, t = 0;
-    double filter(double v, double t, double min_cutoff, double beta);
-  };
   /// Stage "segmentation": the floor and the walls (refitted every 30 frames) and the user.
   Segmentation segment(const PointGrid& g);
   /// The bone lengths: calibrated on the first frames, then refined by the search.
@@ -260,7 +255,7 @@ class DepthTracker {
   std::unique_ptr<ModelSearch> search_;  ///< the bone-length search under way
   bool have_fit_ = false;
   Joints prev_fit_;             ///< last frame's fitted pose, before smoothing
-  std::array<std::array<OneEuro, 3>, NUM_JOINTS> filters_;
+  std::array<JointFilter, NUM_JOINTS> filters_;
 };
 
 }  // namespace hri_sync

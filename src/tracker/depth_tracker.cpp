@@ -485,24 +485,6 @@ BodyModel calibrateBody(const std::vector<CalibrationSample>& samples) {
   return m;
 }
 
-double DepthTracker::OneEuro::filter(double v, double now, double min_cutoff, double beta) {
-  if (!init || now <= t) {
-    init = true;
-    x = v;
-    dx = 0;
-    t = now;
-    return v;
-  }
-  double dt = now - t;
-  t = now;
-  auto alpha = [dt](double cutoff) { double tau = 1.0 / (2 * M_PI * cutoff); return 1.0 / (1.0 + tau / dt); };
-  double ad = alpha(1.0);
-  dx = ad * ((v - x) / dt) + (1 - ad) * dx;
-  double a = alpha(min_cutoff + beta * std::fabs(dx));
-  x = a * v + (1 - a) * x;
-  return x;
-}
-
 DepthTracker::DepthTracker(const Camera& cam, TrackerParams params) : cam_(cam), params_(params) {
   if (params_.grid_step <= 0) params_.grid_step = std::max(1, cam.width / 160);
   reset();
@@ -524,7 +506,7 @@ void DepthTracker::reset() {
   facing_ = Vec3(1, 0, 0);
   torso_bias_ = 0;
   have_fit_ = false;
-  for (auto& f : filters_) f = {};
+  for (auto& f : filters_) f.reset();
 }
 
 TrunkFrame trunkFrame(const PointGrid& g, const Segmentation& seg, const Geodesic& geo, const Vec3& up,
@@ -821,9 +803,7 @@ void DepthTracker::fit(const PointGrid& g, const Segmentation& seg, Joints* j,
 Joints DepthTracker::smooth(const Joints& j, double t) {
   Joints out;
   for (int k = 0; k < NUM_JOINTS; ++k) {
-    out[k] = Vec3(filters_[k][0].filter(j[k].x, t, params_.filter_min_cutoff, params_.filter_beta),
-                  filters_[k][1].filter(j[k].y, t, params_.filter_min_cutoff, params_.filter_beta),
-                  filters_[k][2].filter(j[k].z, t, params_.filter_min_cutoff, params_.filter_beta));
+    out[k] = filters_[k].filter(j[k], t, params_.filter);
   }
   return out;
 }
@@ -840,7 +820,10 @@ SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
   return follow(g, seg, t);
 }
 
-void DepthTracker::lose() { have_prev_ = have_fit_ = false; }
+void DepthTracker::lose() {
+  have_prev_ = have_fit_ = false;
+  for (auto& f : filters_) f.reset();
+}
 
 SkeletonEstimate DepthTracker::follow(const PointGrid& g, const Segmentation& seg, const Plane& floor, double t) {
   floor_ = floor;
@@ -879,8 +862,9 @@ SkeletonEstimate DepthTracker::follow(const PointGrid& g, const Segmentation& se
     tips_[l] = ex.points[assign[l]];
     paths[l] = pathPoints(g, geo, ex.cells[assign[l]]);
   }
-  Joints prev_mid;  // last frame's smoothed joints: the pole of a two-bone fit
-  for (int k = 0; k < NUM_JOINTS; ++k) prev_mid[k] = Vec3(filters_[k][0].x, filters_[k][1].x, filters_[k][2].x);
+  // The pole of a two-bone fit: last frame's fitted pose (the filtered one lags a dancer).
+  Joints prev_mid = prev_fit_;
+  if (!have_fit_) for (int k = 0; k < NUM_JOINTS; ++k) prev_mid[k] = filters_[k].value();
   BodyPose pose = placeJoints(tf, paths, tips_, assign, model_, lateral_, have_prev_ ? &prev_mid : nullptr);
   torso_bias_ += 0.2 * pose.torso_shift;
   calibrate(g, seg, pose.joints, assign);

@@ -138,6 +138,9 @@ int main(int argc, char** argv) {
     else if (a == "--scene") scene_query = next();
     else if (a == "--direct") direct = true;
     else if (a == "--step") params.grid_step = std::stoi(next());
+    else if (a == "--filter-min-cutoff") params.filter.min_cutoff = std::stod(next());
+    else if (a == "--filter-beta") params.filter.beta = std::stod(next());
+    else if (a == "--filter-dead-zone") params.filter.dead_zone = std::stod(next());
     else if (a == "--snapshot") g_snapshot = std::stoi(next());
     else if (a == "--users") users = std::stoi(next());
     else if (a == "--dump") g_dump = std::fopen(next().c_str(), "w");
