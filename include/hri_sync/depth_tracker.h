@@ -67,6 +67,13 @@ std::vector<Blob> blobs(const PointGrid& g, const Plane& floor, const std::vecto
 /// Whether a part may be a person: 0.5-2.5 m tall, at most 2.2 m wide and 1.6 m
 /// deep, at least 40 cells, and not flat (walls, cabinets, doors are).
 bool personSized(const PointGrid& g, const Blob& p);
+/// Why a person-sized part is not a person to start tracking (empty: it may be
+/// one): a head at its top (at most 0.5 m across in its top 0.25 m), a chest
+/// below it (at least 0.2 m across 0.3-0.6 m below the top), and, with the
+/// floor in view, a top at least 1 m
+/// above the floor and a lowest point in the lower half of that height
+/// (something standing, not something on a shelf).
+std::string notAPerson(const PointGrid& g, const Blob& p, const Plane& floor);
 /// How much a person-sized part looks like the user: with no previous
 /// centroid, its size weighted by how close its top is to 1.7 m; with one,
 /// its size over (0.1 m + its distance from it), 0 beyond 0.8 m.

@@ -62,8 +62,9 @@ class MultiTracker {
   /// The candidate each user takes this frame (-1: none), users seen last
   /// frame first, then lost ones; greedy by personScore within their gate.
   std::vector<int> associate(const std::vector<Blob>& parts, const std::vector<int>& people, double t) const;
-  /// New users for the people nobody took (ids counting up), while there is room.
-  void admit(const std::vector<Blob>& parts, const std::vector<int>& people, double t,
+  /// New users for the people nobody took (ids counting up), while there is
+  /// room, each passing notAPerson's tests.
+  void admit(const PointGrid& g, const std::vector<Blob>& parts, const std::vector<int>& people, double t,
              std::vector<int>* taken_by);
   /// The distance from a to b along the floor (heights left out: the visible
   /// part of a half-hidden person moves up or down, the person does not).

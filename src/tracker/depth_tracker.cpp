@@ -304,6 +304,28 @@ bool personSized(const PointGrid& g, const Blob& p) {
   return thickness(g, p.cells, p.centroid) >= 0.025;  // flat: a wall, a cabinet, a door
 }
 
+std::string notAPerson(const PointGrid& g, const Blob& p, const Plane& floor) {
+  auto height = [&](const Vec3& q) { return floor.found ? floor.height(q) : q.y + 1.0; };
+  double head_lo = 1e9, head_hi = -1e9, chest_lo = 1e9, chest_hi = -1e9;
+  for (int i : p.cells) {
+    const Vec3& q = g.points[i];
+    const double below_top = p.hi - height(q);
+    if (below_top <= 0.25) { head_lo = std::min(head_lo, q.x); head_hi = std::max(head_hi, q.x); }
+    if (below_top >= 0.3 && below_top <= 0.6) { chest_lo = std::min(chest_lo, q.x); chest_hi = std::max(chest_hi, q.x); }
+  }
+  char why[160] = "";
+  if (head_hi - head_lo > 0.5) {
+    std::snprintf(why, sizeof why, "no head: its top is %.2f m across", head_hi - head_lo);
+  } else if (!(chest_hi - chest_lo >= 0.2)) {
+    std::snprintf(why, sizeof why, "no chest below its top (%.2f m across)", std::max(0.0, chest_hi - chest_lo));
+  } else if (floor.found && p.hi < 1.0) {
+    std::snprintf(why, sizeof why, "its top is %.2f m above the floor", p.hi);
+  } else if (floor.found && p.lo > 0.5 * p.hi) {
+    std::snprintf(why, sizeof why, "it does not stand: its lowest point is %.2f m above the floor", p.lo);
+  }
+  return why;
+}
+
 double personScore(const Blob& p, const Vec3* prev_centroid) {
   if (!prev_centroid) return p.cells.size() * std::exp(-std::fabs(p.hi - 1.7) / 0.3);
   const double dist = (p.centroid - *prev_centroid).norm();

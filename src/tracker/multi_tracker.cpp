@@ -61,7 +61,7 @@ std::vector<int> MultiTracker::associate(const std::vector<Blob>& parts, const s
   return taken_by;
 }
 
-void MultiTracker::admit(const std::vector<Blob>& parts, const std::vector<int>& people, double t,
+void MultiTracker::admit(const PointGrid& g, const std::vector<Blob>& parts, const std::vector<int>& people, double t,
                          std::vector<int>* taken_by) {
   std::vector<int> free;
   for (int k : people) {
@@ -84,7 +84,7 @@ void MultiTracker::admit(const std::vector<Blob>& parts, const std::vector<int>&
                        static_cast<int>(parts[k].cells.size()) < multi_.new_user_cells)) {
       continue;
     }
-    if (active >= multi_.max_users) continue;
+    if (active >= multi_.max_users || !notAPerson(g, parts[k], floor_).empty()) continue;
     if (static_cast<int>(users_.size()) >= multi_.max_users) {  // room: forget the longest lost
       size_t oldest = users_.size();
       for (size_t u = 0; u < users_.size(); ++u) {
@@ -136,7 +136,7 @@ MultiEstimate MultiTracker::update(const uint16_t* depth_mm, double t) {
   std::vector<int> people;
   for (size_t k = 0; k < parts.size(); ++k) if (personSized(g, parts[k])) people.push_back(static_cast<int>(k));
   std::vector<int> taken_by = associate(parts, people, t);
-  admit(parts, people, t, &taken_by);
+  admit(g, parts, people, t, &taken_by);
   const std::vector<std::vector<int>> frags = fragments(parts, taken_by);
   for (size_t u = 0; u < users_.size(); ++u) {
     User& user = users_[u];

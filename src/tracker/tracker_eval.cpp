@@ -20,6 +20,7 @@
 #include <algorithm>
 #include <ctime>
 #include <memory>
+#include <set>
 #include <stdexcept>
 #include <cstdio>
 #include <cstring>
@@ -91,10 +92,17 @@ class Runner {
     mp.max_users = users;
     multi_ = std::make_unique<MultiTracker>(cam, params, mp);
   }
-  SkeletonEstimate update(const uint16_t* depth, double t, const Joints& truth) {
+  /// people: every rendered person's torso (the person, bystander, crowd), or
+  /// null when they are not known (then no ghost is counted).
+  SkeletonEstimate update(const uint16_t* depth, double t, const Joints& truth, const std::vector<Vec3>* people) {
     if (single_) return single_->update(depth, t);
     const MultiEstimate m = multi_->update(depth, t);
     users_ += m.tracked_users;
+    for (const UserEstimate& u : m.users) {  // a user more than 0.7 m from every person is a ghost
+      double nearest = 1e9;
+      for (const Vec3& p : people ? *people : std::vector<Vec3>()) nearest = std::min(nearest, (u.centroid - p).norm());
+      if (people && nearest > 0.7) { ++ghost_frames_; ghost_ids_.insert(u.user_id); }
+    }
     SkeletonEstimate best;
     best.state = m.state;
     double nearest = 1e9;
@@ -106,11 +114,15 @@ class Runner {
   }
   double height() const { return single_ ? single_->model().height : -1.0; }
   long trackedUsers() const { return users_; }  ///< summed over frames
+  long ghostFrames() const { return ghost_frames_; }  ///< ghost users summed over frames
+  size_t ghostUsers() const { return ghost_ids_.size(); }  ///< ids ever given to a ghost
 
  private:
   std::unique_ptr<DepthTracker> single_;
   std::unique_ptr<MultiTracker> multi_;
   long users_ = 0;
+  long ghost_frames_ = 0;
+  std::set<uint32_t> ghost_ids_;
 };
 
 }  // namespace
@@ -227,7 +239,10 @@ int main(int argc, char** argv) {
         }
       }
       double c0 = threadCpu();
-      SkeletonEstimate est = tracker.update(depth.data(), t, truth);
+      std::vector<Vec3> people{truth[TORSO]};
+      if (scene && spec.scene.bystander != "none") people.push_back(frame.bystander_truth[TORSO]);
+      if (scene) for (const Joints& c : frame.crowd_truth) people.push_back(c[TORSO]);
+      SkeletonEstimate est = tracker.update(depth.data(), t, truth, &people);
       st.cpu += threadCpu() - c0;
       account(&st, est, truth);
     }
@@ -269,7 +284,7 @@ int main(int argc, char** argv) {
         double t = (idx - 1) / static_cast<double>(fps);  // the virtual Kinect's motion time
         const Joints truth = truthAt(t);
         double c0 = threadCpu();
-        SkeletonEstimate est = tracker.update(static_cast<const uint16_t*>(f.getData()), f.getTimestamp() * 1e-6, truth);
+        SkeletonEstimate est = tracker.update(static_cast<const uint16_t*>(f.getData()), f.getTimestamp() * 1e-6, truth, nullptr);
         st.cpu += threadCpu() - c0;
         account(&st, est, truth);
       }
@@ -297,18 +312,27 @@ int main(int argc, char** argv) {
   double mean = 0;
   for (double e : all) mean += e;
   mean = all.empty() ? -1 : mean / all.size();
+  // Ghosts are counted where every person's truth is known: the multi-user tracker, rendered in-process.
+  std::string ghost_frames = "null", ghost_rate = "null";
+  if (users > 0 && direct && st.frames > 0) {
+    ghost_frames = std::to_string(tracker.ghostFrames());
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.2f", tracker.ghostUsers() / (st.frames / double(fps) / 60.0));
+    ghost_rate = buf;
+  }
   std::printf("{\"mean_error_m\": %.4f, \"joints\": {%s}, \"hands_p95_error_m\": %.4f, "
               "\"seen_hands_p95_error_m\": %.4f, \"seen_hands_share\": %.4f, \"tracked_share\": %.4f, "
               "\"tracked_share_after_calibration\": %.4f, \"first_tracked_frame\": %d, "
               "\"fps\": %.1f, \"frames\": %d, \"dropped_frames\": %d, \"resolution\": \"%dx%d\", "
               "\"height_m\": %.3f, \"body\": \"%s\", \"body_height_m\": %.3f, \"scene\": \"%s\", "
-              "\"users\": %d, \"mean_tracked_users\": %.3f}\n",
+              "\"users\": %d, \"mean_tracked_users\": %.3f, \"ghost_user_frames\": %s, "
+              "\"ghost_users_per_minute\": %s}\n",
               mean, joints.c_str(), pct(hands, 0.95), pct(st.hands_seen, 0.95),
               hands.empty() ? 0.0 : double(st.hands_seen.size()) / hands.size(), st.frames ? double(st.tracked) / st.frames : 0.0,
               st.first_tracked >= 0 ? double(st.tracked) / (st.frames - st.first_tracked) : 0.0, st.first_tracked,
               st.cpu > 0 ? st.frames / st.cpu : 0.0, st.frames, st.dropped, cam.width, cam.height,
               tracker.height(), scene ? spec.body.name.c_str() : "model",
               scene ? spec.body.height : 0.0, scene_query.c_str(), users,
-              st.frames ? double(tracker.trackedUsers()) / st.frames : 0.0);
+              st.frames ? double(tracker.trackedUsers()) / st.frames : 0.0, ghost_frames.c_str(), ghost_rate.c_str());
   return st.frames > 0 ? 0 : 1;
 }
