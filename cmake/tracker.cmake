@@ -71,6 +71,9 @@ endfunction()
 
 hri_sync_openni2_program(record_oni src/virtual_kinect/record_oni.cpp)
 hri_sync_openni2_program(oni_info src/virtual_kinect/oni_info.cpp)
+# The depth noise statistics of a recording or a rendered scene (docs/tracker.md, "Kinect v1 noise").
+hri_sync_openni2_program(depth_noise_stats src/virtual_kinect/depth_noise_stats.cpp)
+target_link_libraries(depth_noise_stats hri_sync_tracker_core)
 hri_sync_openni2_program(tracker_eval src/tracker/tracker_eval.cpp)
 target_link_libraries(tracker_eval hri_sync_tracker_core)
 # Bench: the segmentation stages' CPU cost per frame (installed as tracker_eval is).
@@ -88,7 +91,7 @@ add_dependencies(skeleton_tracker ${${PROJECT_NAME}_EXPORTED_TARGETS} ${catkin_E
 
 # catkin_lint does not follow the add_executable in hri_sync_openni2_program.
 #catkin_lint: ignore_once undefined_target
-install(TARGETS skeleton_tracker record_oni oni_info tracker_eval tracker_stage_cost
+install(TARGETS skeleton_tracker record_oni oni_info depth_noise_stats tracker_eval tracker_stage_cost
   RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 install(TARGETS VirtualKinect
   LIBRARY DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION}/openni2/OpenNI2/Drivers)

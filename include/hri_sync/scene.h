@@ -62,7 +62,28 @@ struct KinectNoise {
   bool enabled = false;
   double c1 = -2.85e-3;          ///< 1/m per disparity unit
   double c0 = 3.11;              ///< 1/m
-  double disparity_sigma = 0.5;  ///< random disparity error (units): sigma_z = 0.5 |c1| z^2
+  /// Random disparity error (units): sigma_z = sigma |c1| z^2. 0.3 with speckle (the
+  /// real clip's wall); the independent model (speckle = false) uses 0.5.
+  double disparity_sigma = 0.3;
+  /// The real sensor's structure (docs/tracker.md, "Kinect v1 noise", measured on a real
+  /// clip): false gives the independent per-pixel model (`noise=kinect1_iid`).
+  bool speckle = true;
+  /// Shares of the disparity error's variance correlated over fine_px and coarse_px
+  /// (box windows, in 640x480 pixels, scaled to the image); the rest is per pixel.
+  double fine_share = 0.4, fine_px = 5.0;
+  double coarse_share = 0.6, coarse_px = 9.0;
+  /// The error's sigma varies from place to place (static, lognormal with this
+  /// log-sigma, in blobs of fine_px): some places of the dot pattern match worse.
+  double sigma_spread = 0.5;
+  /// A disparity offset of the whole frame (units, sigma), drawn anew with this
+  /// probability per frame (the real depth steps now and then as a whole).
+  double frame_offset_sigma = 0.8, frame_offset_jump = 1.0 / 30;
+  /// Pixels within edge_px (640x480 pixels) of a depth edge or of the shadow read
+  /// nothing with this probability per frame, in blobs of fine_px.
+  double edge_px = 2.0, edge_drop = 0.5;
+  /// Holes come in patches of hole_px (640x480 pixels); this share of the patch
+  /// pattern stays from frame to frame, the rest is redrawn every frame.
+  double hole_px = 5.0, hole_static_share = 0.6;
   bool shadow = true;            ///< projector shadow beside near edges
   double baseline = 0.075;       ///< projector-camera baseline (m)
   double projector_x = 1.0;      ///< +1: projector on the sensor's +x side, -1: -x side

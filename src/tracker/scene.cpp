@@ -53,6 +53,40 @@ void checkRange(const char* what, double v, double lo, double hi) {
 
 Vec3 lerp(const Vec3& a, const Vec3& b, double w) { return a + (b - a) * w; }
 
+// A standard normal field over a W x H image, correlated over a box window
+// width_px wide (fractional widths: the end taps are weighted), unit variance:
+// white noise from the hash key, box-filtered along rows and columns.
+std::vector<float> correlatedField(uint64_t key, int W, int H, double width_px) {
+  const size_t N = static_cast<size_t>(W) * H;
+  std::vector<float> white(N), tmp(N);
+  for (size_t i = 0; i < N; ++i) white[i] = static_cast<float>(gaussian(mix(key ^ (i * 0x9e3779b97f4a7c15ULL))));
+  std::vector<double> k;  // taps -r..r: clamp(w/2 + 0.5 - |j|, 0, 1); they sum to w
+  const int r = static_cast<int>(std::ceil(width_px / 2.0 - 0.5));
+  double sq = 0;
+  for (int j = -r; j <= r; ++j) {
+    k.push_back(std::clamp(width_px / 2.0 + 0.5 - std::abs(j), 0.0, 1.0));
+    sq += k.back() * k.back();
+  }
+  const double norm = 1.0 / sq;  // the 2-D filter's gain on the variance is sq^2
+  for (int v = 0; v < H; ++v) {
+    for (int u = 0; u < W; ++u) {
+      double a = 0;
+      for (int j = -r; j <= r; ++j) a += k[j + r] * white[static_cast<size_t>(v) * W + std::clamp(u + j, 0, W - 1)];
+      tmp[static_cast<size_t>(v) * W + u] = static_cast<float>(a);
+    }
+  }
+  for (int v = 0; v < H; ++v) {
+    for (int u = 0; u < W; ++u) {
+      double a = 0;
+      for (int j = -r; j <= r; ++j) a += k[j + r] * tmp[static_cast<size_t>(std::clamp(v + j, 0, H - 1)) * W + u];
+      white[static_cast<size_t>(v) * W + u] = static_cast<float>(a * norm);
+    }
+  }
+  return white;
+}
+
+double normalCdf(double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); }
+
 }  // namespace
 
 // ---------------------------------------------------------------- body shapes
@@ -532,8 +566,85 @@ void Scene::render(double t, uint64_t frame_index, const Camera& cam, SceneFrame
   const Vec3 proj(noise_.baseline * (noise_.projector_x < 0 ? -1.0 : 1.0), 0, 0);
   if (shadow) castView(s, cam, proj, tilt, opt_.sensor_height, &zp, nullptr, nullptr);
   const int W = cam.width, H = cam.height;
-  out->depth_mm.assign(z.size(), 0);
+  const size_t N = z.size();
+  out->depth_mm.assign(N, 0);
   const uint64_t key0 = mix((static_cast<uint64_t>(seed_) << 32) ^ frame_index);
+  // The real sensor's structure (speckle): the disparity error correlated in blobs,
+  // whole-frame offsets, flicker at depth edges and shadow borders, holes in patches.
+  const bool speckle = noise_.enabled && noise_.speckle;
+  const double px_scale = W / 640.0;  // the model's windows are in 640x480 pixels
+  std::vector<float> fine, coarse, edge_field, hole_field, level;
+  std::vector<uint8_t> edge;
+  double offset = 0;
+  auto shadowed = [&](int u, int v, double zz) {
+    int iu = static_cast<int>(std::lround(u - proj.x * W / (zz * cam.xzFactor())));
+    return iu >= 0 && iu < W && zp[static_cast<size_t>(v) * W + iu] < zz - (0.03 + 0.01 * zz);
+  };
+  if (speckle) {
+    auto stream = [&](uint64_t k) { return mix(key0 + k * 0x632be59bd9b4e019ULL); };
+    if (noise_.fine_share > 0) fine = correlatedField(stream(1), W, H, noise_.fine_px * px_scale);
+    if (noise_.coarse_share > 0) coarse = correlatedField(stream(2), W, H, noise_.coarse_px * px_scale);
+    if (noise_.holes) {
+      const uint64_t static_key = mix((static_cast<uint64_t>(seed_) << 32) ^ 0x5bd1e995ULL);
+      std::vector<float> still = correlatedField(static_key, W, H, noise_.hole_px * px_scale);
+      hole_field = correlatedField(stream(3), W, H, noise_.hole_px * px_scale);
+      const double a = std::sqrt(noise_.hole_static_share), b = std::sqrt(1.0 - noise_.hole_static_share);
+      for (size_t i = 0; i < N; ++i) hole_field[i] = static_cast<float>(a * still[i] + b * hole_field[i]);
+    }
+    if (noise_.sigma_spread > 0) {  // a static per-place noise level, lognormal
+      const uint64_t static_key = mix((static_cast<uint64_t>(seed_) << 32) ^ 0x85ebca6bULL);
+      level = correlatedField(static_key, W, H, noise_.fine_px * px_scale);
+      const double t = noise_.sigma_spread;
+      for (float& x : level) x = static_cast<float>(std::exp(t * x - 0.5 * t * t));
+    }
+    // The frame's offset: the value drawn at the latest jump (frame 0 always draws).
+    if (noise_.frame_offset_sigma > 0) {
+      const uint64_t okey = mix((static_cast<uint64_t>(seed_) << 32) ^ 0x27d4eb2fULL);
+      uint64_t k = frame_index;
+      while (k > 0 && frame_index - k < 3000 &&
+             (mix(okey ^ (k * 0x9e3779b97f4a7c15ULL)) >> 11) * (1.0 / 9007199254740992.0) >= noise_.frame_offset_jump) {
+        --k;
+      }
+      offset = noise_.frame_offset_sigma * gaussian(mix(okey + 0x165667b19e3779f9ULL + k));
+    }
+    if (noise_.edge_drop > 0 && noise_.edge_px > 0) {
+      // Depth edges: what reads (in range, lit by the projector) next to what does not,
+      // or a jump of more than 5 cm + 3 % between neighbours within edge_px.
+      std::vector<float> ze(N, std::numeric_limits<float>::infinity());
+      for (int v = 0; v < H; ++v) {
+        for (int u = 0; u < W; ++u) {
+          const size_t i = static_cast<size_t>(v) * W + u;
+          double zz = z[i];
+          if (!std::isfinite(zz) || zz < noise_.min_range || zz > noise_.max_range) continue;
+          if (shadow && shadowed(u, v, zz)) continue;
+          ze[i] = static_cast<float>(zz);
+        }
+      }
+      const int r = std::max(1, static_cast<int>(std::lround(noise_.edge_px * px_scale)));
+      edge.assign(N, 0);
+      for (int v = 0; v < H; ++v) {
+        for (int u = 0; u < W; ++u) {
+          const size_t i = static_cast<size_t>(v) * W + u;
+          if (!std::isfinite(ze[i])) continue;
+          const float thr = static_cast<float>(0.05 + 0.03 * ze[i]);
+          bool e = false;
+          for (int vv = std::max(0, v - r); vv <= std::min(H - 1, v + r) && !e; ++vv) {
+            for (int uu = std::max(0, u - r); uu <= std::min(W - 1, u + r); ++uu) {
+              float o = ze[static_cast<size_t>(vv) * W + uu];
+              if (!(std::fabs(o - ze[i]) <= thr)) { e = true; break; }
+            }
+          }
+          edge[i] = e;
+        }
+      }
+      edge_field = correlatedField(stream(4), W, H, noise_.fine_px * px_scale);
+    }
+  }
+  const double iid_share = std::max(0.0, 1.0 - (fine.empty() ? 0.0 : noise_.fine_share) -
+                                             (coarse.empty() ? 0.0 : noise_.coarse_share));
+  const double s_iid = std::sqrt(iid_share), s_fine = std::sqrt(noise_.fine_share),
+               s_coarse = std::sqrt(noise_.coarse_share);
+  const double edge_q = noise_.edge_drop;
   for (int v = 0; v < H; ++v) {
     for (int u = 0; u < W; ++u) {
       const size_t i = static_cast<size_t>(v) * W + u;
@@ -551,16 +662,24 @@ void Scene::render(double t, uint64_t frame_index, const Camera& cam, SceneFrame
         // the dot pattern is lost (dark hair, black clothes, grazing surfaces, far floor).
         double signal = shade[i] / ((zz / 2.0) * (zz / 2.0));
         double p_drop = std::clamp((0.045 - signal) / 0.03, 0.0, 1.0);
-        if (p_drop > 0 && (hash & 0xffffffffULL) * (1.0 / 4294967296.0) < p_drop) continue;
+        if (p_drop > 0) {
+          // Speckle: patches (a correlated field below the drop quantile), else per pixel.
+          double q = hole_field.empty() ? (hash & 0xffffffffULL) * (1.0 / 4294967296.0) : normalCdf(hole_field[i]);
+          if (q < p_drop) continue;
+        }
       }
-      if (shadow) {
-        // The point seen here, from the projector: hidden behind something nearer = no
-        // pattern. The projector is shifted along x only, so the point is on the same
-        // row of its image, proj.x W / (z xzFactor) pixels to the side.
-        int iu = static_cast<int>(std::lround(u - proj.x * W / (zz * cam.xzFactor())));
-        if (iu >= 0 && iu < W && zp[static_cast<size_t>(v) * W + iu] < zz - (0.03 + 0.01 * zz)) continue;
+      // The point seen here, from the projector: hidden behind something nearer = no
+      // pattern. The projector is shifted along x only, so the point is on the same
+      // row of its image, proj.x W / (z xzFactor) pixels to the side.
+      if (shadow && shadowed(u, v, zz)) continue;
+      // Edges and shadow borders flicker: the correlation window straddles two depths.
+      if (!edge.empty() && edge[i] && normalCdf(edge_field[i]) < edge_q) continue;
+      double err = gaussian(hash);
+      if (speckle) {
+        err = s_iid * err + (fine.empty() ? 0.0 : s_fine * fine[i]) + (coarse.empty() ? 0.0 : s_coarse * coarse[i]);
+        if (!level.empty()) err *= level[i];
       }
-      double d = (1.0 / zz - noise_.c0) / noise_.c1 + noise_.disparity_sigma * gaussian(hash);
+      double d = (1.0 / zz - noise_.c0) / noise_.c1 + noise_.disparity_sigma * err + offset;
       d = std::round(d);
       if (d < 0 || d > 2046) continue;
       double zq = 1.0 / (noise_.c1 * d + noise_.c0);
@@ -596,7 +715,8 @@ bool flag(const std::string& key, const std::string& value) {
 
 const char* sceneKeys() {
   return "body, height, girth, limbs, arms, legs, clothing, clothes_albedo, wall, furniture, furniture_x, "
-         "bystander, bystander_offset, bystander_body, bystander_track, crowd, crowd_motion, crowd_spacing, sensor_height, tilt, noise=kinect1, "
+         "bystander, bystander_offset, bystander_body, bystander_track, crowd, crowd_motion, crowd_spacing, sensor_height, tilt, "
+         "noise=kinect1|kinect1_iid, "
          "shadow, holes, baseline, projector, min_range, max_range, seed";
 }
 
@@ -631,8 +751,16 @@ bool applySceneKey(const std::string& key, const std::string& value, SceneSpec* 
   } else if (key == "sensor_height") { s.sensor_height = number(key, value);
   } else if (key == "tilt") { s.tilt_deg = number(key, value);
   } else if (key == "noise") {
-    if (value != "kinect1") return false;  // a number: the legacy renderer's Gaussian sigma
-    n.enabled = true;
+    if (value == "kinect1") {
+      n.enabled = true;
+      n.speckle = true;
+    } else if (value == "kinect1_iid") {  // the earlier model: independent per-pixel error and holes
+      n.enabled = true;
+      n.speckle = false;
+      n.disparity_sigma = 0.5;
+    } else {
+      return false;  // a number: the legacy renderer's Gaussian sigma
+    }
   } else if (key == "shadow") { n.shadow = flag(key, value);
   } else if (key == "holes") { n.holes = flag(key, value);
   } else if (key == "baseline") { n.baseline = number(key, value); checkRange("baseline", n.baseline, 0.0, 0.3);

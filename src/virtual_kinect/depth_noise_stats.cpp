@@ -1,0 +1,378 @@
+// depth_noise_stats: the depth noise statistics of a short still sequence, as JSON,
+// from a recording or from the scene renderer, so that a real Kinect v1 clip and
+// the virtual Kinect's model are measured by the same code.
+//
+//   depth_noise_stats FILE.oni [--split M] [--frames N] [--first K]
+//   depth_noise_stats --track FILE.track --scene 'KEYS' [--frames N] [--res 640x480|320x240]
+//                     [--split M]
+//   --first K drops the first K frames (a person still moving into place);
+//   --raw FILE also writes the frames (uint16 mm, W x H, one after another).
+//
+// A recording has no labels: pixels whose temporal median depth is nearer than
+// --split (1.8 m) are "person", the rest "wall" (the background). A scene's
+// pixels are split by the renderer's labels (person, wall) unless --split is
+// given. Frame n of a scene is Scene::render(n / 30 s, n + 1), as tracker_eval
+// renders it. Figures (docs/tracker.md, "Kinect v1 noise"):
+//   temporal std per pixel (mm and disparity units, z = 1 / (c1 d + c0)) over the
+//     pixels with a reading in every frame, away from depth edges (> 2 px);
+//   the depth step seen in those pixels' readings vs the model's |c1| z^2;
+//   missing: share of pixels with no reading in any frame; flicker: a reading in
+//     some frames, none in others, the readings on one surface (pixels whose
+//     readings span > 0.1 m saw something move: "moved", counted apart); the share of flickering pixels within 2 px of
+//     a depth edge; the share of missing pixels in patches of 1-2 pixels;
+//   spatial autocorrelation of (frame - pixel's temporal mean), disparity units,
+//     on the wall at lags 1..10 px along x and y, and the lag where it falls to 1/e;
+//   frame-wide offsets: the std over frames of the wall's mean residual, and the
+//     residual's frame-to-frame correlation.
+#include <OpenNI.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "hri_sync/scene.h"
+
+using namespace hri_sync;
+
+namespace {
+
+constexpr double kC1 = -2.85e-3, kC0 = 3.11;  // KinectNoise's defaults
+double disparity(double z_m) { return (1.0 / z_m - kC0) / kC1; }
+
+struct Clip {
+  int w = 0, h = 0;
+  std::vector<std::vector<uint16_t>> frames;
+  std::vector<uint8_t> label;  // from a scene, else empty
+};
+
+bool readOni(const std::string& path, int max_frames, Clip* clip) {
+  if (openni::OpenNI::initialize() != openni::STATUS_OK) {
+    std::fprintf(stderr, "depth_noise_stats: OpenNI init failed: %s\n", openni::OpenNI::getExtendedError());
+    return false;
+  }
+  openni::Device dev;
+  openni::VideoStream depth;
+  if (dev.open(path.c_str()) != openni::STATUS_OK || !dev.isFile() ||
+      depth.create(dev, openni::SENSOR_DEPTH) != openni::STATUS_OK) {
+    std::fprintf(stderr, "depth_noise_stats: cannot read depth from '%s': %s\n", path.c_str(),
+                 openni::OpenNI::getExtendedError());
+    return false;
+  }
+  openni::PlaybackControl* pb = dev.getPlaybackControl();
+  int n = pb->getNumberOfFrames(depth);
+  if (max_frames > 0) n = std::min(n, max_frames);
+  pb->setSpeed(-1);  // manual stepping: every frame once
+  pb->setRepeatEnabled(false);
+  depth.start();
+  openni::VideoFrameRef f;
+  for (int i = 0; i < n; ++i) {
+    if (depth.readFrame(&f) != openni::STATUS_OK) break;
+    clip->w = f.getWidth();
+    clip->h = f.getHeight();
+    const auto* px = static_cast<const openni::DepthPixel*>(f.getData());
+    clip->frames.emplace_back(px, px + clip->w * clip->h);
+  }
+  // As oni_info: the stock file player can crash while its streams are torn down;
+  // the caller prints and leaves with _Exit.
+  return !clip->frames.empty();
+}
+
+bool renderScene(const std::string& track_path, const std::string& query, int frames, const std::string& res,
+                 Clip* clip) {
+  SceneSpec spec;
+  size_t pos = 0;
+  while (pos < query.size()) {
+    size_t amp = query.find('&', pos);
+    std::string item = query.substr(pos, amp == std::string::npos ? std::string::npos : amp - pos);
+    pos = amp == std::string::npos ? query.size() : amp + 1;
+    if (item.empty()) continue;
+    size_t eq = item.find('=');
+    if (eq == std::string::npos || !applySceneKey(item.substr(0, eq), item.substr(eq + 1), &spec)) {
+      throw std::invalid_argument("'" + item + "' is not a scene key=value (" + sceneKeys() + ")");
+    }
+  }
+  if (spec.scene.needsWalk()) throw std::invalid_argument("a still scene: no bystander or crowd");
+  Track track = Track::load(track_path);
+  Scene scene(track, spec.body, spec.scene, spec.noise, nullptr, spec.seed);
+  Camera cam;
+  cam.width = res == "320x240" ? 320 : 640;
+  cam.height = res == "320x240" ? 240 : 480;
+  clip->w = cam.width;
+  clip->h = cam.height;
+  SceneFrame fr;
+  for (int n = 0; n < frames; ++n) {
+    scene.render(n / 30.0, n + 1, cam, &fr);
+    clip->frames.push_back(fr.depth_mm);
+    if (n == 0) clip->label = fr.label;
+  }
+  return true;
+}
+
+double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return std::nan("");
+  size_t k = static_cast<size_t>(q * (v.size() - 1) + 0.5);
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[k];
+}
+
+void printNumber(double v) {
+  if (std::isfinite(v)) std::printf("%.4g", v);
+  else std::printf("null");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string oni, track, query, res = "640x480", raw;
+  int frames = 16, first = 0;
+  double split = -1;
+  for (int i = 1; i < argc; ++i) {
+    std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) { std::fprintf(stderr, "depth_noise_stats: %s needs a value\n", a.c_str()); std::exit(2); }
+      return argv[++i];
+    };
+    if (a == "--track") track = next();
+    else if (a == "--scene") query = next();
+    else if (a == "--frames") frames = std::stoi(next());
+    else if (a == "--res") res = next();
+    else if (a == "--split") split = std::stod(next());
+    else if (a == "--raw") raw = next();
+    else if (a == "--first") first = std::stoi(next());
+    else if (!a.empty() && a[0] != '-' && oni.empty()) oni = a;
+    else { std::fprintf(stderr, "depth_noise_stats: unknown argument %s\n", a.c_str()); return 2; }
+  }
+  if (oni.empty() == track.empty() || frames < 2) {
+    std::fprintf(stderr, "usage: depth_noise_stats FILE.oni [--split M] [--frames N]\n"
+                         "       depth_noise_stats --track FILE.track --scene KEYS [--frames N] [--res WxH] [--split M]\n");
+    return 2;
+  }
+  Clip clip;
+  try {
+    if (!oni.empty() ? !readOni(oni, frames, &clip) : !renderScene(track, query, frames, res, &clip)) return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "depth_noise_stats: %s\n", e.what());
+    return 2;
+  }
+  if (!raw.empty()) {  // the frames as read, uint16 mm, row by row, frame after frame
+    FILE* f = std::fopen(raw.c_str(), "wb");
+    for (const auto& fr : clip.frames) if (f) std::fwrite(fr.data(), sizeof(uint16_t), fr.size(), f);
+    if (!f || std::fclose(f) != 0) { std::fprintf(stderr, "depth_noise_stats: cannot write %s\n", raw.c_str()); return 1; }
+  }
+  if (first > 0) {
+    if (first + 2 > static_cast<int>(clip.frames.size())) { std::fprintf(stderr, "depth_noise_stats: --first leaves < 2 frames\n"); return 2; }
+    clip.frames.erase(clip.frames.begin(), clip.frames.begin() + first);
+  }
+  const bool by_label = !clip.label.empty() && split < 0;
+  if (split < 0) split = 1.8;
+  const int W = clip.w, H = clip.h, T = static_cast<int>(clip.frames.size());
+  const size_t N = static_cast<size_t>(W) * H;
+
+  // Per pixel: readings, temporal median depth (0: never a reading), class.
+  std::vector<int> count(N, 0);
+  std::vector<double> med(N, 0.0);
+  std::vector<uint8_t> cls(N, 0);  // 0 none, 1 person, 2 wall
+  std::vector<uint8_t> moved(N, 0);  // readings more than 0.1 m apart: a surface came or went
+  std::vector<double> buf;
+  for (size_t i = 0; i < N; ++i) {
+    buf.clear();
+    for (const auto& f : clip.frames) if (f[i]) buf.push_back(f[i] * 1e-3);
+    count[i] = static_cast<int>(buf.size());
+    if (!buf.empty()) {
+      med[i] = quantile(buf, 0.5);
+      moved[i] = *std::max_element(buf.begin(), buf.end()) - *std::min_element(buf.begin(), buf.end()) > 0.1;
+    }
+    if (by_label) cls[i] = clip.label[i] == LABEL_PERSON ? 1 : clip.label[i] == LABEL_WALL ? 2 : 0;
+    else if (med[i] > 0) cls[i] = med[i] < split ? 1 : 2;
+  }
+  // Depth edges of the median image: a 4-neighbour > 0.1 m away, or a reading beside a
+  // pixel that never reads; then everything within 2 px of one.
+  std::vector<uint8_t> edge(N, 0), near_edge(N, 0);
+  for (int v = 0; v < H; ++v) {
+    for (int u = 0; u < W; ++u) {
+      const size_t i = static_cast<size_t>(v) * W + u;
+      const int du[4] = {1, -1, 0, 0}, dv[4] = {0, 0, 1, -1};
+      for (int k = 0; k < 4; ++k) {
+        int uu = u + du[k], vv = v + dv[k];
+        if (uu < 0 || vv < 0 || uu >= W || vv >= H) continue;
+        const size_t j = static_cast<size_t>(vv) * W + uu;
+        if ((med[i] > 0) != (med[j] > 0) || (med[i] > 0 && std::fabs(med[i] - med[j]) > 0.1)) edge[i] = 1;
+      }
+    }
+  }
+  for (int v = 0; v < H; ++v) {
+    for (int u = 0; u < W; ++u) {
+      if (!edge[static_cast<size_t>(v) * W + u]) continue;
+      for (int vv = std::max(0, v - 2); vv <= std::min(H - 1, v + 2); ++vv)
+        for (int uu = std::max(0, u - 2); uu <= std::min(W - 1, u + 2); ++uu) near_edge[static_cast<size_t>(vv) * W + uu] = 1;
+    }
+  }
+
+  // Temporal std and the depth step seen, on steady interior pixels.
+  std::vector<double> std_mm[3], std_disp[3], step_ratio[3], zmed[3];
+  std::vector<uint8_t> steady(N, 0);
+  std::vector<double> mean_d(N, 0.0);
+  for (size_t i = 0; i < N; ++i) {
+    if (count[i] != T || near_edge[i] || cls[i] == 0 || moved[i]) continue;
+    steady[i] = 1;
+    double sz = 0, szz = 0, sd = 0, sdd = 0;
+    std::vector<int> vals;
+    for (const auto& f : clip.frames) {
+      double z = f[i] * 1e-3, d = disparity(z);
+      sz += z; szz += z * z; sd += d; sdd += d * d;
+      vals.push_back(f[i]);
+    }
+    mean_d[i] = sd / T;
+    const int c = cls[i];
+    std_mm[c].push_back(1e3 * std::sqrt(std::max(0.0, (szz - sz * sz / T) / (T - 1))));
+    std_disp[c].push_back(std::sqrt(std::max(0.0, (sdd - sd * sd / T) / (T - 1))));
+    zmed[c].push_back(med[i]);
+    std::sort(vals.begin(), vals.end());
+    int step = 0;
+    for (size_t k = 1; k < vals.size(); ++k) {
+      int s = vals[k] - vals[k - 1];
+      if (s > 0 && (step == 0 || s < step)) step = s;
+    }
+    if (step > 0) step_ratio[c].push_back(step * 1e-3 / (std::fabs(kC1) * med[i] * med[i]));
+  }
+
+  // Missing and flickering pixels.
+  size_t missing = 0, flicker = 0, flicker_edge = 0, n_moved = 0, flicker_cls[3] = {0, 0, 0}, n_cls[3] = {0, 0, 0};
+  for (size_t i = 0; i < N; ++i) {
+    ++n_cls[cls[i]];
+    if (moved[i]) ++n_moved;
+    if (count[i] == 0) ++missing;
+    else if (count[i] < T && !moved[i]) {
+      ++flicker;
+      ++flicker_cls[cls[i]];
+      flicker_edge += near_edge[i];
+    }
+  }
+  // Missing readings in patches: per frame, the 4-connected components of pixels
+  // without a reading; the share of such pixels in components of 1-2 pixels.
+  size_t zero_px = 0, zero_small = 0;
+  std::vector<int> comp(N), stack;
+  for (const auto& f : clip.frames) {
+    std::fill(comp.begin(), comp.end(), -1);
+    for (size_t s = 0; s < N; ++s) {
+      if (f[s] || comp[s] >= 0) continue;
+      std::vector<size_t> members;
+      stack.assign(1, static_cast<int>(s));
+      comp[s] = 1;
+      while (!stack.empty()) {
+        size_t p = static_cast<size_t>(stack.back());
+        stack.pop_back();
+        members.push_back(p);
+        int u = static_cast<int>(p % W), v = static_cast<int>(p / W);
+        const int du[4] = {1, -1, 0, 0}, dv[4] = {0, 0, 1, -1};
+        for (int k = 0; k < 4; ++k) {
+          int uu = u + du[k], vv = v + dv[k];
+          if (uu < 0 || vv < 0 || uu >= W || vv >= H) continue;
+          size_t q = static_cast<size_t>(vv) * W + uu;
+          if (!f[q] && comp[q] < 0) { comp[q] = 1; stack.push_back(static_cast<int>(q)); }
+        }
+      }
+      zero_px += members.size();
+      if (members.size() <= 2) zero_small += members.size();
+    }
+  }
+
+  // Residuals (disparity units) on the steady wall: spatial autocorrelation, frame offsets,
+  // frame-to-frame correlation.
+  double ac[2][11] = {{0}}, ac_n[2][11] = {{0}};
+  std::vector<double> frame_mean;
+  double r0 = 0, r1 = 0;
+  std::vector<float> r_prev(N, 0.f);
+  for (int t = 0; t < T; ++t) {
+    const auto& f = clip.frames[t];
+    std::vector<float> r(N, 0.f);
+    double s = 0;
+    size_t n = 0;
+    for (size_t i = 0; i < N; ++i) {
+      if (!steady[i] || cls[i] != 2) continue;
+      r[i] = static_cast<float>(disparity(f[i] * 1e-3) - mean_d[i]);
+      s += r[i];
+      ++n;
+      r0 += r[i] * r[i];
+      if (t > 0) r1 += r[i] * r_prev[i];
+    }
+    frame_mean.push_back(n ? s / n : 0.0);
+    for (int v = 0; v < H; ++v) {
+      for (int u = 0; u < W; ++u) {
+        const size_t i = static_cast<size_t>(v) * W + u;
+        if (!steady[i] || cls[i] != 2) continue;
+        for (int k = 0; k <= 10; ++k) {
+          if (u + k < W && steady[i + k] && cls[i + k] == 2) { ac[0][k] += r[i] * r[i + k]; ac_n[0][k] += 1; }
+          if (v + k < H && steady[i + static_cast<size_t>(k) * W] && cls[i + static_cast<size_t>(k) * W] == 2) {
+            ac[1][k] += r[i] * r[i + static_cast<size_t>(k) * W];
+            ac_n[1][k] += 1;
+          }
+        }
+      }
+    }
+    r_prev.swap(r);
+  }
+  double corr[2][11], corr_len[2];
+  for (int a = 0; a < 2; ++a) {
+    corr_len[a] = std::nan("");
+    for (int k = 0; k <= 10; ++k) corr[a][k] = ac_n[a][k] > 0 && ac[a][0] > 0 ? (ac[a][k] / ac_n[a][k]) / (ac[a][0] / ac_n[a][0]) : std::nan("");
+    for (int k = 1; k <= 10; ++k) {
+      if (corr[a][k] < std::exp(-1.0)) {
+        corr_len[a] = (k - 1) + (corr[a][k - 1] - std::exp(-1.0)) / (corr[a][k - 1] - corr[a][k]);
+        break;
+      }
+    }
+  }
+  double fm = 0, fv = 0;
+  for (double m : frame_mean) fm += m / T;
+  for (double m : frame_mean) fv += (m - fm) * (m - fm) / (T - 1);
+
+  std::printf("{\"source\": \"%s\", \"frames\": %d, \"width\": %d, \"height\": %d, \"classes\": \"%s\",\n",
+              oni.empty() ? ("scene " + query).c_str() : oni.c_str(), T, W, H,
+              by_label ? "renderer labels" : ("median depth split at " + std::to_string(split) + " m").c_str());
+  const char* names[3] = {"", "person", "wall"};
+  for (int c = 1; c <= 2; ++c) {
+    std::printf("  \"%s\": {\"pixels\": %zu, \"steady_pixels\": %zu, \"median_depth_m\": ", names[c], n_cls[c],
+                std_mm[c].size());
+    printNumber(quantile(zmed[c], 0.5));
+    std::printf(", \"temporal_std_mm\": {\"median\": ");
+    printNumber(quantile(std_mm[c], 0.5));
+    std::printf(", \"p95\": ");
+    printNumber(quantile(std_mm[c], 0.95));
+    std::printf("}, \"temporal_std_disp\": {\"median\": ");
+    printNumber(quantile(std_disp[c], 0.5));
+    std::printf(", \"p95\": ");
+    printNumber(quantile(std_disp[c], 0.95));
+    std::printf("}, \"depth_step_vs_model\": ");
+    printNumber(quantile(step_ratio[c], 0.5));
+    std::printf(", \"flicker_share\": ");
+    printNumber(n_cls[c] ? static_cast<double>(flicker_cls[c]) / n_cls[c] : std::nan(""));
+    std::printf("},\n");
+  }
+  std::printf("  \"missing_share\": %.4f, \"flicker_share\": %.4f, \"flicker_near_edge_share\": ", double(missing) / N,
+              double(flicker) / N);
+  printNumber(flicker ? double(flicker_edge) / flicker : std::nan(""));
+  std::printf(", \"missing_in_1_2_px_patches_share\": ");
+  printNumber(zero_px ? double(zero_small) / zero_px : std::nan(""));
+  std::printf(", \"moved_share\": %.4f", double(n_moved) / N);
+  std::printf(",\n  \"wall_autocorr_x\": [");
+  for (int k = 1; k <= 10; ++k) { printNumber(corr[0][k]); std::printf(k < 10 ? ", " : "]"); }
+  std::printf(", \"wall_autocorr_y\": [");
+  for (int k = 1; k <= 10; ++k) { printNumber(corr[1][k]); std::printf(k < 10 ? ", " : "]"); }
+  std::printf(",\n  \"wall_corr_length_px\": {\"x\": ");
+  printNumber(corr_len[0]);
+  std::printf(", \"y\": ");
+  printNumber(corr_len[1]);
+  std::printf("}, \"wall_frame_offset_std_disp\": ");
+  printNumber(std::sqrt(fv));
+  std::printf(", \"wall_frame_to_frame_corr\": ");
+  printNumber(r0 > 0 ? r1 / r0 * T / (T - 1) : std::nan(""));
+  std::printf("}\n");
+  std::fflush(stdout);
+  std::_Exit(0);
+}
