@@ -241,3 +241,108 @@ int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
   return RUN_ALL_TESTS();
 }
+
+// A still person 0.3 m before a wall, on Kinect v1 noise as measured on a real
+// recording (noise=kinect1), at 2.5 and 2.8 m (at 3.5 m, the wall at the
+// sensor's 4 m range, the segmentation is not yet stable: docs/not_done.md): every joint's frame-to-frame
+// motion p95 <= 1 cm and the expressiveness (the sum over joints of each
+// joint's mean squared speed) <= 0.1 m^2/s^2. The same frames through the
+// one-euro filter the tracker had before (speed from one frame to the next,
+// no dead zone) are not still at 2.8 m: the test sees a real sensor's failure.
+namespace {
+
+struct Stillness {
+  double step_p95 = 0;       ///< m, any joint, frame to frame
+  double expressiveness = 0; ///< m^2/s^2
+  int frames = 0;
+};
+
+Stillness stillness(const Scene& scene, const TrackerParams& params, int frames) {
+  Camera cam;
+  DepthTracker tracker(cam, params);
+  SceneFrame f;
+  std::vector<Joints> out;
+  std::vector<int> index;  // frame numbers of the tracked frames
+  for (int n = 0; n < frames; ++n) {
+    scene.render(n / 30.0, n + 1, cam, &f);
+    const SkeletonEstimate est = tracker.update(f.depth_mm.data(), n / 30.0);
+    if (est.tracked) { out.push_back(est.joints); index.push_back(n); }
+  }
+  Stillness s;
+  std::vector<double> steps;
+  const size_t from = 30;  // the filter's first second
+  for (size_t k = from + 1; k < out.size(); ++k) {
+    const double dt = (index[k] - index[k - 1]) / 30.0;
+    for (int j = 0; j < NUM_JOINTS; ++j) {
+      const double d = (out[k][j] - out[k - 1][j]).norm();
+      if (index[k] == index[k - 1] + 1) steps.push_back(d);
+      s.expressiveness += d * d / dt;  // distance^2 / dt
+    }
+  }
+  if (steps.empty()) return s;
+  s.frames = static_cast<int>(out.size() - from);
+  s.expressiveness /= (index.back() - index[from]) / 30.0;  // over T
+  std::sort(steps.begin(), steps.end());
+  s.step_p95 = steps[steps.size() * 95 / 100];
+  return s;
+}
+
+Track stillAt(double z) {  // salsa's first pose moved to z m from the sensor
+  std::vector<double> times;
+  std::vector<Joints> frames;
+  Joints pose = salsa().frames()[0];
+  const double shift = z - pose[TORSO].z;
+  for (Vec3& p : pose) p.z += shift;
+  for (int i = 0; i <= 180; ++i) { times.push_back(i / 30.0); frames.push_back(pose); }
+  return Track::fromFrames(times, frames);
+}
+
+}  // namespace
+
+TEST(StillPerson, IsStillThroughTheTrackerOnKinectNoise) {
+  TrackerParams before;
+  before.filter.min_cutoff = 4.0;
+  before.filter.beta = 2.0;
+  before.filter.dead_zone = 0.0;
+  before.filter.block_s = 0.0;
+  double worst_before = 0;
+  for (double z : {2.5, 2.8}) {
+    const Scene scene = makeScene(stillAt(z), "wall=0.3&noise=kinect1");
+    const Stillness now = stillness(scene, TrackerParams(), 150);
+    const Stillness old = z == 2.8 ? stillness(scene, before, 150) : Stillness();
+    std::printf("still at %.1f m: p95 step %.4f m, expressiveness %.4f m^2/s^2 (%d frames); "
+                "before: %.4f m, %.4f m^2/s^2\n", z, now.step_p95, now.expressiveness, now.frames,
+                old.step_p95, old.expressiveness);
+    EXPECT_GT(now.frames, 90) << z;
+    EXPECT_LE(now.step_p95, 0.01) << z;
+    EXPECT_LE(now.expressiveness, 0.1) << z;
+    worst_before = std::max(worst_before, old.expressiveness);
+  }
+  EXPECT_GT(worst_before, 0.1);  // the test sees a tracker that is not still
+}
+
+// No ghosts: furniture at the edges of the view, the floor-wall seam, and an
+// empty room with the same clutter never become users.
+TEST(Ghosts, FurnitureAndSeamsAreNoUsers) {
+  Camera cam;
+  for (const char* keys : {"wall=0.3&furniture=chair&furniture_x=1.4&noise=kinect1",
+                           "wall=0.3&furniture=table&furniture_x=-1.3&noise=kinect1",
+                           "wall=0.2&furniture=chair&furniture_x=-0.9&noise=kinect1"}) {
+    const Scene scene = makeScene(stillAt(2.8), keys);
+    MultiTracker tracker(cam);
+    SceneFrame f;
+    int ghosts = 0, tracked = 0;
+    for (int n = 0; n < 90; ++n) {
+      scene.render(n / 30.0, n + 1, cam, &f);
+      const MultiEstimate m = tracker.update(f.depth_mm.data(), n / 30.0);
+      for (const UserEstimate& u : m.users) {
+        const Vec3 d = u.centroid - f.truth[TORSO];
+        if (std::hypot(d.x, d.z) > 0.7) ++ghosts;
+        tracked += u.estimate.tracked;
+      }
+    }
+    std::printf("%s: ghost user-frames %d, tracked %d of 90\n", keys, ghosts, tracked);
+    EXPECT_EQ(ghosts, 0) << keys;
+    EXPECT_GT(tracked, 60) << keys;
+  }
+}
