@@ -33,7 +33,7 @@ from hri_sync.timing.processors import Frame, Processor
 DEFAULT_CHUNK = 1.0       # s
 DEFAULT_STEP = 0.25       # s
 DEFAULT_SPAN = 600.0      # s
-MIN_FILL = 0.75           # share of a chunk its samples must span
+MIN_FILL = 0.9             # share of a chunk its samples must span
 
 
 class QuietBaseline:
