@@ -72,6 +72,9 @@ class DanceOffRound(unittest.TestCase):
         cls.nan_joints = rospy.get_param('~nan_joints', 0.0)
         cls.drop = rospy.get_param('~drop', 0.0)
         cls.verify = rospy.get_param('~verify', False)
+        cls.expect_reason = rospy.get_param('~expect_reason', '')
+        cls.expect_noise_floor = rospy.get_param('~expect_noise_floor',
+                                                 False)
         cls.expect_diagnostics = [
             e.strip() for e in rospy.get_param(
                 '~expect_diagnostics', '').split(';') if e.strip()]
@@ -196,6 +199,23 @@ class DanceOffRound(unittest.TestCase):
                               % (c, self.statuses[c]), d.reason)
         if any(s == 'partial' for s in self.statuses.values()):
             self.assertIn('partial', d.reason)
+        if self.expect_reason:
+            self.assertIn(self.expect_reason, d.reason)
+
+    def test_noise_floor(self):
+        """With ~expect_noise_floor: every result reports a noise floor
+        (finite, >= 0, below its score's scale) and the decision took it."""
+        if not self.expect_noise_floor:
+            return
+        d = self.decision()
+        self.assertEqual(len(d.noise_floors), len(CLIENTS))
+        for c, floor in zip(CLIENTS, d.noise_floors):
+            r = self.results[c]
+            self.assertTrue(math.isfinite(r.noise_floor)
+                            and r.noise_floor >= 0, (c, r.noise_floor))
+            self.assertEqual(floor, r.noise_floor, c)
+            rospy.loginfo('%s: score %.4g, noise floor %.4g', c, r.value,
+                          r.noise_floor)
 
     def test_results(self):
         self.decision()

@@ -46,7 +46,7 @@ def good(msg_type):
             capture_start=NOW - 61, capture_end=NOW - 1, frames=1200,
             frames_rejected=0, frames_dropped=2, coverage=0.99,
             first_frame_offset=0.01, wake_lateness=0.004, value=3.2,
-            timing_uncertainty=0.0002,
+            timing_uncertainty=0.0002, noise_floor=0.05,
             diagnostics=[{'key': 'terms', 'value': '1199'}]),
         'hri_sync/DpmState': dict(
             header=dict(header, stamp=NOW - 2.0), client_id='left',
@@ -55,7 +55,7 @@ def good(msg_type):
             header=hdr(NOW), round=5, outcome='winner', winner=2,
             clients=['left', 'right'], scores=[1.5, 3.2],
             reason='right wins', window_end=NOW - 1,
-            timing_uncertainty=0.0002),
+            timing_uncertainty=0.0002, noise_floors=[0.03, 0.05]),
         'hri_sync/Skeleton': dict(
             header=header, client_id='left', user_id=1,
             device_stamp=12.5,
@@ -488,3 +488,21 @@ def test_stamp_order_rejects_a_repeated_stamp_only():
 def test_unknown_type_has_no_validator():
     with pytest.raises(KeyError):
         v.check('std_msgs/String', {'data': 'x'}, CTX)
+
+
+def test_noise_floors_unknown_or_invalid():
+    """A client's NaN or negative noise floor does not reject its result
+    (the DM takes it as unknown and counts it); the DM's own list is NaN
+    or >= 0, one per client or none."""
+    for floor in (math.nan, -1.0, math.inf):
+        v.check('hri_sync/ClientResult',
+                dict(good('hri_sync/ClientResult'), noise_floor=floor), CTX)
+    v.check('hri_sync/Decision',
+            dict(good('hri_sync/Decision'), noise_floors=[]), CTX)
+    v.check('hri_sync/Decision',
+            dict(good('hri_sync/Decision'), noise_floors=[math.nan, 0.0]),
+            CTX)
+    for bad in ([0.1], [-0.1, 0.1]):
+        with pytest.raises(v.Rejected):
+            v.check('hri_sync/Decision',
+                    dict(good('hri_sync/Decision'), noise_floors=bad), CTX)

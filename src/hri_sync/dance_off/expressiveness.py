@@ -24,6 +24,13 @@ the last new one over their real time difference.
 The sum is kept as frames arrive (``RunningExpressiveness``): memory does
 not grow with the window, and the score is ready with the window's last
 frame.
+
+The window's jitter floor (``JitterFloor``, ``Expressiveness.jitter``) is
+what the sensor's white jitter alone adds to the score: human motion is
+smooth from frame to frame, a tracker's white jitter is not, so each
+joint's jitter sigma (per axis) is estimated robustly (1.4826 x the median
+absolute value) from the second differences of its trajectory, and white
+jitter of sigma adds 6 sigma**2 / dt to each of its displacement terms.
 """
 
 from __future__ import annotations
@@ -43,6 +50,9 @@ if TYPE_CHECKING:
     from hri_sync.timing.processors import Frame
 
 DEFAULT_MIN_CONFIDENCE = 0.5
+# |second difference| histogram of the jitter floor: log bins, 1e-6..1 m.
+_JITTER_BINS = np.logspace(-6.0, 0.0, 241)
+_MAD_TO_SIGMA = 1.4826      # a normal variable's sigma / its median |x|
 
 
 @dataclass
@@ -56,6 +66,74 @@ class Expressiveness:
     low_confidence_joints: int   # finite joint samples below min_confidence
     terms: int                   # joint displacements summed
     duration: float              # T, s
+    # What white jitter alone adds to ``value`` (m^2/s^2, ``JitterFloor``);
+    # NaN when no joint had three new samples in a row.
+    jitter: float = math.nan
+
+
+class JitterFloor:
+    """The score white sensor jitter alone gives a window, from the window.
+
+    For each joint, the second difference of three consecutive new samples
+    (stamps t0 < t1 < t2, r = (t2 - t1) / (t1 - t0))
+    ``z = ((x2 - x1) - r (x1 - x0)) / sqrt(1 + (1 + r)**2 + r**2)`` has,
+    under white jitter of sigma per axis, the variance sigma**2 whatever
+    the spacing; smooth human motion adds only its acceleration x dt**2.
+    sigma_j = 1.4826 x the median |z| over the joint's axes and samples
+    (a histogram of 20 log bins a decade: memory does not grow with the
+    window), and each displacement term d**2/dt of the score gains
+    6 sigma_j**2 / dt from the jitter: ``floor(T)`` is the sum over joints
+    of 6 sigma_j**2 x (the sum of 1/dt over the joint's terms) / T.
+    """
+
+    def __init__(self, joints: int) -> None:
+        self._hist = np.zeros((joints, len(_JITTER_BINS) + 1), dtype=np.int64)
+        self._prev = np.zeros((joints, 3))       # the sample before the last
+        self._prev_t = np.full(joints, math.nan)
+        self._inv_dt = np.zeros(joints)          # sum of 1/dt of its terms
+
+    def add(self, joints: np.ndarray, t: float, pos: np.ndarray,
+            last_pos: np.ndarray, last_t: np.ndarray) -> None:
+        """Joints ``joints`` (indices) have a new sample ``pos`` at ``t``
+        paired with their last one (``last_pos``, ``last_t``)."""
+        dt1 = t - last_t
+        self._inv_dt[joints] += 1.0 / dt1
+        t0 = self._prev_t[joints]
+        three = np.isfinite(t0)
+        if three.any():
+            j = joints[three]
+            r = dt1[three] / (last_t[three] - t0[three])
+            z = ((pos[three] - last_pos[three])
+                 - r[:, None] * (last_pos[three] - self._prev[j]))
+            z /= np.sqrt(1.0 + (1.0 + r) ** 2 + r ** 2)[:, None]
+            idx = np.searchsorted(_JITTER_BINS, np.abs(z))
+            np.add.at(self._hist, (np.repeat(j, 3), idx.ravel()), 1)
+        self._prev[joints] = last_pos
+        self._prev_t[joints] = last_t
+
+    def sigmas(self) -> np.ndarray:
+        """Each joint's jitter sigma per axis, m (NaN: no estimate)."""
+        out = np.full(len(self._hist), math.nan)
+        centres = np.sqrt(_JITTER_BINS[1:] * _JITTER_BINS[:-1])
+        for j, h in enumerate(self._hist):
+            n = int(h.sum())
+            if not n:
+                continue
+            k = int(np.searchsorted(np.cumsum(h), (n + 1) / 2.0))
+            median = (0.0 if k == 0 else _JITTER_BINS[-1] if k > len(centres)
+                      else centres[k - 1])
+            out[j] = _MAD_TO_SIGMA * median
+        return out
+
+    def floor(self, duration: float) -> float:
+        """The jitter floor over T = ``duration`` s, m^2/s^2 (NaN when no
+        joint has an estimate)."""
+        sigma = self.sigmas()
+        known = np.isfinite(sigma)
+        if not known.any() or not duration > 0:
+            return math.nan
+        return float(np.sum(6.0 * sigma[known] ** 2 * self._inv_dt[known])
+                     / duration)
 
 
 class RunningExpressiveness:
@@ -79,6 +157,8 @@ class RunningExpressiveness:
         self.nonfinite_joints = 0
         self.low_confidence_joints = 0
         self.terms = 0
+        self.jitter = JitterFloor(joints)
+        self._all = np.arange(joints)
         self.out_of_order = 0
         self.repeated = 0
         # first and last usable stamps
@@ -114,6 +194,8 @@ class RunningExpressiveness:
                 d2 = np.sum((positions - self._last_pos) ** 2, axis=1)
                 self.total += float(np.sum(d2 / (stamp - self._last_t)))
                 self.terms += len(valid)
+                self.jitter.add(self._all, stamp, positions, self._last_pos,
+                                self._last_t)
             else:
                 self._pairs(valid, stamp, positions)
             self._last_pos[:] = positions
@@ -140,6 +222,8 @@ class RunningExpressiveness:
             d2 = np.sum((positions[pair] - self._last_pos[pair]) ** 2, axis=1)
             self.total += float(np.sum(d2 / (stamp - self._last_t[pair])))
             self.terms += int(np.count_nonzero(pair))
+            self.jitter.add(np.flatnonzero(pair), stamp, positions[pair],
+                            self._last_pos[pair], self._last_t[pair])
 
     def score(self, duration: float) -> Expressiveness:
         """The Expressiveness over T = ``duration`` s."""
@@ -150,7 +234,8 @@ class RunningExpressiveness:
             frames_rejected=self.frames_rejected,
             nonfinite_joints=self.nonfinite_joints,
             low_confidence_joints=self.low_confidence_joints,
-            terms=self.terms, duration=duration)
+            terms=self.terms, duration=duration,
+            jitter=self.jitter.floor(duration))
 
 
 def expressiveness(
@@ -210,6 +295,7 @@ class SkeletonExpressiveness(Processor):
 
     msg_type = 'hri_sync/Skeleton'
     topic = 'skeleton'
+    quiet_baseline = True       # a still person's score is the floor
 
     def __init__(self, min_confidence: float = DEFAULT_MIN_CONFIDENCE,
                  participant_zone: str | Sequence[float] | None = None,
@@ -278,6 +364,7 @@ class SkeletonExpressiveness(Processor):
             'out_of_order_frames': self._run.out_of_order,
             'repeated_frames': self._run.repeated,
             'terms': res.terms,
+            'noise_jitter': res.jitter,
             'min_confidence': self.min_confidence,
             'T': res.duration}
         diagnostics.update(self.zone_params())
@@ -286,4 +373,4 @@ class SkeletonExpressiveness(Processor):
             value=res.value, frames_used=res.frames_used,
             frames_rejected=(res.frames_rejected + self._malformed
                              + people['bystander_frames']),
-            diagnostics=diagnostics)
+            diagnostics=diagnostics, noise_floor=res.jitter)

@@ -15,7 +15,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from hri_sync.timing.decision import ABORTED, USABLE, decide
+from hri_sync.timing.decision import (ABORTED, DEFAULT_NOISE_FACTOR,
+                                     THRESHOLD, USABLE, decide)
 from hri_sync.dance_off.expressiveness import SkeletonExpressiveness
 from hri_sync.timing.processors import Frame
 
@@ -107,7 +108,11 @@ def check_round(decision: Any, results: dict[str, Any],
 
     ``results``: {client_id: ClientResult} of the round; ``captured``:
     {client_id: [(stamp, msg)]}; ``config``: the decision module's
-    ``min_expressiveness``, ``tie_margin``, ``on_missing``;
+    ``min_expressiveness``, ``tie_margin``, ``on_missing`` and, when
+    recorded, ``decision_rule``, ``noise_factor`` (the noise rule takes
+    each result's recorded ``noise_floor``: its quiet baseline covers the
+    sensor's stream outside the window, which the bag need not hold; a
+    result without one, an older message, has it unknown);
     ``aborted_reason``: set when the control module aborted the round.
     """
     participants = list(decision.clients)
@@ -122,7 +127,8 @@ def check_round(decision: Any, results: dict[str, Any],
         check.clients.append(c)
         value = c.value_recomputed if result.status in USABLE \
             else math.nan
-        recomputed[client] = (result.status, value)
+        recomputed[client] = (result.status, value,
+                              getattr(result, 'noise_floor', math.nan))
     for client, score in zip(participants, decision.scores):
         result = results.get(client)
         recorded = result.value if result is not None and \
@@ -136,7 +142,10 @@ def check_round(decision: Any, results: dict[str, Any],
         verdict = decide(participants, recomputed,
                          float(config['min_expressiveness']),
                          float(config['tie_margin']),
-                         str(config['on_missing']))
+                         str(config['on_missing']),
+                         str(config.get('decision_rule', THRESHOLD)),
+                         float(config.get('noise_factor',
+                                          DEFAULT_NOISE_FACTOR)))
         outcome, winner = verdict.outcome, verdict.winner
     check.outcome_recomputed, check.winner_recomputed = outcome, winner
     if (outcome, winner) != (decision.outcome, decision.winner):

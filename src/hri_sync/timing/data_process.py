@@ -22,6 +22,8 @@ from hri_sync.timing.capture import (ERROR, CaptureWindow, SampleBuffer,
 from hri_sync.timing.clock import ClockModel
 from hri_sync.timing.mapping import (ArrivalStamps, DeviceClockMapper,
                                      TimeMapping)
+from hri_sync.timing.noise_floor import (DEFAULT_CHUNK, DEFAULT_SPAN,
+                                         QuietBaseline, combine)
 from hri_sync.timing.processors import Processor
 from hri_sync.timing.times import DeviceTime, GlobalTime, LocalTime
 from hri_sync.timing.validate import Rejected
@@ -47,6 +49,7 @@ class WindowResult:
     wake_lateness: float = math.nan
     value: float = math.nan
     timing_uncertainty: float = math.nan
+    noise_floor: float = math.nan   # in the value's unit; NaN: unknown
     diagnostics: dict = field(default_factory=dict)
 
 
@@ -109,6 +112,12 @@ class DataProcess:
     rejects is counted by its reason (``counts``, ``invalid``, and the
     window its arrival falls in, whose result counts it in
     ``frames_rejected`` and ``invalid_<reason>``), never stamped.
+
+    Each result carries the value's noise floor on this sensor
+    (``hri_sync.timing.noise_floor``): the larger of the window's own
+    estimate (the processor's ``noise_floor``) and, for a processor with
+    ``quiet_baseline``, the lowest value of its ``noise_chunk`` s
+    stretches of every stamped sample of the last ``noise_span`` s.
     """
 
     def __init__(
@@ -118,7 +127,8 @@ class DataProcess:
             history: float = 2.0, margin: float = COMPLETION_MARGIN,
             reorder: float = 0.2, drift_bound: float = DRIFT_BOUND,
             jump: float = 0.1, refit: float = 0.05,
-            min_rate: float = 0.0) -> None:
+            min_rate: float = 0.0, noise_chunk: float = DEFAULT_CHUNK,
+            noise_span: float = DEFAULT_SPAN) -> None:
         if stamp_source not in STAMP_SOURCES:
             raise ValueError('stamp_source must be one of %s, got %r'
                              % (', '.join(STAMP_SOURCES), stamp_source))
@@ -133,6 +143,9 @@ class DataProcess:
                             if type(probe).device_stamp
                             is Processor.device_stamp else 'device')
         self.stamp_error = probe.stamp_error
+        self.baseline = QuietBaseline(
+            make_processor, noise_chunk, noise_chunk / 4.0, noise_span) \
+            if probe.quiet_baseline else None
         self.stamp_source = stamp_source
         self.mapping: TimeMapping[Any] = ArrivalStamps()
         if stamp_source == 'device':
@@ -345,6 +358,8 @@ class DataProcess:
         if self._last_stamp is not None and stamp > self._last_stamp:
             self._gaps.append(stamp - self._last_stamp)
         self._last_stamp = stamp
+        if self.baseline is not None:
+            self.baseline.add(stamp, msg)
         self.history.add(stamp, (msg, raw, arrival, bound))
         captured = False
         for w in list(self.windows.values()):
@@ -492,6 +507,11 @@ class DataProcess:
             diagnostics['invalid_' + reason] = n
         if invalid:
             diagnostics['invalid_example'] = self.last_invalid
+        own = res.noise_floor if res else math.nan
+        quiet, stretches = (self.baseline.level() if self.baseline
+                            else (math.nan, 0))
+        diagnostics.update({'noise_window': own, 'noise_quiet': quiet,
+                            'noise_quiet_stretches': stretches})
         silent = self._silence(w.end, stats['period'])
         if silent:
             diagnostics['sensor_silent'] = silent
@@ -504,4 +524,5 @@ class DataProcess:
             first_frame_offset=stats['first_frame_offset'],
             wake_lateness=w.wake_lateness,
             value=res.value if res else math.nan,
-            timing_uncertainty=bound, diagnostics=diagnostics)
+            timing_uncertainty=bound, noise_floor=combine(own, quiet),
+            diagnostics=diagnostics)

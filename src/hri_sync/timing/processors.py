@@ -32,6 +32,10 @@ class ProcessResult:
     frames_used: int
     frames_rejected: int = 0
     diagnostics: dict = field(default_factory=dict)
+    # The value's noise floor as this window alone shows it (in the
+    # value's unit): what the sensor's noise alone would give. NaN:
+    # unknown (the processor cannot tell).
+    noise_floor: float = math.nan
 
 
 class Processor:
@@ -53,6 +57,13 @@ class Processor:
     # True: ``device_stamp`` is on the DPM host's own clock (a bridge
     # mapped it there), so the clock model alone maps it to global time.
     host_stamped = False
+    # True: the value is a level of activity (0: nothing happens), so the
+    # lowest value this processor gives over short stretches of the
+    # sensor's stream is a measure of its noise floor: the DPM then keeps
+    # that quiet baseline (``hri_sync.timing.noise_floor``). False (the
+    # default): only the result's own ``noise_floor`` counts (NaN unless
+    # the processor sets it).
+    quiet_baseline = False
 
     def __init__(self, **params) -> None:
         if params:
@@ -131,7 +142,7 @@ class WindowRun:
                                processor_error=self.first_error)
             res = ProcessResult(res.value, res.frames_used,
                                 res.frames_rejected + self.errors,
-                                diagnostics)
+                                diagnostics, res.noise_floor)
         return res
 
 

@@ -434,10 +434,12 @@ def client_result(*, header: Any, round: Any, client_id: Any, status: Any,
                   capture_start: Any, capture_end: Any, frames: Any,
                   frames_rejected: Any, frames_dropped: Any, coverage: Any,
                   first_frame_offset: Any, wake_lateness: Any, value: Any,
-                  timing_uncertainty: Any, diagnostics: Any,
-                  ctx: Context) -> None:
+                  timing_uncertainty: Any, noise_floor: Any,
+                  diagnostics: Any, ctx: Context) -> None:
     """/client_result: a client's result of one window (header.stamp:
-    when it was made, 0 when the client had no clock model)."""
+    when it was made, 0 when the client had no clock model).  A
+    ``noise_floor`` that is not a finite number >= 0 does not reject the
+    result: the decision module takes it as unknown and counts it."""
     lim = ctx.limits
     header_time(header, ctx, optional=True)
     round_number(round, ctx)
@@ -475,9 +477,11 @@ def client_result(*, header: Any, round: Any, client_id: Any, status: Any,
 
 def decision(*, header: Any, round: Any, outcome: Any, winner: Any,
              clients: Any, scores: Any, reason: Any, window_end: Any,
-             timing_uncertainty: Any, ctx: Context) -> None:
+             timing_uncertainty: Any, noise_floors: Any,
+             ctx: Context) -> None:
     """/decision: the DM's verdict (header.stamp: when decided, 0 when
-    the server's clock is not synced)."""
+    the server's clock is not synced); ``noise_floors``: none, or one
+    per client (NaN: unknown)."""
     header_time(header, ctx, optional=True)
     round_number(round, ctx)
     choice(outcome, 'outcome', Outcome.ALL)
@@ -488,6 +492,12 @@ def decision(*, header: Any, round: Any, outcome: Any, winner: Any,
                        % (len(scores), len(clients)), 'scores')
     for s in scores:
         number(s, 'scores', nan=True)
+    noise_floors = list(noise_floors)
+    if noise_floors and len(noise_floors) != len(clients):
+        raise Rejected('wrong_length', '%d noise floors for %d clients'
+                       % (len(noise_floors), len(clients)), 'noise_floors')
+    for f in noise_floors:
+        number(f, 'noise_floors', 0.0, nan=True)
     if outcome == Outcome.WINNER:
         count(winner, 'winner', len(clients))
         if winner < 1:

@@ -24,8 +24,11 @@ from hri_sync.tools.session import (field_or_nan, secs, server_clock,
 
 DEFAULT_BEARINGS = [30.0, -30.0]
 DEFAULT_DISTANCE = 1.5
+# A recording without /dance_off/config, or with an older one, was
+# decided by the threshold rule.
 DEFAULT_RULE = {'min_expressiveness': 1.0, 'tie_margin': 0.0,
-                'on_missing': 'partial'}
+                'on_missing': 'partial', 'decision_rule': 'threshold',
+                'noise_factor': 3.0}
 FIG5_BEFORE, FIG5_AFTER = 0.2, 0.4     # s around the window start
 BUILD_UP_POINTS = 60
 AFTER_WINDOW_SLACK = 0.2               # s after the window end, bag time
@@ -181,6 +184,7 @@ def _result_row(res, frames, truth):
            'coverage': m.coverage,
            'first_frame_offset_ms': ms(m.first_frame_offset),
            'wake_lateness_ms': ms(m.wake_lateness), 'value': m.value,
+           'noise_floor': field_or_nan(m, 'noise_floor'),
            'error_bound_ms': ms(error_bound(m)),
            'captured': len(frames), 'clock_error_ms': math.nan}
     if truth and frames:

@@ -161,13 +161,16 @@ def _round_section(r, images, rule):
              'recomputed'], rows, left=(0, 1)))
     d = r.get('decision')
     if d:
-        out.append('<p>Decision: <b>%s</b>%s: %s (rule: min_expressiveness '
+        out.append('<p>Decision: <b>%s</b>%s: %s (rule: %s, '
+                   'noise_factor %s, min_expressiveness '
                    '%s, tie_margin %s, on_missing %s); decided %s ms after '
                    'the window end</p>' % (
                        _e(d['outcome']),
                        ' participant %d (%s)' % (d['winner'],
                                                  _e(d['winner_client']))
                        if d['winner'] else '', _e(d['reason']),
+                       _e(rule.get('decision_rule', 'threshold')),
+                       fmt(rule.get('noise_factor'), '%g'),
                        fmt(rule['min_expressiveness'], '%g'),
                        fmt(rule['tie_margin'], '%g'),
                        _e(rule['on_missing']),
