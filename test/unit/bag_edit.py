@@ -1,7 +1,10 @@
 """Test helpers: copy a bag with edits, write the layout of a killed
 recorder (rosbags; no ROS)."""
 import dataclasses
+import math
 import struct
+
+import numpy as np
 
 from rosbags.rosbag1 import Reader, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
@@ -93,8 +96,15 @@ def appended(store, msgtype, fields):
     for f in dataclasses.fields(store.types[msgtype]):
         kind = str(f.type)
         if f.name not in fields and not kind.startswith('ClassVar'):
-            out[f.name] = zero[kind] if kind in zero else \
-                store.types['builtin_interfaces/msg/Time'](0, 0)
+            if f.name == 'noise_floor':     # not recorded: unknown
+                out[f.name] = math.nan
+            elif 'ndarray' in kind:       # a float64[] (Decision's floors)
+                out[f.name] = np.zeros(0)
+            elif kind.startswith('list'):
+                out[f.name] = []
+            else:
+                out[f.name] = zero[kind] if kind in zero else \
+                    store.types['builtin_interfaces/msg/Time'](0, 0)
     return out
 
 

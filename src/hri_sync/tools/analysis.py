@@ -177,6 +177,11 @@ def _ack_row(ack, sync):
             'ack_ms': ms(stamp_of(m) - sync_t)}
 
 
+def _none_if_nan(x):
+    """None for NaN (unknown, or not recorded), else ``x``."""
+    return None if math.isnan(x) else x
+
+
 def _result_row(res, frames, truth):
     m = res.msg
     row = {'status': m.status, 'frames': m.frames,
@@ -184,7 +189,7 @@ def _result_row(res, frames, truth):
            'coverage': m.coverage,
            'first_frame_offset_ms': ms(m.first_frame_offset),
            'wake_lateness_ms': ms(m.wake_lateness), 'value': m.value,
-           'noise_floor': field_or_nan(m, 'noise_floor'),
+           'noise_floor': _none_if_nan(field_or_nan(m, 'noise_floor')),
            'error_bound_ms': ms(error_bound(m)),
            'captured': len(frames), 'clock_error_ms': math.nan}
     if truth and frames:
