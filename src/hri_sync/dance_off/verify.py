@@ -118,7 +118,7 @@ def check_round(decision: Any, results: dict[str, Any],
     participants = list(decision.clients)
     check = RoundCheck(decision.round, [], decision.outcome, decision.winner,
                        reason=decision.reason)
-    recomputed = {}
+    recomputed: dict[str, tuple] = {}
     for client in participants:
         result = results.get(client)
         if result is None:
