@@ -186,6 +186,9 @@ struct SceneSpec {
 /// Applies one URI key=value. Returns false when key is not a scene key;
 /// throws std::invalid_argument naming the key on a bad value.
 bool applySceneKey(const std::string& key, const std::string& value, SceneSpec* spec);
+/// A scene from "key=value&key=value..." (the virtual Kinect URI's query);
+/// std::invalid_argument naming a bad item and the valid keys.
+SceneSpec parseSceneQuery(const std::string& query);
 /// The scene keys, for error messages and docs.
 const char* sceneKeys();
 

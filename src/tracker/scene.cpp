@@ -720,6 +720,22 @@ const char* sceneKeys() {
          "shadow, holes, baseline, projector, min_range, max_range, seed";
 }
 
+SceneSpec parseSceneQuery(const std::string& query) {
+  SceneSpec spec;
+  size_t pos = 0;
+  while (pos < query.size()) {
+    size_t amp = query.find('&', pos);
+    std::string item = query.substr(pos, amp == std::string::npos ? std::string::npos : amp - pos);
+    pos = amp == std::string::npos ? query.size() : amp + 1;
+    if (item.empty()) continue;
+    size_t eq = item.find('=');
+    if (eq == std::string::npos || !applySceneKey(item.substr(0, eq), item.substr(eq + 1), &spec)) {
+      throw std::invalid_argument("'" + item + "' is not a scene key=value (" + sceneKeys() + ")");
+    }
+  }
+  return spec;
+}
+
 bool applySceneKey(const std::string& key, const std::string& value, SceneSpec* spec) {
   BodyShape& b = spec->body;
   SceneOptions& s = spec->scene;

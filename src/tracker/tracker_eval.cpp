@@ -172,17 +172,7 @@ int main(int argc, char** argv) {
   std::unique_ptr<Scene> scene;
   Track walk;
   try {
-    size_t pos = 0;
-    while (pos < scene_query.size()) {
-      size_t amp = scene_query.find('&', pos);
-      std::string item = scene_query.substr(pos, amp == std::string::npos ? std::string::npos : amp - pos);
-      pos = amp == std::string::npos ? scene_query.size() : amp + 1;
-      if (item.empty()) continue;
-      size_t eq = item.find('=');
-      if (eq == std::string::npos || !applySceneKey(item.substr(0, eq), item.substr(eq + 1), &spec)) {
-        throw std::invalid_argument("'" + item + "' is not a scene key=value (" + sceneKeys() + ")");
-      }
-    }
+    spec = parseSceneQuery(scene_query);
     if (spec.used) {
       spec.scene.legacy_background = background;
       if (spec.scene.needsWalk()) {

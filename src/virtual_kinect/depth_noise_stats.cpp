@@ -84,18 +84,7 @@ bool readOni(const std::string& path, int max_frames, Clip* clip) {
 
 bool renderScene(const std::string& track_path, const std::string& query, int frames, const std::string& res,
                  Clip* clip) {
-  SceneSpec spec;
-  size_t pos = 0;
-  while (pos < query.size()) {
-    size_t amp = query.find('&', pos);
-    std::string item = query.substr(pos, amp == std::string::npos ? std::string::npos : amp - pos);
-    pos = amp == std::string::npos ? query.size() : amp + 1;
-    if (item.empty()) continue;
-    size_t eq = item.find('=');
-    if (eq == std::string::npos || !applySceneKey(item.substr(0, eq), item.substr(eq + 1), &spec)) {
-      throw std::invalid_argument("'" + item + "' is not a scene key=value (" + sceneKeys() + ")");
-    }
-  }
+  const SceneSpec spec = parseSceneQuery(query);
   if (spec.scene.needsWalk()) throw std::invalid_argument("a still scene: no bystander or crowd");
   Track track = Track::load(track_path);
   Scene scene(track, spec.body, spec.scene, spec.noise, nullptr, spec.seed);
