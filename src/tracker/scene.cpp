@@ -554,6 +554,103 @@ void castView(const S& s, const Camera& cam, const Vec3& o, double tilt_rad, dou
   castCapsules(s, view);
 }
 
+// Where the projector's pattern does not reach: the point at (u, v, z) is hidden from
+// the projector, shifted along x only, by something nearer on the same row.
+struct Shadow {
+  bool on = false;
+  const std::vector<float>* zp = nullptr;  // depth seen from the projector
+  double shift_px_m = 0;                   // pixels of shift at 1 m
+  int W = 0;
+  bool operator()(int u, int v, double zz) const {
+    if (!on) return false;
+    int iu = static_cast<int>(std::lround(u - shift_px_m / zz));
+    return iu >= 0 && iu < W && (*zp)[static_cast<size_t>(v) * W + iu] < zz - (0.03 + 0.01 * zz);
+  }
+};
+
+// Depth edges: what reads (in range, lit by the projector) next to what does not, or a
+// jump of more than 5 cm + 3 % between neighbours within r pixels.
+std::vector<uint8_t> depthEdges(const std::vector<float>& z, int W, int H, int r, const KinectNoise& n,
+                                const Shadow& shadowed) {
+  const size_t N = z.size();
+  std::vector<float> ze(N, std::numeric_limits<float>::infinity());
+  for (int v = 0; v < H; ++v) {
+    for (int u = 0; u < W; ++u) {
+      const size_t i = static_cast<size_t>(v) * W + u;
+      double zz = z[i];
+      if (!std::isfinite(zz) || zz < n.min_range || zz > n.max_range || shadowed(u, v, zz)) continue;
+      ze[i] = static_cast<float>(zz);
+    }
+  }
+  std::vector<uint8_t> edge(N, 0);
+  for (int v = 0; v < H; ++v) {
+    for (int u = 0; u < W; ++u) {
+      const size_t i = static_cast<size_t>(v) * W + u;
+      if (!std::isfinite(ze[i])) continue;
+      const float thr = static_cast<float>(0.05 + 0.03 * ze[i]);
+      bool e = false;
+      for (int vv = std::max(0, v - r); vv <= std::min(H - 1, v + r) && !e; ++vv) {
+        for (int uu = std::max(0, u - r); uu <= std::min(W - 1, u + r); ++uu) {
+          float o = ze[static_cast<size_t>(vv) * W + uu];
+          if (!(std::fabs(o - ze[i]) <= thr)) { e = true; break; }
+        }
+      }
+      edge[i] = e;
+    }
+  }
+  return edge;
+}
+
+// The real sensor's structure (speckle) for one frame: the disparity error correlated
+// in blobs, a whole-frame offset, flicker at depth edges and shadow borders, holes in
+// patches. Empty fields are off.
+struct Speckle {
+  std::vector<float> fine, coarse, edge_field, hole_field, level;
+  std::vector<uint8_t> edge;
+  double offset = 0;
+};
+
+// The frame's offset: the value drawn at the latest jump (frame 0 always draws).
+double frameOffset(const KinectNoise& n, uint32_t seed, uint64_t frame_index) {
+  const uint64_t okey = mix((static_cast<uint64_t>(seed) << 32) ^ 0x27d4eb2fULL);
+  uint64_t k = frame_index;
+  while (k > 0 && frame_index - k < 3000 &&
+         (mix(okey ^ (k * 0x9e3779b97f4a7c15ULL)) >> 11) * (1.0 / 9007199254740992.0) >= n.frame_offset_jump) {
+    --k;
+  }
+  return n.frame_offset_sigma * gaussian(mix(okey + 0x165667b19e3779f9ULL + k));
+}
+
+Speckle makeSpeckle(const KinectNoise& n, uint32_t seed, uint64_t key0, uint64_t frame_index,
+                    const std::vector<float>& z, int W, int H, const Shadow& shadowed) {
+  Speckle sp;
+  const size_t N = z.size();
+  const double px_scale = W / 640.0;  // the model's windows are in 640x480 pixels
+  auto stream = [&](uint64_t k) { return mix(key0 + k * 0x632be59bd9b4e019ULL); };
+  if (n.fine_share > 0) sp.fine = correlatedField(stream(1), W, H, n.fine_px * px_scale);
+  if (n.coarse_share > 0) sp.coarse = correlatedField(stream(2), W, H, n.coarse_px * px_scale);
+  if (n.holes) {
+    const uint64_t static_key = mix((static_cast<uint64_t>(seed) << 32) ^ 0x5bd1e995ULL);
+    std::vector<float> still = correlatedField(static_key, W, H, n.hole_px * px_scale);
+    sp.hole_field = correlatedField(stream(3), W, H, n.hole_px * px_scale);
+    const double a = std::sqrt(n.hole_static_share), b = std::sqrt(1.0 - n.hole_static_share);
+    for (size_t i = 0; i < N; ++i) sp.hole_field[i] = static_cast<float>(a * still[i] + b * sp.hole_field[i]);
+  }
+  if (n.sigma_spread > 0) {  // a static per-place noise level, lognormal
+    const uint64_t static_key = mix((static_cast<uint64_t>(seed) << 32) ^ 0x85ebca6bULL);
+    sp.level = correlatedField(static_key, W, H, n.fine_px * px_scale);
+    const double t = n.sigma_spread;
+    for (float& x : sp.level) x = static_cast<float>(std::exp(t * x - 0.5 * t * t));
+  }
+  if (n.frame_offset_sigma > 0) sp.offset = frameOffset(n, seed, frame_index);
+  if (n.edge_drop > 0 && n.edge_px > 0) {
+    const int r = std::max(1, static_cast<int>(std::lround(n.edge_px * px_scale)));
+    sp.edge = depthEdges(z, W, H, r, n, shadowed);
+    sp.edge_field = correlatedField(stream(4), W, H, n.fine_px * px_scale);
+  }
+  return sp;
+}
+
 }  // namespace
 
 void Scene::render(double t, uint64_t frame_index, const Camera& cam, SceneFrame* out) const {
@@ -562,89 +659,25 @@ void Scene::render(double t, uint64_t frame_index, const Camera& cam, SceneFrame
   const double tilt = opt_.tilt_deg * kPi / 180.0;
   std::vector<float> z, shade, zp;
   castView(s, cam, Vec3(), tilt, opt_.sensor_height, &z, &out->label, &shade);
-  const bool shadow = noise_.enabled && noise_.shadow && noise_.baseline > 0;
-  const Vec3 proj(noise_.baseline * (noise_.projector_x < 0 ? -1.0 : 1.0), 0, 0);
-  if (shadow) castView(s, cam, proj, tilt, opt_.sensor_height, &zp, nullptr, nullptr);
   const int W = cam.width, H = cam.height;
+  Shadow shadowed;
+  shadowed.on = noise_.enabled && noise_.shadow && noise_.baseline > 0;
+  if (shadowed.on) {
+    const Vec3 proj(noise_.baseline * (noise_.projector_x < 0 ? -1.0 : 1.0), 0, 0);
+    castView(s, cam, proj, tilt, opt_.sensor_height, &zp, nullptr, nullptr);
+    shadowed.zp = &zp;
+    shadowed.shift_px_m = proj.x * W / cam.xzFactor();
+    shadowed.W = W;
+  }
   const size_t N = z.size();
   out->depth_mm.assign(N, 0);
   const uint64_t key0 = mix((static_cast<uint64_t>(seed_) << 32) ^ frame_index);
-  // The real sensor's structure (speckle): the disparity error correlated in blobs,
-  // whole-frame offsets, flicker at depth edges and shadow borders, holes in patches.
   const bool speckle = noise_.enabled && noise_.speckle;
-  const double px_scale = W / 640.0;  // the model's windows are in 640x480 pixels
-  std::vector<float> fine, coarse, edge_field, hole_field, level;
-  std::vector<uint8_t> edge;
-  double offset = 0;
-  auto shadowed = [&](int u, int v, double zz) {
-    int iu = static_cast<int>(std::lround(u - proj.x * W / (zz * cam.xzFactor())));
-    return iu >= 0 && iu < W && zp[static_cast<size_t>(v) * W + iu] < zz - (0.03 + 0.01 * zz);
-  };
-  if (speckle) {
-    auto stream = [&](uint64_t k) { return mix(key0 + k * 0x632be59bd9b4e019ULL); };
-    if (noise_.fine_share > 0) fine = correlatedField(stream(1), W, H, noise_.fine_px * px_scale);
-    if (noise_.coarse_share > 0) coarse = correlatedField(stream(2), W, H, noise_.coarse_px * px_scale);
-    if (noise_.holes) {
-      const uint64_t static_key = mix((static_cast<uint64_t>(seed_) << 32) ^ 0x5bd1e995ULL);
-      std::vector<float> still = correlatedField(static_key, W, H, noise_.hole_px * px_scale);
-      hole_field = correlatedField(stream(3), W, H, noise_.hole_px * px_scale);
-      const double a = std::sqrt(noise_.hole_static_share), b = std::sqrt(1.0 - noise_.hole_static_share);
-      for (size_t i = 0; i < N; ++i) hole_field[i] = static_cast<float>(a * still[i] + b * hole_field[i]);
-    }
-    if (noise_.sigma_spread > 0) {  // a static per-place noise level, lognormal
-      const uint64_t static_key = mix((static_cast<uint64_t>(seed_) << 32) ^ 0x85ebca6bULL);
-      level = correlatedField(static_key, W, H, noise_.fine_px * px_scale);
-      const double t = noise_.sigma_spread;
-      for (float& x : level) x = static_cast<float>(std::exp(t * x - 0.5 * t * t));
-    }
-    // The frame's offset: the value drawn at the latest jump (frame 0 always draws).
-    if (noise_.frame_offset_sigma > 0) {
-      const uint64_t okey = mix((static_cast<uint64_t>(seed_) << 32) ^ 0x27d4eb2fULL);
-      uint64_t k = frame_index;
-      while (k > 0 && frame_index - k < 3000 &&
-             (mix(okey ^ (k * 0x9e3779b97f4a7c15ULL)) >> 11) * (1.0 / 9007199254740992.0) >= noise_.frame_offset_jump) {
-        --k;
-      }
-      offset = noise_.frame_offset_sigma * gaussian(mix(okey + 0x165667b19e3779f9ULL + k));
-    }
-    if (noise_.edge_drop > 0 && noise_.edge_px > 0) {
-      // Depth edges: what reads (in range, lit by the projector) next to what does not,
-      // or a jump of more than 5 cm + 3 % between neighbours within edge_px.
-      std::vector<float> ze(N, std::numeric_limits<float>::infinity());
-      for (int v = 0; v < H; ++v) {
-        for (int u = 0; u < W; ++u) {
-          const size_t i = static_cast<size_t>(v) * W + u;
-          double zz = z[i];
-          if (!std::isfinite(zz) || zz < noise_.min_range || zz > noise_.max_range) continue;
-          if (shadow && shadowed(u, v, zz)) continue;
-          ze[i] = static_cast<float>(zz);
-        }
-      }
-      const int r = std::max(1, static_cast<int>(std::lround(noise_.edge_px * px_scale)));
-      edge.assign(N, 0);
-      for (int v = 0; v < H; ++v) {
-        for (int u = 0; u < W; ++u) {
-          const size_t i = static_cast<size_t>(v) * W + u;
-          if (!std::isfinite(ze[i])) continue;
-          const float thr = static_cast<float>(0.05 + 0.03 * ze[i]);
-          bool e = false;
-          for (int vv = std::max(0, v - r); vv <= std::min(H - 1, v + r) && !e; ++vv) {
-            for (int uu = std::max(0, u - r); uu <= std::min(W - 1, u + r); ++uu) {
-              float o = ze[static_cast<size_t>(vv) * W + uu];
-              if (!(std::fabs(o - ze[i]) <= thr)) { e = true; break; }
-            }
-          }
-          edge[i] = e;
-        }
-      }
-      edge_field = correlatedField(stream(4), W, H, noise_.fine_px * px_scale);
-    }
-  }
-  const double iid_share = std::max(0.0, 1.0 - (fine.empty() ? 0.0 : noise_.fine_share) -
-                                             (coarse.empty() ? 0.0 : noise_.coarse_share));
+  const Speckle sp = speckle ? makeSpeckle(noise_, seed_, key0, frame_index, z, W, H, shadowed) : Speckle();
+  const double iid_share = std::max(0.0, 1.0 - (sp.fine.empty() ? 0.0 : noise_.fine_share) -
+                                             (sp.coarse.empty() ? 0.0 : noise_.coarse_share));
   const double s_iid = std::sqrt(iid_share), s_fine = std::sqrt(noise_.fine_share),
                s_coarse = std::sqrt(noise_.coarse_share);
-  const double edge_q = noise_.edge_drop;
   for (int v = 0; v < H; ++v) {
     for (int u = 0; u < W; ++u) {
       const size_t i = static_cast<size_t>(v) * W + u;
@@ -662,25 +695,23 @@ void Scene::render(double t, uint64_t frame_index, const Camera& cam, SceneFrame
         // the dot pattern is lost (dark hair, black clothes, grazing surfaces, far floor).
         double signal = shade[i] / ((zz / 2.0) * (zz / 2.0));
         double p_drop = std::clamp((0.045 - signal) / 0.03, 0.0, 1.0);
+        // Speckle: patches (a correlated field below the drop quantile), else per pixel.
         if (p_drop > 0) {
-          // Speckle: patches (a correlated field below the drop quantile), else per pixel.
-          double q = hole_field.empty() ? (hash & 0xffffffffULL) * (1.0 / 4294967296.0) : normalCdf(hole_field[i]);
+          double q = sp.hole_field.empty() ? (hash & 0xffffffffULL) * (1.0 / 4294967296.0) : normalCdf(sp.hole_field[i]);
           if (q < p_drop) continue;
         }
       }
-      // The point seen here, from the projector: hidden behind something nearer = no
-      // pattern. The projector is shifted along x only, so the point is on the same
-      // row of its image, proj.x W / (z xzFactor) pixels to the side.
-      if (shadow && shadowed(u, v, zz)) continue;
+      // The point seen here, from the projector: hidden behind something nearer = no pattern.
+      if (shadowed(u, v, zz)) continue;
       // Edges and shadow borders flicker: the correlation window straddles two depths.
-      if (!edge.empty() && edge[i] && normalCdf(edge_field[i]) < edge_q) continue;
+      if (!sp.edge.empty() && sp.edge[i] && normalCdf(sp.edge_field[i]) < noise_.edge_drop) continue;
       double err = gaussian(hash);
       if (speckle) {
-        err = s_iid * err + (fine.empty() ? 0.0 : s_fine * fine[i]) + (coarse.empty() ? 0.0 : s_coarse * coarse[i]);
-        if (!level.empty()) err *= level[i];
+        err = s_iid * err + (sp.fine.empty() ? 0.0 : s_fine * sp.fine[i]) +
+              (sp.coarse.empty() ? 0.0 : s_coarse * sp.coarse[i]);
+        if (!sp.level.empty()) err *= sp.level[i];
       }
-      double d = (1.0 / zz - noise_.c0) / noise_.c1 + noise_.disparity_sigma * err + offset;
-      d = std::round(d);
+      double d = std::round((1.0 / zz - noise_.c0) / noise_.c1 + noise_.disparity_sigma * err + sp.offset);
       if (d < 0 || d > 2046) continue;
       double zq = 1.0 / (noise_.c1 * d + noise_.c0);
       if (zq < noise_.min_range || zq > noise_.max_range) continue;
