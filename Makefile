@@ -9,7 +9,7 @@ APT_PACKAGES := $(shell grep -v '^\#' $(ROOT)/scripts/apt-packages.txt)
 PIP_PACKAGES := rosbags pylsl mcap
 SOURCE := source $(WS)/devel/setup.bash
 
-.PHONY: setup apt venv build test unit check test-install test-site rostest \
+.PHONY: setup apt venv build test unit check test-install test-site rostest tracker-accuracy \
 	test-load demo demo-sensors bench bench-sensors \
 	bench-dj-rob clean
 
@@ -60,6 +60,8 @@ UNIT = cd $(ROOT) && PYTHONPATH=$(ROOT)/src:$$PYTHONPATH $(VENV)/bin/python -m p
 CHECK = $(ROOT)/scripts/check_package.sh
 INSTALL_CHECK = $(ROOT)/test/system/install_space.sh
 SITE = $(SOURCE) && $(ROS_PY) $(ROOT)/test/system/site_multihost.py
+# The tracker's accuracy table against its baseline (bench/tracker_regression.py).
+TRACKER_ACCURACY = $(SOURCE) && $(ROS_PY) $(ROOT)/bench/tracker_regression.py --check $(ROOT)/test/data/tracker_accuracy.json
 ROSTESTS = $(SOURCE) && $(ROS_PY) $(ROOT)/scripts/run_rostests.py $(ROOT)/test
 
 # numpy, which every rospy message module imports, starts an OpenBLAS
@@ -85,6 +87,9 @@ test-site: setup
 rostest: setup
 	@$(ROSTESTS)
 
+tracker-accuracy: setup
+	@$(TRACKER_ACCURACY)
+
 # One pool runs the rostests (each in a network namespace of its own) and
 # the other stages, ROSTEST_JOBS (4) + 1 jobs at once, longest first, up
 # to ROSTEST_MAX_JOBS (JOBS + 2) once the stages are done; a failed
@@ -93,7 +98,8 @@ test: setup
 	@j=$${ROSTEST_JOBS:-4}; $(ROSTESTS) --jobs $$((j + 1)) \
 	  --max-jobs $${ROSTEST_MAX_JOBS:-$$((j + 2))} \
 	  --stage 'unit=$(UNIT)' --stage 'check=$(CHECK)' \
-	  --stage 'install_space=$(INSTALL_CHECK)' --stage 'site_multihost=$(SITE)'
+	  --stage 'install_space=$(INSTALL_CHECK)' --stage 'site_multihost=$(SITE)' \
+	  --stage 'tracker_accuracy=$(TRACKER_ACCURACY)'
 
 # `make test` RUNS times in a row beside one busy loop per core, JSON
 # summary last (scripts/test_under_load.py; e.g. make test-load RUNS=1).
