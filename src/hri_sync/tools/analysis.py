@@ -17,7 +17,7 @@ from hri_sync.dance_off.expressiveness import (DEFAULT_MIN_CONFIDENCE,
                                                expressiveness)
 from hri_sync.dance_off.joints import NUM_JOINTS
 from hri_sync.dance_off import verify
-from hri_sync.timing.skew import client_timing, percentiles, start_skew
+from hri_sync.clock.skew import client_timing, percentiles, start_skew
 from hri_sync.tools.robot_check import check_robot, deg, poses
 from hri_sync.tools.session import (field_or_nan, secs, server_clock,
                                     stamp_of)

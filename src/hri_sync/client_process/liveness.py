@@ -16,7 +16,7 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
-from hri_sync.timing.health import ERROR, OK, Health, text
+from hri_sync.wire.health import ERROR, OK, Health, text
 
 
 @dataclass

@@ -1,7 +1,7 @@
 """The DPM's capture window, on the global timeline.
 
 No ROS.  A sample is stamped in global time by a time mapping
-(``hri_sync.timing.mapping``) before it reaches a window.  A
+(``hri_sync.data_process.mapping``) before it reaches a window.  A
 ``CaptureWindow`` keeps exactly
 the samples with ``start <= stamp < end``, whenever the process happened
 to wake up, feeds them to its processor as they arrive and knows when it
@@ -13,10 +13,10 @@ from array import array
 from collections import Counter, deque
 from typing import Any, Deque, Dict, List, Optional, Sequence, Tuple
 
-from hri_sync.timing.processors import (Frame, ProcessResult, Processor,
-                                        WindowRun)
-from hri_sync.timing.times import GlobalTime, Seconds
-from hri_sync.timing.vocabulary import MIN_COVERAGE, ResultStatus
+from hri_sync.data_process.processors import (Frame, ProcessResult, Processor,
+                                              WindowRun)
+from hri_sync.wire.times import GlobalTime, Seconds
+from hri_sync.wire.vocabulary import MIN_COVERAGE, ResultStatus
 
 OK, PARTIAL, NO_DATA, ERROR = (ResultStatus.OK, ResultStatus.PARTIAL,
                                ResultStatus.NO_DATA, ResultStatus.ERROR)

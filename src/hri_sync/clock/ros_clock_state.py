@@ -7,7 +7,7 @@ back from it does not grow further.
 import math
 
 from hri_sync.msg import ClockState
-from hri_sync.timing.clock import ClockModel
+from hri_sync.clock.model import ClockModel
 
 NO_MODEL_UNCERTAINTY = 1e9  # s, published by a ClockState with ok false
 

@@ -1,7 +1,7 @@
 """Keeping a host's global clock against the time server.
 
 No ROS, no sockets, no sleeping of its own: the measurement (an NTP burst,
-``hri_sync.timing.ntp.measure``), the local clock and, for the resync
+``hri_sync.clock.ntp.measure``), the local clock and, for the resync
 loop, ``sleep`` and ``stopped`` are injected.  ``ClockSync`` owns the
 ``GlobalClock`` fit, remembers why the last measurement failed and hands
 out ``ClockStatus`` snapshots: what a ClockState carries and what the
@@ -18,10 +18,10 @@ import threading
 from dataclasses import dataclass
 from typing import Callable, TYPE_CHECKING
 
-from hri_sync.timing.clock import DRIFT_BOUND, ClockModel, GlobalClock
+from hri_sync.clock.model import DRIFT_BOUND, ClockModel, GlobalClock
 
 if TYPE_CHECKING:
-    from hri_sync.timing.times import LocalTime
+    from hri_sync.wire.times import LocalTime
 
 
 class SyncError(Exception):

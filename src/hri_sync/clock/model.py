@@ -9,8 +9,8 @@ import math
 from dataclasses import dataclass
 from typing import Callable, Dict, Iterable, List
 
-from hri_sync.timing.times import GlobalTime, LocalTime, Seconds
-from hri_sync.timing.vocabulary import DRIFT_BOUND
+from hri_sync.wire.times import GlobalTime, LocalTime, Seconds
+from hri_sync.wire.vocabulary import DRIFT_BOUND
 
 MAX_DRIFT = 0.01       # |d offset / d local| of any usable model (1 %)
 TIME_LIMIT = 2.0 ** 32  # s: the last time a ROS message can carry

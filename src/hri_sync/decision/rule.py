@@ -12,8 +12,8 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
-from hri_sync.timing.noise_floor import valid_floor
-from hri_sync.timing.vocabulary import ON_MISSING, Outcome, ResultStatus
+from hri_sync.data_process.noise_floor import valid_floor
+from hri_sync.wire.vocabulary import ON_MISSING, Outcome, ResultStatus
 
 WINNER, NO_WINNER, TIE, ABORTED = Outcome.ALL
 USABLE = ResultStatus.USABLE

@@ -17,18 +17,18 @@ from collections import Counter, deque
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from hri_sync.timing.capture import (ERROR, CaptureWindow, SampleBuffer,
-                                     window_stats)
-from hri_sync.timing.clock import ClockModel
-from hri_sync.timing.mapping import (ArrivalStamps, DeviceClockMapper,
-                                     TimeMapping)
-from hri_sync.timing.noise_floor import (DEFAULT_CHUNK, DEFAULT_SPAN,
-                                         QuietBaseline, combine)
-from hri_sync.timing.processors import Processor
-from hri_sync.timing.times import DeviceTime, GlobalTime, LocalTime
-from hri_sync.timing.validate import Rejected
-from hri_sync.timing.vocabulary import (
-    COMPLETION_MARGIN, DRIFT_BOUND, MIN_COVERAGE)
+from hri_sync.data_process.capture import (ERROR, CaptureWindow, SampleBuffer,
+                                           window_stats)
+from hri_sync.clock.model import ClockModel
+from hri_sync.data_process.mapping import (ArrivalStamps, DeviceClockMapper,
+                                           TimeMapping)
+from hri_sync.data_process.noise_floor import (DEFAULT_CHUNK, DEFAULT_SPAN,
+                                               QuietBaseline, combine)
+from hri_sync.data_process.processors import Processor
+from hri_sync.wire.times import DeviceTime, GlobalTime, LocalTime
+from hri_sync.wire.validate import Rejected
+from hri_sync.wire.vocabulary import (COMPLETION_MARGIN, DRIFT_BOUND,
+                                      MIN_COVERAGE)
 
 STAMP_SOURCES = ('auto', 'arrival', 'device', 'host')
 
@@ -114,7 +114,7 @@ class DataProcess:
     ``frames_rejected`` and ``invalid_<reason>``), never stamped.
 
     Each result carries the value's noise floor on this sensor
-    (``hri_sync.timing.noise_floor``): the larger of the window's own
+    (``hri_sync.data_process.noise_floor``): the larger of the window's own
     estimate (the processor's ``noise_floor``) and, for a processor with
     ``quiet_baseline``, the lowest value of its ``noise_chunk`` s
     stretches of every stamped sample of the last ``noise_span`` s.

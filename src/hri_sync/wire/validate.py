@@ -29,8 +29,8 @@ import re
 from dataclasses import dataclass, field
 from typing import Any, Callable, Collection, Optional
 
-from hri_sync.timing.vocabulary import (NUM_JOINTS, Action, ActionEnd,
-                                        Outcome, ResultStatus, RoundState)
+from hri_sync.wire.vocabulary import (NUM_JOINTS, Action, ActionEnd, Outcome,
+                                      ResultStatus, RoundState)
 
 TIME_LIMIT = 2.0 ** 32      # rospy times hold uint32 seconds
 NAME_RE = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')

@@ -11,11 +11,11 @@ import struct
 import time
 from typing import Callable, TYPE_CHECKING
 
-from hri_sync.timing.clock import NtpSample, best_offset
-from hri_sync.timing.clock_sync import SyncError
+from hri_sync.clock.model import NtpSample, best_offset
+from hri_sync.clock.sync import SyncError
 
 if TYPE_CHECKING:
-    from hri_sync.timing.clock import OffsetMeasurement
+    from hri_sync.clock.model import OffsetMeasurement
 
 NTP_EPOCH_OFFSET = 2208988800  # 1900-01-01 to 1970-01-01, s
 _PACKET = struct.Struct('!B B b b 11I')

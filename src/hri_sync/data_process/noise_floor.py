@@ -28,7 +28,7 @@ import math
 from collections import deque
 from typing import Any, Callable
 
-from hri_sync.timing.processors import Frame, Processor
+from hri_sync.data_process.processors import Frame, Processor
 
 DEFAULT_CHUNK = 1.0       # s
 DEFAULT_STEP = 0.25       # s

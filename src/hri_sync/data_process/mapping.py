@@ -13,8 +13,8 @@ from typing import Any, Dict, Generic, Optional, TypeVar
 
 import numpy as np
 
-from hri_sync.timing.clock import MAX_DRIFT
-from hri_sync.timing.times import DeviceTime, GlobalTime, Seconds
+from hri_sync.clock.model import MAX_DRIFT
+from hri_sync.wire.times import DeviceTime, GlobalTime, Seconds
 
 # A mapping's source clock.
 Source = TypeVar('Source', GlobalTime, DeviceTime)

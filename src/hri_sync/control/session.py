@@ -21,11 +21,12 @@ from collections import Counter
 from dataclasses import dataclass
 from typing import Any, TYPE_CHECKING
 
-from hri_sync.timing.protocol import Abort, Ack, ControlRound, ProtocolError
-from hri_sync.timing.vocabulary import RoundState
+from hri_sync.control.round import ControlRound
+from hri_sync.wire.protocol import Abort, Ack, ProtocolError
+from hri_sync.wire.vocabulary import RoundState
 
 if TYPE_CHECKING:
-    from hri_sync.timing.protocol import Capture, StrAftPolicy
+    from hri_sync.wire.protocol import Capture, StrAftPolicy
 
 
 IDLE = 'idle'

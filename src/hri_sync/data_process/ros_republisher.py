@@ -1,5 +1,5 @@
 """The DPM's republishing thread: captured samples out on ``captured``,
-stamped in global time (the queue and its rule: hri_sync.timing.republish).
+stamped in global time (the queue and its rule: hri_sync.data_process.republish).
 """
 import copy
 import io
@@ -10,7 +10,8 @@ import rospy
 
 from hri_sync.ros.outbox import closed_at_shutdown
 from hri_sync.ros.params import stamp
-from hri_sync.timing.republish import CaptureQueue, Serialized, with_stamp
+from hri_sync.data_process.republish import (CaptureQueue, Serialized,
+                                             with_stamp)
 
 
 def serialize(t, msg, raw):

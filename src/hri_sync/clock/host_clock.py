@@ -23,7 +23,7 @@ import subprocess
 from dataclasses import dataclass
 from typing import Callable, Optional, Sequence, Tuple
 
-from hri_sync.timing.health import ERROR, OK, WARN, Health
+from hri_sync.wire.health import ERROR, OK, WARN, Health
 
 WARN_OFFSET = 0.005   # s
 ERROR_OFFSET = 0.050  # s

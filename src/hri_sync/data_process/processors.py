@@ -60,7 +60,7 @@ class Processor:
     # True: the value is a level of activity (0: nothing happens), so the
     # lowest value this processor gives over short stretches of the
     # sensor's stream is a measure of its noise floor: the DPM then keeps
-    # that quiet baseline (``hri_sync.timing.noise_floor``). False (the
+    # that quiet baseline (``hri_sync.data_process.noise_floor``). False (the
     # default): only the result's own ``noise_floor`` counts (NaN unless
     # the processor sets it).
     quiet_baseline = False
@@ -82,7 +82,7 @@ class Processor:
 
     def check(self, msg: Any) -> None:
         """Validate one incoming message before it is stamped: raise
-        ``hri_sync.timing.validate.Rejected`` (its ``reason`` is counted,
+        ``hri_sync.wire.validate.Rejected`` (its ``reason`` is counted,
         per window and on /diagnostics) for one that must not be used."""
 
     def begin(self, start: float, end: float) -> None:
@@ -203,7 +203,7 @@ def load_processor(
     module_name, _, class_name = path.rpartition('.')
     if not module_name:
         raise ValueError('~processor must be a class path like '
-                         "'hri_sync.timing.processors.CountMean', got %r"
+                         "'hri_sync.data_process.processors.CountMean', got %r"
                          % path)
     try:
         cls = getattr(importlib.import_module(module_name), class_name)

@@ -12,16 +12,17 @@ from hri_sync.ros.names import client_topic, protocol_topic
 from hri_sync.ros.outbox import Publisher
 from hri_sync.ros.params import (ParamError, header, param, positive, stamp,
                                  wait_for)
-from hri_sync.ros.synced_clock import SyncedClock
-from hri_sync.timing.health import client_tally
-from hri_sync.timing.liveness import Beat, Liveness
-from hri_sync.timing.protocol import Capture, ClientSchedule, Late
-from hri_sync.timing.validate import Context
-from hri_sync.timing.vocabulary import MAX_UNCERTAINTY, ResultStatus
+from hri_sync.clock.ros_synced_clock import SyncedClock
+from hri_sync.client_process.health import client_tally
+from hri_sync.client_process.liveness import Beat, Liveness
+from hri_sync.client_process.schedule import ClientSchedule, Late
+from hri_sync.wire.protocol import Capture
+from hri_sync.wire.validate import Context
+from hri_sync.wire.vocabulary import MAX_UNCERTAINTY, ResultStatus
 
 
 class ClientProcess:
-    """The ROS shell of ``hri_sync.timing.protocol.ClientSchedule``.
+    """The ROS shell of ``hri_sync.wire.protocol.ClientSchedule``.
 
     Keeps a ``SyncedClock``; on ``sync_time`` measures and publishes the
     schedule's ACK or NACK (``~max_uncertainty``); turns ``capture_data``
