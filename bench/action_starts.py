@@ -159,7 +159,7 @@ class Observer:
 def observe(opts, proc):
     import rosgraph
     import rospy
-    from hri_sync.timing.truth import realtime
+    from hri_sync.clock.truth import realtime
     deadline = time.time() + 30.0
     while not rosgraph.is_master_online() and time.time() < deadline:
         if proc.poll() is not None:

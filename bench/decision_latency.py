@@ -188,13 +188,13 @@ def diagnostic(result, key, default):
 
 def to_true(clock, global_time):
     """Global -> the server's local clock, which is the true clock."""
-    from hri_sync.ros.clock_state import model_from_msg
+    from hri_sync.clock.ros_clock_state import model_from_msg
     return model_from_msg(clock).to_local(global_time)
 
 
 def analyse(args, listener, clients, frames):
-    from hri_sync.timing.protocol import Capture
-    from hri_sync.timing.skew import percentiles
+    from hri_sync.wire.protocol import Capture
+    from hri_sync.clock.skew import percentiles
     decision_lat, result_lat, bounds, decision_bounds = [], [], [], []
     rounds, lost_total, problems = [], 0, []
     for n in sorted(listener.captures):
@@ -305,7 +305,7 @@ def main():
         import rosgraph
         import rospy
         import hri_sync.msg as msgs
-        from hri_sync.timing.truth import true_time
+        from hri_sync.clock.truth import true_time
         master = rosgraph.Master('/decision_latency')
         deadline = time.time() + 30
         while not master.is_online():

@@ -77,9 +77,9 @@ def observe(opts):
     import rosgraph
     import rospy
     from geometry_msgs.msg import Twist
-    from hri_sync.timing.truth import realtime
+    from hri_sync.clock.truth import realtime
     from hri_sync.msg import ActionStart, CaptureData, Decision
-    from hri_sync.timing.protocol import Capture
+    from hri_sync.wire.protocol import Capture
     deadline = time.time() + 30.0
     while not rosgraph.is_master_online() and time.time() < deadline:
         time.sleep(0.2)

@@ -54,7 +54,7 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__))), 'support'))
 from hri_sync_support import skew_bench  # noqa: E402
-from hri_sync.timing.skew import percentiles
+from hri_sync.clock.skew import percentiles
 from hri_sync_support import harness  # noqa: E402
 
 CLONE_NEWNET = 0x40000000

@@ -34,9 +34,11 @@ from hri_sync.dance_off.expressiveness import (  # noqa: E402
     RunningExpressiveness)
 from hri_sync.people.kinect_csv import (read_kinect_v1,  # noqa: E402
                                         read_kinect_v2)
-from hri_sync.timing.decision import NOISE, decide  # noqa: E402
-from hri_sync.timing.noise_floor import QuietBaseline, combine  # noqa: E402
-from hri_sync.timing.processors import Processor, ProcessResult  # noqa: E402
+from hri_sync.decision.rule import NOISE, decide  # noqa: E402
+from hri_sync.data_process.noise_floor import (QuietBaseline,  # noqa: E402
+                                               combine)
+from hri_sync.data_process.processors import (Processor,  # noqa: E402
+                                              ProcessResult)
 from convert_real_skeleton import DEFAULT_SRC  # noqa: E402
 
 # Kinect v2 joints.csv: a person standing still between gestures, s

@@ -222,7 +222,7 @@ def run(args, scenario, republish):
         import rosgraph
         import rospy
         import hri_sync.msg as msgs
-        from hri_sync.timing.truth import true_time
+        from hri_sync.clock.truth import true_time
         master = rosgraph.Master('/sensor_bandwidth')
         deadline = time.time() + 30
         while not master.is_online():
@@ -251,7 +251,7 @@ def run(args, scenario, republish):
             raise RuntimeError('no capture_data (see %s)' % launch_log.name)
         dpms = dl.node_pids(master, ['/%s/dpm' % c for c in clients])
         window = min(listener.captures)
-        from hri_sync.timing.protocol import Capture
+        from hri_sync.wire.protocol import Capture
         cap = Capture.from_msg(listener.captures[window])
         load = [round(os.getloadavg()[0], 2)]
         start_true = dl.to_true(listener.clock, cap.start)
@@ -331,7 +331,7 @@ def run(args, scenario, republish):
         row['sent_rate_hz'] = round(len(sent_all) / (
             sent_all[-1] - sent_all[0]), 1) if len(sent_all) > 1 else None
         out['clients'][c] = row
-    from hri_sync.timing.skew import percentiles
+    from hri_sync.clock.skew import percentiles
 
     def ms(values):
         return {k: round(v * 1e3, 1) if math.isfinite(v) else None

@@ -33,7 +33,7 @@ import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path[:0] = [os.path.join(ROOT, 'src'), os.path.join(ROOT, 'support')]
-from hri_sync.timing.skew import percentiles  # noqa: E402
+from hri_sync.clock.skew import percentiles  # noqa: E402
 from hri_sync_support.harness import free_port  # noqa: E402
 
 KINDS = [('dancer', 'still'), ('small', 'still'), ('dancer', 'small'),

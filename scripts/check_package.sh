@@ -59,7 +59,7 @@ if missing:
 sys.exit(1 if missing else 0)
 PY
 
-echo "check_package: mypy (mypy.ini: src/hri_sync/timing, src/hri_sync/dance_off)"
+echo "check_package: mypy (mypy.ini: the core packages)"
 (cd "$ROOT" && mypy) || fail "mypy"
 
 [ $status = 0 ] && echo "check_package: all passed"

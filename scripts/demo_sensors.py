@@ -35,7 +35,7 @@ def free_port():
 
 def report(capture, results, acks):
     """The lines to print for the window and its results."""
-    from hri_sync.timing.protocol import Capture
+    from hri_sync.wire.protocol import Capture
     w = Capture.from_msg(capture)
     lines = ['round %d: window [%.3f, %.3f) global s (CR_T %.3f + STR_AFT '
              '%.3f s, DUR %.1f s)' % (w.round, w.start, w.end, w.cr_t,

@@ -21,7 +21,7 @@ import sys
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, 'src'))
 
-from hri_sync.timing.mapping import DeviceClockMapper  # noqa: E402
+from hri_sync.data_process.mapping import DeviceClockMapper  # noqa: E402
 
 T0 = 1.7e9     # true time of the first frame (an epoch-sized clock)
 RATE = 30.0    # frames per second (a Kinect)

@@ -14,7 +14,7 @@
 
 namespace hri_sync {
 
-/// The device clock map of Python's hri_sync.timing.capture.DeviceClockMapper,
+/// The device clock map of Python's hri_sync.data_process.capture.DeviceClockMapper,
 /// the same algorithm and parameters (test/data/clock_map/ checks both):
 /// arrival - device = true offset + transport delay >= true offset, so the
 /// offset is the lower envelope of those values over the last `window_s` of
@@ -64,7 +64,7 @@ class DeviceClockMapper {
 };
 
 /// A linear map from local to global time, as Python's
-/// hri_sync.timing.clock.ClockModel:
+/// hri_sync.clock.model.ClockModel:
 /// global(local) = local + offset + drift * (local - local_ref).
 /// The default is the identity with an unbounded uncertainty, as in Python.
 struct ClockModel {
@@ -83,7 +83,7 @@ struct ClockStatus {
   ClockModel model;
 };
 
-/// The limits of a usable model, as Python's hri_sync.timing.clock:
+/// The limits of a usable model, as Python's hri_sync.clock.model:
 /// |drift| <= kMaxDrift (MAX_DRIFT, 1 %: ten times any crystal's), local_ref
 /// and its global time in [0, kTimeLimit) (TIME_LIMIT, 2^32 s: what a ROS
 /// time can carry).
@@ -91,7 +91,7 @@ constexpr double kMaxDrift = 0.01;
 constexpr double kTimeLimit = 4294967296.0;
 
 /// The one ClockState -> ClockModel conversion of the C++ side, with the
-/// checks and reasons of Python's hri_sync.ros.clock_state.model_from_msg:
+/// checks and reasons of Python's hri_sync.clock.ros_clock_state.model_from_msg:
 /// the CPM's reason when it is not ok; a value that is not finite, a
 /// negative uncertainty, a drift or time outside the limits above, named.
 ClockStatus clockStatus(const std::string& client_id, bool ok, const std::string& reason, double local_ref,

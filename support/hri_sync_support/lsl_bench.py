@@ -30,7 +30,7 @@ import time
 import pylsl
 
 from hri_sync.sensors.lsl import CorrectionFit, theil_sen
-from hri_sync.timing.skew import percentiles
+from hri_sync.clock.skew import percentiles
 from hri_sync.tools import lsl_io
 
 from .harness import ms

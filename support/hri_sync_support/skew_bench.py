@@ -28,14 +28,14 @@ import rospy
 
 from hri_sync.msg import ClockState, Decision, RoundStatus, SyncAck, SyncTime
 from hri_sync.ros.round_log import RoundLog
-from hri_sync.timing import ntp
+from hri_sync.clock import ntp
 from hri_sync_support import harness
 from hri_sync_support.skew_figures import analyse_round, fail, summarize
 
 SETUP_TIME = 30.0        # s for roscore, chronyd and the sensors
 SETUP_PER_CLIENT = 6.0   # s more per client
 HARD_BOUND_MARGIN = 30.0  # s after the run's bound: SIGALRM
-DEVICE_PROCESSOR = 'hri_sync.timing.processors.DeviceStampedCountMean'
+DEVICE_PROCESSOR = 'hri_sync.data_process.processors.DeviceStampedCountMean'
 
 
 # ------------------------------------------------------------------- flags

@@ -17,10 +17,10 @@ over the first samples), i.e. of both together.
 import math
 from collections import Counter
 
-from hri_sync.timing.clock import ClockModel
-from hri_sync.timing.protocol import Capture
-from hri_sync.timing.skew import client_timing, percentiles, start_skew
-from hri_sync.timing.vocabulary import Outcome, ResultStatus
+from hri_sync.clock.model import ClockModel
+from hri_sync.wire.protocol import Capture
+from hri_sync.clock.skew import client_timing, percentiles, start_skew
+from hri_sync.wire.vocabulary import Outcome, ResultStatus
 
 from .harness import ms
 

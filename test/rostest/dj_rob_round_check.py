@@ -52,8 +52,8 @@ from hri_sync.msg import (ActionStart, Beat, CaptureData, Decision, Led,
 from hri_sync.robot.geometry import wrap_degrees, yaw_of
 from hri_sync.robot.kobuki import Limits
 from hri_sync.ros.params import init_checker
-from hri_sync.timing.protocol import Capture
-from hri_sync.timing.truth import realtime
+from hri_sync.wire.protocol import Capture
+from hri_sync.clock.truth import realtime
 
 LIMITS = Limits()            # the Kobuki's, as dj_rob.launch sets them
 START_SANITY = 0.25          # s, see the docstring

@@ -53,7 +53,7 @@ from hri_sync.ros.inbox import Inbox
 from hri_sync.ros.params import init_checker, wait_for
 from hri_sync.ros.round_log import RoundLog
 from hri_sync.ros.unique import node_pid
-from hri_sync.timing.protocol import Capture
+from hri_sync.wire.protocol import Capture
 from hri_sync.tools.procs import alive
 
 # Alive at the end (the CM and round monitor exit after their rounds).

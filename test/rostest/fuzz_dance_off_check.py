@@ -12,7 +12,7 @@ service) on this test's master, with its screen output in a file, and:
 3. checks every node of the launch is still alive (registered and
    answering a ping);
 4. runs another clean round: it must end in the decision that
-   hri_sync.timing.decision.decide gives on the two DPMs' own results
+   hri_sync.decision.rule.decide gives on the two DPMs' own results
    (by caller id), both ok;
    ~impersonate may be a list: steps 2-4 then run once for each item,
    on the same launch;
@@ -43,7 +43,7 @@ from std_srvs.srv import Trigger
 
 from hri_sync.msg import ClientResult, ClockState, Decision, DpmState
 from hri_sync.ros.params import init_checker, wait_for
-from hri_sync.timing.decision import decide
+from hri_sync.decision.rule import decide
 
 # The dance-off's; ~clients and ~participants for another ~launch.
 CLIENTS = ('left', 'right', 'dj_rob', 'music')

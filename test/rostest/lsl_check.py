@@ -28,7 +28,7 @@ from std_srvs.srv import Trigger
 
 from hri_sync.msg import ClientResult, DpmState, LslSample
 from hri_sync.ros.params import init_checker, wait_for
-from hri_sync.timing.capture import GAP_PERIODS
+from hri_sync.data_process.capture import GAP_PERIODS
 
 KIND_OF_FAULT = {'vanish': 'lost', 'stall': 'lost', 'reset': 'clock_reset'}
 

@@ -28,7 +28,7 @@ import pylsl  # noqa: E402
 import rospy  # noqa: E402
 
 from hri_sync.msg import CaptureData  # noqa: E402
-from hri_sync.timing.truth import true_time  # noqa: E402
+from hri_sync.clock.truth import true_time  # noqa: E402
 
 
 class Source:

@@ -27,7 +27,7 @@ from sensor_msgs.msg import Image, Imu, JointState
 from hri_sync.msg import AudioChunk, CaptureData, ClientResult, Decision
 from hri_sync.ros.params import init_checker
 from hri_sync.ros.replay import start_round_when_delivering
-from hri_sync.timing.protocol import Capture
+from hri_sync.wire.protocol import Capture
 
 # client: (low, high) of a plausible value of the replayed recording
 RANGES = {'skeleton': (1.0, 1e4), 'imu': (1.0, 200.0), 'audio': (0.1, 0.95),

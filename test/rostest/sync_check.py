@@ -31,8 +31,8 @@ import rostest
 
 from hri_sync.ros.params import csv_list, init_checker
 from hri_sync.ros.round_log import RoundLog
-from hri_sync.timing.protocol import Capture
-from hri_sync.timing.skew import client_timing, start_skew
+from hri_sync.wire.protocol import Capture
+from hri_sync.clock.skew import client_timing, start_skew
 
 
 class SyncCheck(unittest.TestCase):

@@ -11,7 +11,7 @@ from hri_sync.robot.actions import (ActionFailed, Firing, StartReport,
                                     await_end, parse_action)
 from hri_sync.ros import action_kinds
 from hri_sync.ros.action_kinds import CommandAction, filled, type_class
-from hri_sync.timing.vocabulary import Action, ActionEnd
+from hri_sync.wire.vocabulary import Action, ActionEnd
 
 
 def test_a_type_that_is_not_installed_is_named():

@@ -9,8 +9,8 @@ from hri_sync.robot.actions import (
     ActionScheduler, ActionTally, Begun, ConfigError, EndReport, Ending,
     Firing, StartReport, await_end, judge, judge_end, parse_action,
     parse_actions, run_firing)
-from hri_sync.timing.health import ERROR, OK, WARN
-from hri_sync.timing.vocabulary import Action, ActionEnd, Outcome
+from hri_sync.wire.health import ERROR, OK, WARN
+from hri_sync.wire.vocabulary import Action, ActionEnd, Outcome
 
 LIGHT = {'name': 'light', 'at': 'window_start', 'offset': -0.1,
          'publish': {'topic': '/light', 'type': 'std_msgs/Bool',

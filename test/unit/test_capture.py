@@ -1,4 +1,4 @@
-"""hri_sync.timing.capture: the sample buffer, window statistics, the time
+"""hri_sync.data_process.capture: the sample buffer, window statistics, the time
 mappings and the capture window."""
 
 import math
@@ -8,12 +8,13 @@ from types import SimpleNamespace as NS
 
 import pytest
 
-from hri_sync.timing.capture import (CaptureWindow, SampleBuffer,
-                                     window_stats, window_status)
-from hri_sync.timing.clock import MAX_DRIFT
-from hri_sync.timing.mapping import (ArrivalStamps, DeviceClockMapper,
-                                     TimeMapping)
-from hri_sync.timing.processors import CountMean, Processor, ProcessResult
+from hri_sync.data_process.capture import (CaptureWindow, SampleBuffer,
+                                           window_stats, window_status)
+from hri_sync.clock.model import MAX_DRIFT
+from hri_sync.data_process.mapping import (ArrivalStamps, DeviceClockMapper,
+                                           TimeMapping)
+from hri_sync.data_process.processors import (CountMean, Processor,
+                                              ProcessResult)
 
 # -- SampleBuffer ------------------------------------------------------------
 

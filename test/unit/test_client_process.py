@@ -1,4 +1,4 @@
-"""hri_sync.ros.client_process without a ROS master: the protocol topics
+"""hri_sync.client_process.ros_cpm without a ROS master: the protocol topics
 are subscribed by ``start()`` alone, once the node is whole (a capture
 order that came while a node was still being built ran its callback on a
 half-made node: the music player's ``self.cpm`` did not exist yet)."""
@@ -30,7 +30,7 @@ def client_process(monkeypatch):
         importlib.import_module('hri_sync.msg')
     except ImportError:
         monkeypatch.setitem(sys.modules, 'hri_sync.msg', stand_in_messages())
-    cp = importlib.import_module('hri_sync.ros.client_process')
+    cp = importlib.import_module('hri_sync.client_process.ros_cpm')
     monkeypatch.setattr(cp, 'param', lambda name, default, *a: default)
     monkeypatch.setattr(cp, 'protocol_topic', lambda name: '/' + name)
     monkeypatch.setattr(cp, 'Publisher',

@@ -1,4 +1,4 @@
-"""hri_sync.timing.clock: NTP samples, minimum-delay offsets, the drift-fitted
+"""hri_sync.clock.model: NTP samples, minimum-delay offsets, the drift-fitted
 global clock."""
 
 import math
@@ -7,8 +7,8 @@ import re
 
 import pytest
 
-from hri_sync.timing.clock import (ClockModel, GlobalClock, NtpSample,
-                                   OffsetMeasurement, best_offset)
+from hri_sync.clock.model import (ClockModel, GlobalClock, NtpSample,
+                                  OffsetMeasurement, best_offset)
 
 
 def unread_clock():

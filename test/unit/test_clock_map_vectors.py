@@ -10,7 +10,7 @@ import os
 
 import pytest
 
-from hri_sync.timing.mapping import DeviceClockMapper
+from hri_sync.data_process.mapping import DeviceClockMapper
 
 VECTORS = os.path.join(os.path.dirname(os.path.dirname(__file__)), 'data',
                        'clock_map')

@@ -1,4 +1,4 @@
-"""hri_sync.ros.clock_state: the one ClockState <-> ClockModel conversion.
+"""hri_sync.clock.ros_clock_state: the one ClockState <-> ClockModel conversion.
 
 Runs without ROS: where the generated hri_sync.msg cannot be imported
 (``make unit`` does not source the workspace) a stand-in ClockState with
@@ -11,7 +11,7 @@ import types
 
 import pytest
 
-from hri_sync.timing.clock import ClockModel, GlobalClock, OffsetMeasurement
+from hri_sync.clock.model import ClockModel, GlobalClock, OffsetMeasurement
 
 FIELDS = ('client_id', 'ok', 'reason', 'local_ref', 'offset', 'drift',
           'uncertainty', 'samples', 'round_trip')
@@ -33,9 +33,9 @@ def cs(monkeypatch):
     except ImportError:
         monkeypatch.setitem(sys.modules, 'hri_sync.msg', types.SimpleNamespace(
             ClockState=StandInClockState))
-    monkeypatch.delitem(sys.modules, 'hri_sync.ros.clock_state',
+    monkeypatch.delitem(sys.modules, 'hri_sync.clock.ros_clock_state',
                         raising=False)
-    return importlib.import_module('hri_sync.ros.clock_state')
+    return importlib.import_module('hri_sync.clock.ros_clock_state')
 
 
 def state(cs, **kw):

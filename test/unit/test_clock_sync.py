@@ -1,4 +1,4 @@
-"""hri_sync.timing.clock_sync: the resync loop, holdover and, with the
+"""hri_sync.clock.sync: the resync loop, holdover and, with the
 CPM's ClientSchedule, ACK/NACK while the time server is away; all on a
 fake local clock."""
 
@@ -6,10 +6,10 @@ import math
 
 import pytest
 
-from hri_sync.timing.clock import OffsetMeasurement
-from hri_sync.timing.clock_sync import ClockSync, SyncError
-from hri_sync.timing.ntp import NtpError
-from hri_sync.timing.protocol import ClientSchedule
+from hri_sync.clock.model import OffsetMeasurement
+from hri_sync.clock.sync import ClockSync, SyncError
+from hri_sync.clock.ntp import NtpError
+from hri_sync.client_process.schedule import ClientSchedule
 
 OFFSET = 1.7        # global minus local of the simulated host, s
 DELAY = 0.002       # round trip of every burst: +/- 1 ms

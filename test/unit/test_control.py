@@ -1,16 +1,16 @@
-"""hri_sync.timing.control: the CM's session of rounds on a fake clock."""
+"""hri_sync.control.session: the CM's session of rounds on a fake clock."""
 
 import math
 from types import SimpleNamespace
 
 import pytest
 
-from hri_sync.timing.control import (ABORTED, CAPTURING, DECIDED, IDLE,
-                                     NO_DECISION, SHUTDOWN, SYNCING,
-                                     ClientsWait, ControlSession, Log,
-                                     Refused, RoundEnd, StatusUpdate,
-                                     SyncOrder)
-from hri_sync.timing.protocol import Capture, ProtocolError, StrAftPolicy
+from hri_sync.control.session import (ABORTED, CAPTURING, DECIDED, IDLE,
+                                      NO_DECISION, SHUTDOWN, SYNCING,
+                                      ClientsWait, ControlSession, Log,
+                                      Refused, RoundEnd, StatusUpdate,
+                                      SyncOrder)
+from hri_sync.wire.protocol import Capture, ProtocolError, StrAftPolicy
 
 CLIENTS = ['alice', 'bob', 'carol']
 

@@ -1,4 +1,4 @@
-"""hri_sync.timing.data_process: the DPM's state machine on a fake clock.
+"""hri_sync.data_process.dpm: the DPM's state machine on a fake clock.
 
 The local clock is a number the test advances; the clock model maps it to
 global time OFFSET s later.
@@ -11,9 +11,9 @@ import pytest
 
 from hri_sync.dance_off.expressiveness import SkeletonExpressiveness
 from hri_sync.dance_off.joints import NUM_JOINTS
-from hri_sync.timing.clock import ClockModel
-from hri_sync.timing.data_process import DataProcess
-from hri_sync.timing.processors import CountMean, ProcessResult
+from hri_sync.clock.model import ClockModel
+from hri_sync.data_process.dpm import DataProcess
+from hri_sync.data_process.processors import CountMean, ProcessResult
 
 OFFSET = 5.0            # global - local
 L0 = 1000.0             # local time of the first sample

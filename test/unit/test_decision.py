@@ -1,11 +1,11 @@
-"""hri_sync.timing.decision: the decision module's rule."""
+"""hri_sync.decision.rule: the decision module's rule."""
 
 import math
 
 import pytest
 
-from hri_sync.timing.decision import (ABORTED, NO_WINNER, TIE, WINNER,
-                                      RoundCollector, Verdict, decide)
+from hri_sync.decision.rule import (ABORTED, NO_WINNER, TIE, WINNER,
+                                    RoundCollector, Verdict, decide)
 
 P = ['left', 'right']
 

@@ -1,4 +1,4 @@
-"""hri_sync.timing.health: the /diagnostics statuses from plain values, on
+"""hri_sync.wire.health: the /diagnostics statuses from plain values, on
 fake clocks."""
 
 import math
@@ -6,16 +6,19 @@ from types import SimpleNamespace
 
 import pytest
 
-from hri_sync.timing.clock import ClockModel, OffsetMeasurement
-from hri_sync.timing.clock_sync import ClockStatus, ClockSync
-from hri_sync.timing.control import ControlSession, RoundEnd, StatusUpdate
-from hri_sync.timing.health import (ERROR, OK, WARN, Health, RateMeter,
-                                    RejectionWatch, RoundTally, ServerTally,
-                                    DecisionTally, clock_health,
-                                    clock_state_health, client_tally,
-                                    result_tally, text)
-from hri_sync.timing.ntp import NtpError
-from hri_sync.timing.protocol import ClientSchedule, StrAftPolicy
+from hri_sync.clock.model import ClockModel, OffsetMeasurement
+from hri_sync.clock.sync import ClockStatus, ClockSync
+from hri_sync.control.session import ControlSession, RoundEnd, StatusUpdate
+from hri_sync.client_process.health import client_tally
+from hri_sync.clock.health import clock_health, clock_state_health
+from hri_sync.control.health import ServerTally
+from hri_sync.data_process.health import result_tally
+from hri_sync.decision.health import DecisionTally
+from hri_sync.wire.health import (ERROR, OK, WARN, Health, RateMeter,
+                                  RejectionWatch, RoundTally, text)
+from hri_sync.clock.ntp import NtpError
+from hri_sync.client_process.schedule import ClientSchedule
+from hri_sync.wire.protocol import StrAftPolicy
 
 DOWN = 'time server 127.0.0.1:11742 did not answer within 0.50 s'
 CLOCK_KEYS = ['synced', 'reason', 'uncertainty_ms', 'max_uncertainty_ms',

@@ -1,4 +1,4 @@
-"""The host clocks checked (hri_sync.timing.host_clock, preflight): the
+"""The host clocks checked (hri_sync.clock.host_clock, preflight): the
 system clock's offset to the time server, chrony's estimate and the
 model's, graded against the documented thresholds; and, under
 libfaketime, a process whose clock is 2.5 s ahead is reported and warned
@@ -13,10 +13,10 @@ from types import SimpleNamespace as NS
 
 import pytest
 
-from hri_sync.timing import host_clock
-from hri_sync.timing.health import ERROR, OK, WARN
-from hri_sync.timing.host_clock import (Chrony, HostClock, chrony_tracking,
-                                        grade, health, parse_tracking)
+from hri_sync.clock import host_clock
+from hri_sync.wire.health import ERROR, OK, WARN
+from hri_sync.clock.host_clock import (Chrony, HostClock, chrony_tracking,
+                                       grade, health, parse_tracking)
 from hri_sync.tools.preflight import (Client, Clock, Limits, Site, assess,
                                       client_host_clock)
 from test_ntp import FakeNtpServer, server_reply
@@ -172,8 +172,8 @@ def true_time_reply(request):
 PREFLIGHT_HOST = '''
 import sys, time
 sys.path.insert(0, %r)
-from hri_sync.timing import host_clock
-from hri_sync.timing.ntp import measure
+from hri_sync.clock import host_clock
+from hri_sync.clock.ntp import measure
 from hri_sync.tools.preflight import Site, assess
 hc = host_clock.measure('faked', lambda: measure('127.0.0.1', %d, 4, 1.0,
                                                  time.time))

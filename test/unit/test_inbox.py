@@ -9,7 +9,7 @@ from std_msgs.msg import Header
 
 from hri_sync.ros import inbox
 from hri_sync.ros.inbox import Inbox, Senders, Throttle
-from hri_sync.timing.validate import Context
+from hri_sync.wire.validate import Context
 
 
 def test_default_senders_follow_the_launch_files():

@@ -4,10 +4,11 @@ import math
 
 import pytest
 
-from hri_sync.timing.clock import ClockModel
-from hri_sync.timing.clock_sync import ClockStatus
-from hri_sync.timing.liveness import Beat, Liveness, SampleMeter, Verdict
-from hri_sync.timing.protocol import ClientSchedule
+from hri_sync.clock.model import ClockModel
+from hri_sync.clock.sync import ClockStatus
+from hri_sync.client_process.liveness import (Beat, Liveness, SampleMeter,
+                                              Verdict)
+from hri_sync.client_process.schedule import ClientSchedule
 
 MODEL = ClockModel(local_ref=95.0, offset=2.0, uncertainty=0.001,
                    drift_bound=1e-4)

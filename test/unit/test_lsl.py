@@ -7,10 +7,10 @@ import pytest
 
 from hri_sync.sensors.lsl import (CLOCK_RESET, DATA, LOST, TICK, ClockBreak,
                                   CorrectionFit, LslChannels, LslStamper)
-from hri_sync.timing.clock import ClockModel
-from hri_sync.timing.data_process import DataProcess
-from hri_sync.timing.processors import Frame
-from hri_sync.timing.validate import Rejected
+from hri_sync.clock.model import ClockModel
+from hri_sync.data_process.dpm import DataProcess
+from hri_sync.data_process.processors import Frame
+from hri_sync.wire.validate import Rejected
 
 
 def drifting(t, offset=3.0, drift=2e-4):

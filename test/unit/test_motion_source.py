@@ -9,7 +9,7 @@ import pytest
 from hri_sync.dance_off.expressiveness import SkeletonExpressiveness
 from hri_sync.dance_off.joints import NUM_JOINTS
 from hri_sync.dance_off.motion import Motion, load_motion
-from hri_sync.timing.processors import Frame, load_processor
+from hri_sync.data_process.processors import Frame, load_processor
 from hri_sync.dance_off.skeleton_source import SkeletonSource, tick_times
 
 DATA = os.path.join(os.path.dirname(__file__), '..', '..', 'data', 'motion')

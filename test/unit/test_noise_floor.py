@@ -7,10 +7,11 @@ import pytest
 
 from hri_sync.dance_off.expressiveness import (RunningExpressiveness,
                                                expressiveness)
-from hri_sync.timing.decision import (NO_WINNER, NOISE, TIE, WINNER,
-                                      RoundCollector, decide)
-from hri_sync.timing.noise_floor import QuietBaseline, combine, valid_floor
-from hri_sync.timing.processors import Processor, ProcessResult
+from hri_sync.decision.rule import (NO_WINNER, NOISE, TIE, WINNER,
+                                    RoundCollector, decide)
+from hri_sync.data_process.noise_floor import (QuietBaseline, combine,
+                                               valid_floor)
+from hri_sync.data_process.processors import Processor, ProcessResult
 
 P = ['left', 'right']
 

@@ -1,4 +1,4 @@
-"""hri_sync.timing.ntp: the SNTP client against a fake server on loopback UDP
+"""hri_sync.clock.ntp: the SNTP client against a fake server on loopback UDP
 (and a real chronyd when one is installed)."""
 
 import os
@@ -11,8 +11,8 @@ import time
 
 import pytest
 
-from hri_sync.timing import ntp
-from hri_sync.timing.clock import NtpSample
+from hri_sync.clock import ntp
+from hri_sync.clock.model import NtpSample
 
 PACKET = struct.Struct('!B B b b 11I')
 # s: a call that has not returned by then hangs; a liveness bound far

@@ -9,7 +9,7 @@ from hri_sync.dance_off.joints import NUM_JOINTS
 from hri_sync.people.participant import (BYSTANDER, PARTICIPANT,
                                          ParticipantSelector, Zone,
                                          summary_text)
-from hri_sync.timing.processors import Frame
+from hri_sync.data_process.processors import Frame
 
 ZONE = Zone(-0.5, 0.5, 1.5, 3.0)
 

@@ -1,4 +1,4 @@
-"""hri_sync.timing.processors: the CountMean processor and load_processor."""
+"""hri_sync.data_process.processors: the CountMean processor and load_processor."""
 
 import math
 import textwrap
@@ -6,8 +6,9 @@ from types import SimpleNamespace as NS
 
 import pytest
 
-from hri_sync.timing.processors import (CountMean, Frame, ProcessResult,
-                                        Processor, WindowRun, load_processor)
+from hri_sync.data_process.processors import (CountMean, Frame, ProcessResult,
+                                              Processor, WindowRun,
+                                              load_processor)
 
 
 def frames(*values):
@@ -43,21 +44,21 @@ def test_base_processor_defaults():
 
 
 def test_load_processor_by_class_path():
-    p = load_processor('hri_sync.timing.processors.CountMean')
+    p = load_processor('hri_sync.data_process.processors.CountMean')
     assert type(p) is CountMean
-    assert type(load_processor('hri_sync.timing.processors.CountMean',
+    assert type(load_processor('hri_sync.data_process.processors.CountMean',
                                {})) is CountMean
 
 
 @pytest.mark.parametrize('path, message', [
     ('CountMean', "must be a class path like "
-                  "'hri_sync.timing.processors.CountMean', got 'CountMean'"),
+                  "'hri_sync.data_process.processors.CountMean', got 'CountMean'"),
     ('hri_sync.no_such_module.Thing',
      r"~processor 'hri_sync.no_such_module.Thing' cannot be loaded"),
-    ('hri_sync.timing.processors.NoSuchClass',
-     r"~processor 'hri_sync.timing.processors.NoSuchClass' cannot be loaded"),
-    ('hri_sync.timing.processors.Frame',
-     r"~processor 'hri_sync.timing.processors.Frame' is not a hri_sync "
+    ('hri_sync.data_process.processors.NoSuchClass',
+     r"~processor 'hri_sync.data_process.processors.NoSuchClass' cannot be loaded"),
+    ('hri_sync.data_process.processors.Frame',
+     r"~processor 'hri_sync.data_process.processors.Frame' is not a hri_sync "
      r"Processor"),
     ('math.pi', r"~processor 'math.pi' is not a hri_sync Processor"),
 ])
@@ -69,14 +70,14 @@ def test_load_processor_errors_name_the_path(path, message):
 def test_processor_without_params_refuses_params():
     with pytest.raises(ValueError, match='CountMean takes no parameters, got '
                        'gain, offset'):
-        load_processor('hri_sync.timing.processors.CountMean',
+        load_processor('hri_sync.data_process.processors.CountMean',
                        {'offset': 1, 'gain': 2})
 
 
 @pytest.fixture
 def plugin(tmp_path, monkeypatch):
     (tmp_path / 'my_plugin.py').write_text(textwrap.dedent('''
-        from hri_sync.timing.processors import Processor, ProcessResult
+        from hri_sync.data_process.processors import Processor, ProcessResult
 
         class Scaled(Processor):
             msg_type = 'std_msgs/Float64'
@@ -109,7 +110,7 @@ def test_plugin_params_that_do_not_fit(plugin):
 
 
 def test_device_stamped_count_mean_reads_the_header_stamp():
-    p = load_processor('hri_sync.timing.processors.DeviceStampedCountMean')
+    p = load_processor('hri_sync.data_process.processors.DeviceStampedCountMean')
     msg = NS(value=2.0, header=NS(stamp=NS(to_sec=lambda: 1234.5)))
     assert p.device_stamp(msg) == 1234.5
     assert p.process(frames(1.0, 3.0), 100.0, 101.0).value == 2.0

@@ -1,14 +1,16 @@
-"""hri_sync.timing.protocol: the CM's round and the CPM's schedule."""
+"""hri_sync.wire.protocol: the CM's round and the CPM's schedule."""
 
 import math
 
 import pytest
 
-from hri_sync.timing.clock import ClockModel
-from hri_sync.timing.clock_sync import ClockStatus
-from hri_sync.timing.protocol import (Abort, Ack, Capture, ClientSchedule,
-                                      ControlRound, Late, ProtocolError,
-                                      Scheduled, StrAftPolicy, SyncReply)
+from hri_sync.clock.model import ClockModel
+from hri_sync.clock.sync import ClockStatus
+from hri_sync.client_process.schedule import (ClientSchedule, Late, Scheduled,
+                                              SyncReply)
+from hri_sync.control.round import ControlRound
+from hri_sync.wire.protocol import (Abort, Ack, Capture, ProtocolError,
+                                    StrAftPolicy)
 
 CLIENTS = ['alice', 'bob', 'carol']
 

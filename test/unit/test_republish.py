@@ -1,12 +1,12 @@
-"""hri_sync.timing.republish: when captured samples go out, and their
+"""hri_sync.data_process.republish: when captured samples go out, and their
 bytes with the global stamp written in."""
 import io
 import struct
 
 import pytest
 
-from hri_sync.timing.republish import (CaptureQueue, Serialized, a_time,
-                                       with_stamp)
+from hri_sync.data_process.republish import (CaptureQueue, Serialized, a_time,
+                                             with_stamp)
 
 
 class Clock:

@@ -6,7 +6,7 @@ import pytest
 from hri_sync.robot.safety import (BASE_LAGGING, CLOCK_DEAD,
                                    DECISION_MISSING, DECISION_STALE,
                                    ODOM_STALE, SafetyConfig, Watchdog)
-from hri_sync.timing.clock import ClockModel
+from hri_sync.clock.model import ClockModel
 
 
 class Clock:

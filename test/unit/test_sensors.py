@@ -12,9 +12,9 @@ from hri_sync.sensors.audio import (AudioLevel, check_chunk, chunk_at, dbfs,
 from hri_sync.sensors.image import ImageMotion, check_image, image_array
 from hri_sync.sensors.imu import ImuActivity
 from hri_sync.sensors.joint_state import JointSpeed
-from hri_sync.timing.data_process import DataProcess
-from hri_sync.timing.processors import Frame, load_processor
-from hri_sync.timing.validate import Rejected
+from hri_sync.data_process.dpm import DataProcess
+from hri_sync.data_process.processors import Frame, load_processor
+from hri_sync.wire.validate import Rejected
 
 
 def stamp(t):

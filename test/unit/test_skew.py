@@ -1,12 +1,12 @@
-"""hri_sync.timing.skew: clock errors from true-time samples, start skew,
+"""hri_sync.clock.skew: clock errors from true-time samples, start skew,
 percentiles."""
 
 import math
 
 import pytest
 
-from hri_sync.timing.skew import (ClientTiming, client_timing, percentiles,
-                                  start_skew)
+from hri_sync.clock.skew import (ClientTiming, client_timing, percentiles,
+                                 start_skew)
 
 
 def test_clock_error_is_the_minimum_over_the_first_samples():

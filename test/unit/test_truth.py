@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from hri_sync.timing.truth import true_time, realtime, wait_until
+from hri_sync.clock.truth import true_time, realtime, wait_until
 
 SRC = os.path.join(os.path.dirname(__file__), '..', '..', 'src')
 
@@ -19,7 +19,7 @@ def test_host_time_is_the_system_clock():
 @pytest.mark.skipif(shutil.which('faketime') is None,
                     reason='faketime is not installed')
 def test_host_time_bypasses_libfaketime():
-    code = ('import time; from hri_sync.timing.truth import true_time; '
+    code = ('import time; from hri_sync.clock.truth import true_time; '
             'print(true_time() - time.time())')
     out = subprocess.run(
         ['faketime', '-f', '+100s', sys.executable, '-c', code],

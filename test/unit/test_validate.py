@@ -1,4 +1,4 @@
-"""hri_sync.timing.validate: every incoming message type's boundary check."""
+"""hri_sync.wire.validate: every incoming message type's boundary check."""
 import dataclasses
 import inspect
 import math
@@ -7,8 +7,8 @@ import re
 
 import pytest
 
-from hri_sync.timing import validate as v
-from hri_sync.timing.validate import Context, Limits, Rejected
+from hri_sync.wire import validate as v
+from hri_sync.wire.validate import Context, Limits, Rejected
 
 NOW = 1_700_000_000.0
 CTX = Context(now=NOW, local_now=NOW - 2.0, round=5)

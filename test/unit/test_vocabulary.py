@@ -1,4 +1,4 @@
-"""hri_sync.timing.vocabulary: one protocol vocabulary and one set of
+"""hri_sync.wire.vocabulary: one protocol vocabulary and one set of
 defaults, checked against msg/*.msg, every module and the launch files."""
 import ast
 import glob
@@ -8,7 +8,7 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from hri_sync.timing import vocabulary as v
+from hri_sync.wire import vocabulary as v
 
 ROOT = os.path.join(os.path.dirname(__file__), '..', '..')
 CONSTANT = re.compile(r'^\s*(\w+)\s+([A-Z_][A-Z0-9_]*)\s*=\s*(\S+)')
@@ -114,7 +114,7 @@ def test_no_module_spells_out_a_protocol_word():
                 or text.startswith('#!/usr/bin/python'):
             bad += ['%s:%d: %r' % (os.path.relpath(path, ROOT), line, word)
                     for line, word in spelled_out(ast.parse(text))]
-    assert not bad, 'use hri_sync.timing.vocabulary:\n' + '\n'.join(bad)
+    assert not bad, 'use hri_sync.wire.vocabulary:\n' + '\n'.join(bad)
 
 
 def test_the_scan_finds_a_spelled_out_word():

@@ -1,6 +1,7 @@
 """The dance-off: motion, joints, expressiveness and verification.
 
-Contract: builds on ``hri_sync.timing`` only.  ``bvh`` and ``motion`` load
+Contract: builds on the layers below it only (``wire``, ``decision``,
+...).  ``bvh`` and ``motion`` load
 CMU motion capture into 15-joint ``Motion`` clips, ``skeleton_source``
 replays them as a sensor would (noise, drops, NaN joints),
 ``expressiveness`` is the DPM processor that scores a window, and

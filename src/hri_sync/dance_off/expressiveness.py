@@ -44,10 +44,10 @@ import numpy as np
 from hri_sync.dance_off.joints import NUM_JOINTS
 from hri_sync.people.participant import (PARTICIPANT, ParticipantSelector,
                                          Zone)
-from hri_sync.timing.processors import Processor, ProcessResult
+from hri_sync.data_process.processors import Processor, ProcessResult
 
 if TYPE_CHECKING:
-    from hri_sync.timing.processors import Frame
+    from hri_sync.data_process.processors import Frame
 
 DEFAULT_MIN_CONFIDENCE = 0.5
 # |second difference| histogram of the jitter floor: log bins, 1e-6..1 m.

@@ -3,7 +3,7 @@
 This list is the one place joint names live; ``Skeleton.msg`` carries the
 matching index constants (a unit test checks they agree).
 """
-from hri_sync.timing.vocabulary import NUM_JOINTS  # noqa: F401 (one count)
+from hri_sync.wire.vocabulary import NUM_JOINTS  # noqa: F401 (one count)
 
 JOINTS = (
     'head', 'neck', 'torso',

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 from hri_sync.dance_off.frames import skeleton_point
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
-from hri_sync.timing.decision import WINNER
+from hri_sync.decision.rule import WINNER
 
 BONES = tuple((INDEX[a], INDEX[b]) for a, b in (
     ('head', 'neck'), ('neck', 'left_shoulder'), ('neck', 'right_shoulder'),

@@ -15,10 +15,10 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from hri_sync.timing.decision import (ABORTED, DEFAULT_NOISE_FACTOR,
-                                     THRESHOLD, USABLE, decide)
+from hri_sync.decision.rule import (ABORTED, DEFAULT_NOISE_FACTOR, THRESHOLD,
+                                    USABLE, decide)
 from hri_sync.dance_off.expressiveness import SkeletonExpressiveness
-from hri_sync.timing.processors import Frame
+from hri_sync.data_process.processors import Frame
 
 REL_TOL = 1e-6
 ABS_TOL = 1e-9

@@ -43,7 +43,7 @@ from hri_sync.people.joint_maps import (FROM_HUMAN_DESCRIPTION, FROM_K4ABT,
                                         to_skeleton_frame)
 from hri_sync.people.participant import body_point
 
-MAX_COORDINATE = 100.0       # m, as hri_sync.timing.validate.Limits
+MAX_COORDINATE = 100.0       # m, as hri_sync.wire.validate.Limits
 SAME_PLACE = 0.25            # m: a new id this close to an old one: a jump
 
 

@@ -1,6 +1,6 @@
 """DJ Rob: the robot's side of a round, plain Python with no ROS.
 
-Contract: imports nothing from ``hri_sync`` above ``hri_sync.timing``, no
+Contract: imports nothing from ``hri_sync`` above ``hri_sync.dance_off``, no
 rospy, and reads no clock (callers pass times or clocks).  Its modules,
 lowest first (each imports only those before it): ``geometry`` (angles,
 quaternion <-> yaw, the odometry transform), ``kobuki`` (the base: its

@@ -29,8 +29,8 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, NamedTuple, Optional, Tuple
 
-from hri_sync.timing.health import ERROR, OK, WARN, Health, text
-from hri_sync.timing.vocabulary import Action, ActionEnd, Outcome
+from hri_sync.wire.health import ERROR, OK, WARN, Health, text
+from hri_sync.wire.vocabulary import Action, ActionEnd, Outcome
 
 TOLERANCE = 0.005        # s, default: a start later than this is LATE
 # s, defaults of an action's `timeout`: no end this long after its start

@@ -42,7 +42,7 @@ from typing import NamedTuple, Optional, Tuple
 from hri_sync.robot import choreography as ch
 from hri_sync.robot.geometry import relative_pose, wrap_angle
 from hri_sync.robot.kobuki import LED_BLACK, ZERO, Limits, Twist
-from hri_sync.timing.vocabulary import Outcome
+from hri_sync.wire.vocabulary import Outcome
 
 WINNER, NO_WINNER, TIE, ABORTED = OUTCOMES = Outcome.ALL
 DANCE, GESTURE = 'dance', 'gesture'

@@ -4,7 +4,7 @@ trust what it is doing.
 No ROS and no clock reading of its own: a :class:`Watchdog` is given its
 local clock (``clock()``: s, the clock the robot's commands and receipts
 are timed by) and the robot's global clock model (``clock_model()``: a
-``hri_sync.timing.clock.ClockModel``, or None before any), and judges
+``hri_sync.clock.model.ClockModel``, or None before any), and judges
 what ``nodes/turtlebot_gesture`` feeds it.  Before every velocity command
 the node calls :meth:`Watchdog.check`; a :class:`Trip` it returns means:
 publish zero now and end the motion.  The conditions, each with its
@@ -45,8 +45,8 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 from hri_sync.robot.geometry import wrap_angle
-from hri_sync.timing.health import ERROR, OK, WARN, Health
-from hri_sync.timing.vocabulary import MAX_UNCERTAINTY
+from hri_sync.wire.health import ERROR, OK, WARN, Health
+from hri_sync.wire.vocabulary import MAX_UNCERTAINTY
 
 CLOCK_DEAD, ODOM_STALE, BASE_LAGGING = 'clock_dead', 'odom_stale', \
     'base_lagging'

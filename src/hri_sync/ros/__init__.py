@@ -1,11 +1,8 @@
 """The ROS shell: what the executables in nodes/ share.
 
-Contract: the only subpackage that imports rospy.  ``params`` reads
-``~params`` with checks and holds the polled waits that work under
-libfaketime, ``synced_clock`` keeps a host's global clock against the time
-server and publishes its ``ClockState`` (``clock_state``: the one
-ClockState <-> ClockModel conversion), ``client_process`` is the CPM on
-ROS, ``round_log`` records what each round put on the wire,
+Contract: with each module's ``ros_*.py`` shells, the only code that
+imports rospy.  ``params`` reads ``~params`` with checks and holds the
+polled waits that work under libfaketime, ``round_log`` records what each round put on the wire,
 ``master_watch`` (started by ``params.run_node`` for every node) ends a
 node for respawn when the ROS master restarted, ``diagnostics``
 publishes the core's health checks on /diagnostics, ``names`` resolves

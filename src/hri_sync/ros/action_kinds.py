@@ -37,7 +37,7 @@ from rospy.impl.validators import ParameterInvalid
 from hri_sync.robot.actions import ActionFailed, Begun, Ending
 from hri_sync.ros.outbox import Publisher, Unsendable, check_sendable
 from hri_sync.ros.params import stamp, wait_for
-from hri_sync.timing.vocabulary import Action
+from hri_sync.wire.vocabulary import Action
 
 
 def type_class(getter, type_name, what):

@@ -1,6 +1,6 @@
 """A node's health on /diagnostics, through diagnostic_updater.
 
-The statuses are computed by ``hri_sync.timing.health`` from plain values;
+The statuses are computed by ``hri_sync.wire.health`` from plain values;
 this module only publishes them.  ``NodeDiagnostics`` owns a
 ``diagnostic_updater.Updater`` (hardware id: the client id, or 'server'),
 publishes every ``~diagnostic_period`` s (default 1) from a thread that
@@ -10,7 +10,7 @@ of a change of a round tally it watches (``add_tally``).  Each status is named
 
 ``clock_check`` is the status of a ``SyncedClock``, ``HostClockCheck``
 that of the host's system clock against the time server (its last SNTP
-burst, chrony's estimate, the model's offset: ``timing.host_clock``),
+burst, chrony's estimate, the model's offset: ``clock.host_clock``),
 ``ClockStateWatch``
 that of a clock read from a ClockState topic; ``round_diagnostics`` makes
 a node's ``clock`` and ``rounds`` statuses, ``ProcessDiagnostics`` the
@@ -26,14 +26,15 @@ import time
 import diagnostic_updater
 import rospy
 
-from hri_sync.ros.clock_state import model_from_msg
+from hri_sync.clock.ros_clock_state import model_from_msg
 from hri_sync.ros.names import protocol_topic
 from hri_sync.ros.outbox import closed_at_shutdown
 from hri_sync.ros.params import param, positive
-from hri_sync.timing import host_clock
-from hri_sync.timing.health import (ERROR, DecisionTally, RateMeter,
-                                    RejectionWatch, clock_health,
-                                    clock_state_health, result_tally)
+from hri_sync.clock import host_clock
+from hri_sync.clock.health import clock_health, clock_state_health
+from hri_sync.data_process.health import result_tally
+from hri_sync.decision.health import DecisionTally
+from hri_sync.wire.health import ERROR, RateMeter, RejectionWatch
 
 POLL = 0.05  # s between two looks at a pending update
 STALE_STATE = 20.0  # s: a ClockState older than this is overdue (a CPM

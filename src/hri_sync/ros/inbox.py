@@ -9,7 +9,7 @@ admitted in three steps, and counted per (topic, reason) when it is not:
    capture orders, only client X's CPM ACKs for X and orders X's DPM,
    only X's DPM (or its CPM, for a late window) reports X's result, only
    X's sensor feeds X's DPM, only the DM decides);
-2. the content: ``hri_sync.timing.validate`` against the receiver's
+2. the content: ``hri_sync.wire.validate`` against the receiver's
    ``Context`` (its global now, the round in progress);
 3. the callback: an exception is caught, logged with its traceback once
    (then throttled, with a count) and counted; it never kills the node.
@@ -29,8 +29,8 @@ import genpy
 import rospy
 
 from hri_sync.ros.names import system_namespace
-from hri_sync.timing import validate
-from hri_sync.timing.validate import Context, Rejected
+from hri_sync.wire import validate
+from hri_sync.wire.validate import Context, Rejected
 
 # Who may publish what: a role's node names, relative to the system
 # namespace (hri_sync.ros.names); '{client}' is the client id.

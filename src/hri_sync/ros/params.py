@@ -12,7 +12,7 @@ from std_msgs.msg import Header
 from hri_sync.ros import master_watch, unique
 from hri_sync.ros.lifeline import die_with_parent
 from hri_sync.ros.rpc_server import stop_serving_at_shutdown
-from hri_sync.timing.validate import Rejected, time_value
+from hri_sync.wire.validate import Rejected, time_value
 
 
 class ParamError(Exception):
@@ -164,7 +164,7 @@ class StampError(ValueError):
     """A time that must not be published: not finite, not positive or
     beyond the last ROS time (rospy cannot serialise it, and a publisher
     that tries corrupts its link for good).  ``reason`` is the key of
-    hri_sync.timing.validate."""
+    hri_sync.wire.validate."""
 
     def __init__(self, reason, message):
         super().__init__(message)

@@ -9,10 +9,10 @@ import rospkg
 import rospy
 
 from hri_sync.msg import ClockState
-from hri_sync.ros.clock_state import model_from_msg
+from hri_sync.clock.ros_clock_state import model_from_msg
 from hri_sync.ros.inbox import Inbox
 from hri_sync.ros.params import ParamError, param
-from hri_sync.timing.validate import Context
+from hri_sync.wire.validate import Context
 
 
 def data_file(name, what):

@@ -7,7 +7,7 @@ import rospy
 from hri_sync.msg import CaptureData, ClientResult, Decision, SyncAck
 from hri_sync.ros.names import client_topic, protocol_topic
 from hri_sync.tools.round_summary import frames_brought
-from hri_sync.timing.protocol import Capture
+from hri_sync.wire.protocol import Capture
 
 
 def truth_of(msg):

@@ -14,9 +14,9 @@ from nav_msgs.msg import Odometry
 
 from hri_sync.msg import ActionStart, CaptureData, ClockState, Decision
 from hri_sync.robot.geometry import yaw_of
-from hri_sync.ros.clock_state import model_from_msg
+from hri_sync.clock.ros_clock_state import model_from_msg
 from hri_sync.ros.names import protocol_topic
-from hri_sync.timing.protocol import Capture
+from hri_sync.wire.protocol import Capture
 from hri_sync.tools.unison import heading_spreads, start_skews
 
 

@@ -2,7 +2,7 @@
 
 No ROS: each module turns one message type into a physical result of a
 capture window, validates each message at the boundary (``check`` raises
-``hri_sync.timing.validate.Rejected`` with a reason the DPM counts) and
+``hri_sync.wire.validate.Rejected`` with a reason the DPM counts) and
 reads its messages by attribute, so tests feed plain objects.
 
 - ``image.ImageMotion``: sensor_msgs/Image, motion energy;
@@ -12,5 +12,5 @@ reads its messages by attribute, so tests feed plain objects.
 - ``audio.AudioLevel``: hri_sync/AudioChunk, level and voice activity;
 - ``generic.HeaderCount``: any message with a std_msgs/Header, counted.
 
-Imports ``hri_sync.timing`` only.
+Imports the layers below it only (``wire``, ``data_process``, ...).
 """

@@ -10,8 +10,8 @@ import wave
 import numpy as np
 
 from hri_sync.sensors.base import HeaderStamped
-from hri_sync.timing.processors import ProcessResult
-from hri_sync.timing.validate import Rejected
+from hri_sync.data_process.processors import ProcessResult
+from hri_sync.wire.validate import Rejected
 
 FULL_SCALE = 32768.0
 FLOOR_DBFS = -120.0     # the level of digital silence

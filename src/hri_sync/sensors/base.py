@@ -1,8 +1,8 @@
 """What the stock sensor processors share: header stamps and checks."""
 import math
 
-from hri_sync.timing.processors import Processor
-from hri_sync.timing.validate import Rejected
+from hri_sync.data_process.processors import Processor
+from hri_sync.wire.validate import Rejected
 
 
 def seconds(t):

@@ -1,6 +1,6 @@
 """Any message with a std_msgs/Header: captured, recorded and counted."""
 from hri_sync.sensors.base import HeaderStamped
-from hri_sync.timing.processors import ProcessResult
+from hri_sync.data_process.processors import ProcessResult
 
 
 class HeaderCount(HeaderStamped):

@@ -8,8 +8,8 @@ no reading), either byte order (``is_bigendian``).
 import numpy as np
 
 from hri_sync.sensors.base import HeaderStamped
-from hri_sync.timing.processors import ProcessResult
-from hri_sync.timing.validate import Rejected
+from hri_sync.data_process.processors import ProcessResult
+from hri_sync.wire.validate import Rejected
 
 # encoding: (dtype, channels, scale to the result's unit, depth?)
 ENCODINGS = {

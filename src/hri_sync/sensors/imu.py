@@ -4,8 +4,8 @@ import math
 import numpy as np
 
 from hri_sync.sensors.base import HeaderStamped, xyz
-from hri_sync.timing.processors import ProcessResult
-from hri_sync.timing.validate import Rejected
+from hri_sync.data_process.processors import ProcessResult
+from hri_sync.wire.validate import Rejected
 
 MEASURES = ('acceleration', 'angular_rate')
 MAX_ACCELERATION = 2000.0   # m/s^2 (200 g): beyond any wearable's range

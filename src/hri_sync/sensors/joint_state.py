@@ -3,8 +3,8 @@ a person's joint angles or a robot's)."""
 import math
 
 from hri_sync.sensors.base import HeaderStamped, finite
-from hri_sync.timing.processors import ProcessResult
-from hri_sync.timing.validate import Rejected
+from hri_sync.data_process.processors import ProcessResult
+from hri_sync.wire.validate import Rejected
 
 SOURCES = ('position', 'velocity')
 MAX_JOINTS = 1024

@@ -15,8 +15,8 @@ from collections import deque
 import numpy as np
 
 from hri_sync.sensors.base import HeaderStamped, finite
-from hri_sync.timing.processors import ProcessResult
-from hri_sync.timing.validate import Rejected
+from hri_sync.data_process.processors import ProcessResult
+from hri_sync.wire.validate import Rejected
 
 # hri_sync/LslSample kinds (the message's constants).
 DATA, TICK, LOST, CLOCK_RESET, RECOVERED = range(5)

@@ -17,7 +17,7 @@ from hri_sync.dance_off.expressiveness import (DEFAULT_MIN_CONFIDENCE,
                                                expressiveness)
 from hri_sync.dance_off.joints import NUM_JOINTS
 from hri_sync.dance_off import verify
-from hri_sync.timing.skew import client_timing, percentiles, start_skew
+from hri_sync.clock.skew import client_timing, percentiles, start_skew
 from hri_sync.tools.robot_check import check_robot, deg, poses
 from hri_sync.tools.session import (field_or_nan, secs, server_clock,
                                     stamp_of)
@@ -565,3 +565,28 @@ def missing_sections(session):
             out.append({'section': section,
                         'reason': 'the recording has no %s' % needs})
     return out
+
+
+def robot_lines(session, tolerance):
+    """(lines, ok) of DJ Rob's behaviour after each decided round."""
+    if not has_robot(session):
+        return ['robot: no DJ Rob in this recording (no /odom, commands '
+                'or its clock): not checked'], True
+    clock = server_clock(session)
+    pose_list = poses(session.odom)
+    bearings, distance, source = robot_places(session.config)
+    lines = ['robot: participants at %s deg, %.2f m (%s); tolerance %.1f '
+             'deg' % (', '.join('%+.1f' % b for b in bearings), distance,
+                      source, tolerance)]
+    ok = True
+    for n in sorted(session.rounds):
+        chk = check_round_robot(session, session.rounds[n], clock,
+                                         pose_list, tolerance)
+        if chk is None:
+            continue
+        lines.append('%5d robot: expected to %s%s: %s' % (
+            n, chk.expected, ' (%s)' % chk.note if chk.note and chk.ok
+            is not None else '', chk.verdict))
+        if chk.ok is False:
+            ok = False
+    return lines, ok

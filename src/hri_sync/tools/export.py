@@ -21,7 +21,7 @@ import os
 import numpy as np
 
 from hri_sync.dance_off.joints import JOINTS
-from hri_sync.timing.capture import GAP_PERIODS
+from hri_sync.data_process.capture import GAP_PERIODS
 from hri_sync.tools.analysis import (_min_confidence, _window,
                                      skeleton_arrays)
 from hri_sync.tools.session import secs

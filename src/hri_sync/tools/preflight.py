@@ -9,7 +9,7 @@ device-clock fit from its ``/diagnostics``; the number of the robot's
 turns that into a ``Report``: one line per client and the verdict, no-go
 naming every reason.
 
-The host clocks (``hri_sync.timing.host_clock``, docs/host_clocks.md):
+The host clocks (``hri_sync.clock.host_clock``, docs/host_clocks.md):
 the system clock of preflight's own host (that SNTP burst, chrony's
 estimate) and of each client's (its CPM's ``host_clock`` status on
 /diagnostics, else its clock model's offset) against the time server, one
@@ -21,9 +21,9 @@ clock), above ``system_clock_error`` too unless ``system_clock_no_go``.
 import math
 from dataclasses import dataclass, field
 
-from hri_sync.timing import host_clock as hostclock
-from hri_sync.timing.health import ERROR, LEVEL_NAMES, OK
-from hri_sync.timing.vocabulary import MAX_UNCERTAINTY
+from hri_sync.clock import host_clock as hostclock
+from hri_sync.wire.health import ERROR, LEVEL_NAMES, OK
+from hri_sync.wire.vocabulary import MAX_UNCERTAINTY
 
 
 @dataclass

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from hri_sync.robot.choreography import target_heading
 from hri_sync.robot.geometry import (relative_pose, wrap_angle,
                                      wrap_degrees, yaw_of)
-from hri_sync.timing.vocabulary import Outcome
+from hri_sync.wire.vocabulary import Outcome
 
 WINNER = Outcome.WINNER
 STILL_LINEAR = 0.01         # m: more is motion

@@ -1,8 +1,8 @@
 """Plain-text round reports (no ROS): offsets, clock errors, start skew."""
 import math
 
-from hri_sync.timing.protocol import Capture
-from hri_sync.timing.skew import client_timing, start_skew
+from hri_sync.wire.protocol import Capture
+from hri_sync.clock.skew import client_timing, start_skew
 
 
 def _ms(x, signed=True):

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import yaml
 
-from hri_sync.timing.vocabulary import RoundState
+from hri_sync.wire.vocabulary import RoundState
 
 ROUND_ABORTED = RoundState.ABORTED
 

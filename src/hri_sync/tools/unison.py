@@ -12,7 +12,7 @@ import bisect
 import math
 
 from hri_sync.robot.geometry import wrap_angle
-from hri_sync.timing.skew import percentiles
+from hri_sync.clock.skew import percentiles
 
 
 def start_skews(starts, robots):

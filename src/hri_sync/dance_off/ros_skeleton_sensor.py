@@ -1,0 +1,280 @@
+"""A skeleton sensor on ROS: clips or a recording, on the global clock.
+
+The executable is ``nodes/skeleton_sensor``.
+"""
+import math
+import os
+import time
+
+import numpy as np
+import rospkg
+import rospy
+from geometry_msgs.msg import Point, Quaternion
+
+from hri_sync.dance_off.joints import NUM_JOINTS
+from hri_sync.dance_off.motion import MODES, load_motion
+from hri_sync.msg import CaptureData, ClockState, Skeleton
+from hri_sync.people.participant import numbers
+from hri_sync.clock.ros_clock_state import model_from_msg
+from hri_sync.ros.inbox import Inbox
+from hri_sync.ros.names import protocol_topic
+from hri_sync.ros.bags import read_skeletons
+from hri_sync.ros.outbox import Publisher
+from hri_sync.ros.params import ParamError, param, positive, stamp
+from hri_sync.wire.protocol import Capture
+from hri_sync.wire.validate import Context
+from hri_sync.dance_off.skeleton_source import (Perturbation, SkeletonSource,
+                                                replay_schedule, tick_times)
+
+
+def resolve_motion(name):
+    """A motion path as given, or a clip in the package's data/motion/."""
+    if os.path.exists(name):
+        return name
+    folder = os.path.join(rospkg.RosPack().get_path('hri_sync'), 'data',
+                          'motion')
+    for candidate in (name, name + '.npz'):
+        path = os.path.join(folder, candidate)
+        if os.path.exists(path):
+            return path
+    raise ParamError('~motion %r: no such file, nor a clip in %s'
+                     % (name, folder))
+
+
+class SkeletonSensor:
+    """The ROS shell around SkeletonSource / a recorded stream."""
+
+    def __init__(self):
+        # Over 80 lines: every ~param of the sensor read and checked in turn
+        # (source, motion, noise, drops, recording), then its topics.
+        self.client_id = param('client_id', None, str, bool, 'a client id')
+        # In NS/<client_id>/ (hri_sync.ros.names): publishes skeleton,
+        # reads clock_state, both remappable.
+        if rospy.has_param('~topic'):
+            raise ParamError('~topic is gone: remap the topic, skeleton:=%s'
+                             % rospy.get_param('~topic'))
+        self.topic = rospy.resolve_name('skeleton')
+        self.rate = param('rate', 20.0, float, positive, '> 0 Hz')
+        phase = param('phase', -1.0, float,
+                      lambda p: p < 1.0 / self.rate,
+                      '< 1/rate s; negative: random')
+        self.seed = param('seed', -1, int)
+        self.rng = np.random.default_rng(None if self.seed < 0 else self.seed)
+        self.phase = phase if phase >= 0 else \
+            self.rng.uniform(0, 1 / self.rate)
+        start_param = param('start_param', '', str)
+        if start_param:
+            # A relative name is looked up the namespace (the system's).
+            key = start_param if start_param.startswith('/') else \
+                rospy.search_param(start_param)
+            if not key or not rospy.has_param(key):
+                raise ParamError('~start_param names %s, which is not set'
+                                 % start_param)
+            rospy.set_param('~start', rospy.get_param(key))
+        start = param('start', 0.0, float, math.isfinite, 'epoch s')
+        self.start = start if start > 0 else time.time()
+        bag = param('bag', '', str)
+        self.drop = param('drop', 0.0, float, lambda p: 0 <= p < 1,
+                          'within [0, 1)')
+        self.noise = param('noise', 0.0 if bag else 0.003, float,
+                           lambda x: x >= 0, '>= 0 m')
+        self.nan_joints = param('nan_joints', 0.0, float,
+                                lambda p: 0 <= p <= 1, 'within [0, 1]')
+        self.stop_after = param('stop_after', -1.0, float)
+        self.stop_from = param('stop_from', 'start', str,
+                               lambda f: f in ('start', 'window'),
+                               "'start' or 'window'")
+        self.window_start = None     # global, the first window's start
+        self.user_id = param('user_id', 1, int, lambda u: u >= 0, '>= 0')
+        self.frame_id = param('frame_id', self.client_id + '_sensor', str)
+        self.bystander = None
+        clip = param('bystander', '', str)
+        if clip:
+            try:
+                self.bystander = SkeletonSource(
+                    load_motion(resolve_motion(clip)), noise=self.noise,
+                    speed=param('bystander_speed', 1.0, float, positive,
+                                '> 0'),
+                    seed=int(self.rng.integers(1 << 31)))
+            except ValueError as e:
+                raise ParamError('~bystander: %s' % e)
+        self.bystander_id = param('bystander_user_id', self.user_id + 1, int,
+                                  lambda u: u >= 0 and u != self.user_id,
+                                  '>= 0, not ~user_id')
+        self.shift = self.vector('bystander_shift')
+        self.step_shift = self.vector('bystander_step_shift')
+        self.step_after = param('bystander_step_after', -1.0, float)
+        if bag:
+            self.recorded, self.rel, bag_topic = read_skeletons(
+                bag, param('bag_topic', '', str))
+            self.perturb = Perturbation(
+                self.noise, self.drop,
+                seed=self.seed if self.seed >= 0 else None)
+            source = '%s (%s, %d frames, %.1f s)' % (
+                bag, bag_topic, len(self.recorded), self.rel[-1])
+            self.source = None
+        else:
+            path = resolve_motion(param('motion', None, str, bool,
+                                        'a BVH/.npz/.track file or clip'))
+            hold = param('hold', -1.0, float)
+            try:
+                motion = load_motion(path)
+                self.source = SkeletonSource(
+                    motion, noise=self.noise, drop=self.drop,
+                    speed=param('speed', 1.0, float, positive, '> 0'),
+                    hold=hold if hold >= 0 else None,
+                    offset=param('offset', 0.0, float),
+                    mode=param('mode', 'pingpong', str,
+                               lambda m: m in MODES, ' or '.join(MODES)),
+                    confidence=param('confidence', 1.0, float,
+                                     lambda c: 0 <= c <= 1, 'within 0..1'),
+                    seed=(self.seed if self.seed >= 0
+                          else int(self.rng.integers(1 << 31))))
+            except ValueError as e:     # BvhError included: names the file
+                raise ParamError(str(e))
+            source = '%s (%.1f s at %.0f Hz%s)' % (
+                path, motion.duration, motion.rate,
+                ', held at %.2f s' % hold if hold >= 0 else '')
+        self.clock = None
+        self.pub = Publisher(self.topic, Skeleton, queue_size=100,
+                             tcp_nodelay=True)
+        # The clock model only from this client's CPM, valid at our now.
+        self.inbox = Inbox()
+        self.inbox.subscribe('clock_state', ClockState,
+                             self.on_clock, 'cpm', client=self.client_id,
+                             context=lambda: Context(local_now=time.time()))
+        if (self.stop_after >= 0 or self.step_after >= 0) and \
+                self.stop_from == 'window':
+            self.inbox.subscribe(protocol_topic('capture_data'), CaptureData,
+                                 self.on_capture, 'cm',
+                                 context=self.global_context)
+        rospy.loginfo('%s: %s on %s at %.1f Hz, phase %.1f ms, start %.3f '
+                      '(in %.1f s), noise %.1f mm, drop %.2f',
+                      rospy.get_name(),
+                      source, self.topic, self.rate, self.phase * 1e3,
+                      self.start, self.start - time.time(),
+                      self.noise * 1e3, self.drop)
+
+    def on_clock(self, msg):
+        try:
+            self.clock = model_from_msg(msg)
+        except ValueError as e:     # keeps the last good model
+            rospy.logwarn_throttle(10, '%s: %s', rospy.get_name(), e)
+
+    def global_context(self):
+        """This client's global now (unknown before its clock state)."""
+        clock = self.clock
+        return Context(now=clock.to_global(time.time()) if clock else None)
+
+    @staticmethod
+    def vector(name):
+        """~name as an (x, y, z) offset in m (default none)."""
+        v = param(name, [0.0, 0.0, 0.0], numbers, lambda v: len(v) == 3 and
+                  all(math.isfinite(x) for x in v), '[dx, dy, dz] m')
+        return np.array(v, dtype=float)
+
+    def on_capture(self, msg):
+        if self.window_start is None:
+            self.window_start = Capture.from_msg(msg).start
+            rospy.loginfo('%s: first window at %.3f (~stop_from window)',
+                          rospy.get_name(), self.window_start)
+
+    def after(self, t, delay):
+        """True from ``delay`` s (< 0: never) after ~stop_from, at host
+        time t."""
+        if delay < 0:
+            return False
+        if self.stop_from == 'start':
+            return t >= self.start + delay
+        clock, start = self.clock, self.window_start
+        return (start is not None and clock is not None
+                and clock.to_global(t) >= start + delay)
+
+    def silent(self, t):
+        """True from ~stop_after s after ~stop_from, at host time t."""
+        return self.after(t, self.stop_after)
+
+    @staticmethod
+    def skeleton(frames, shift=None):
+        """The first of SensorFrames ``frames`` as a Skeleton."""
+        pos = frames.positions[0] + (0.0 if shift is None else shift)
+        return Skeleton(positions=[Point(*p) for p in pos],
+                        orientations=[Quaternion(*q)
+                                      for q in frames.orientations[0]],
+                        confidence=frames.confidence[0].tolist())
+
+    def publish(self, t, msg, user_id=None):
+        """Stamp and send a frame taken at host time ``t``, then the
+        bystander's of that instant."""
+        msg.client_id = self.client_id
+        msg.user_id = self.user_id if user_id is None else user_id
+        msg.device_stamp = stamp(t)
+        msg.header.frame_id = self.frame_id
+        clock = self.clock
+        msg.header.stamp = stamp(clock.to_global(t) if clock else t)
+        if self.nan_joints > 0:
+            for j in np.flatnonzero(self.rng.random(NUM_JOINTS)
+                                    < self.nan_joints):
+                msg.positions[j] = Point(math.nan, math.nan, math.nan)
+        self.pub.publish(msg)
+        if user_id is None and self.bystander is not None:
+            shift = self.step_shift if self.after(t, self.step_after) \
+                else self.shift
+            frames = self.bystander.frames([t], self.start)
+            self.publish(t, self.skeleton(frames, shift), self.bystander_id)
+
+    @staticmethod
+    def sleep_until(t):
+        while not rospy.is_shutdown():
+            delay = t - time.time()
+            if delay <= 0:
+                return True
+            time.sleep(min(delay, 0.2))
+        return False
+
+    def run_motion(self):
+        period = 1.0 / self.rate
+        tick = tick_times(self.start, self.phase, self.rate, time.time(),
+                          time.time() + 2 * period)[0]
+        while self.sleep_until(tick):
+            if self.silent(tick):
+                rospy.logwarn('%s: stopped sending (~stop_after)',
+                              rospy.get_name())
+                rospy.spin()
+                return
+            frames = self.source.frames([tick], self.start)
+            if frames.stamps.size:
+                self.publish(tick, self.skeleton(frames))
+            tick += period
+            if tick < time.time():   # overloaded: skip ahead, keep the phase
+                tick += math.ceil((time.time() - tick) / period) * period
+
+    def run_bag(self):
+        origin = self.start + self.phase
+        now = time.time()
+        for rel, index in replay_schedule(self.rel):
+            t = origin + rel
+            if t < now:
+                continue
+            if not self.sleep_until(t):
+                return
+            if self.silent(t):
+                rospy.logwarn('%s: stopped sending (~stop_after)',
+                              rospy.get_name())
+                rospy.spin()
+                return
+            if not self.perturb.kept(1)[0]:
+                continue
+            msg = self.recorded[index]
+            pos = self.perturb.jitter([(p.x, p.y, p.z)
+                                       for p in msg.positions])
+            out = Skeleton(positions=[Point(*p) for p in pos],
+                           orientations=list(msg.orientations),
+                           confidence=list(msg.confidence))
+            self.publish(t, out)
+
+    def run(self):
+        if self.source is None:
+            self.run_bag()
+        else:
+            self.run_motion()

@@ -1,0 +1,123 @@
+"""A client's noise floor: what its processor's value is when nothing moves.
+
+No ROS.  Two measures, both on this client's own sensor, combined by the
+DPM (``combine``) into the ``noise_floor`` of each ClientResult:
+
+- the window's own estimate (``ProcessResult.noise_floor``; for the
+  skeleton processor the white-jitter floor of
+  ``hri_sync.dance_off.expressiveness.JitterFloor``): what the sensor's
+  white noise alone adds, measured in the window whatever the person
+  does;
+- the quiet baseline (``QuietBaseline``, for processors whose value is a
+  level of activity, ``Processor.quiet_baseline``): the processor is run
+  over every ``chunk`` s stretch of the sensor's stream (a new stretch
+  every ``step`` s, inside and outside capture windows), and the lowest
+  value of the last ``span`` s is the level this sensor gives the
+  quietest the scene has been.  It sees what the jitter estimate cannot:
+  a tracker's smoothed (correlated) jitter and a standing person's sway.
+  It assumes nothing about when the scene is quiet, only that it was at
+  some moment of the span (between rounds, before the first).
+
+The floor is the larger of the two: each is a lower bound of what a still
+person would score on this sensor.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from typing import Any, Callable
+
+from hri_sync.data_process.processors import Frame, Processor
+
+DEFAULT_CHUNK = 1.0       # s
+DEFAULT_STEP = 0.25       # s
+DEFAULT_SPAN = 600.0      # s
+MIN_FILL = 0.9             # share of a chunk its samples must span
+
+
+class QuietBaseline:
+    """The lowest value of a processor over short stretches of a stream.
+
+    ``add(stamp, msg)`` every stamped sample (global s, in stamp order;
+    an earlier one is ignored).  A stretch [k step, k step + chunk) is
+    scored by a fresh processor from ``make_processor`` when a sample at
+    or past its end arrives; it counts when its samples span at least
+    ``MIN_FILL`` of it (a silent sensor's stretch does not) and its value
+    is finite.  ``level()`` is (lowest value of the stretches that ended
+    in the last ``span`` s, how many), (NaN, 0) before the first.
+    """
+
+    def __init__(self, make_processor: Callable[[], Processor],
+                 chunk: float = DEFAULT_CHUNK, step: float = DEFAULT_STEP,
+                 span: float = DEFAULT_SPAN) -> None:
+        for name, v in (('chunk', chunk), ('step', step), ('span', span)):
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError('noise floor %s must be > 0 s, got %r'
+                                 % (name, v))
+        self.make_processor = make_processor
+        self.chunk, self.step, self.span = chunk, step, span
+        # start -> [processor, first stamp, last stamp]
+        self._open: dict[int, list[Any]] = {}
+        self._values: deque[tuple[float, float]] = deque()  # (end, value)
+        self._last = -math.inf
+        self.errors = 0
+
+    def add(self, stamp: float, msg: Any) -> None:
+        if not (math.isfinite(stamp) and stamp > self._last):
+            return
+        self._last = stamp
+        for k in [k for k in self._open
+                  if k * self.step + self.chunk <= stamp]:
+            self._finish(k)
+        k = math.floor(stamp / self.step)
+        if k not in self._open:
+            try:
+                p = self.make_processor()
+                p.begin(k * self.step, k * self.step + self.chunk)
+            except Exception:  # a processor bug costs the baseline a stretch
+                self.errors += 1
+            else:
+                self._open[k] = [p, stamp, stamp]
+        for k, c in list(self._open.items()):
+            try:
+                c[0].add(Frame(stamp, msg))
+            except Exception:
+                self.errors += 1
+                del self._open[k]
+                continue
+            c[2] = stamp
+        while self._values and self._values[0][0] < stamp - self.span:
+            self._values.popleft()
+
+    def _finish(self, k: int) -> None:
+        p, first, last = self._open.pop(k)
+        if last - first < MIN_FILL * self.chunk:
+            return
+        try:
+            value = float(p.result().value)
+        except Exception:
+            self.errors += 1
+            return
+        if math.isfinite(value):
+            self._values.append((k * self.step + self.chunk, value))
+
+    def level(self) -> tuple[float, int]:
+        """(lowest value over the span, stretches it is the lowest of)."""
+        if not self._values:
+            return math.nan, 0
+        return min(v for _, v in self._values), len(self._values)
+
+
+def valid_floor(x: Any) -> bool:
+    """A usable noise floor: a finite number >= 0."""
+    try:
+        return math.isfinite(x) and x >= 0
+    except TypeError:
+        return False
+
+
+def combine(*floors: float) -> float:
+    """The largest of the usable floors (NaN when none is)."""
+    known = [float(f) for f in floors if valid_floor(f)]
+    return max(known) if known else math.nan
