@@ -99,3 +99,18 @@ def test_the_readme_shows_the_command_ci_runs():
     assert 'make test' in ci
     assert re.search(r'^\s+make test\b', (ROOT / 'README.md').read_text(),
                      flags=re.M)
+
+
+def test_figure_3_is_drawn_aligned():
+    """Every box line of architecture.md's Figure 3 has its borders in the
+    same columns as the box's top line (one character a column)."""
+    text = (ROOT / 'docs' / 'architecture.md').read_text()
+    block = text.split("## The paper's Figure 3 in the tree")[1]
+    block = block.split('```')[1]
+    lines = [l for l in block.splitlines() if l.strip()]
+    top = next(l for l in lines if '┌' in l)
+    corners = [i for i, c in enumerate(top) if c in '┌┐']
+    for line in lines[lines.index(top) + 1:]:
+        want = '└┘' if '└' in line else '│┼'
+        assert all(i < len(line) and line[i] in want for i in corners), (
+            'a border is out of its column: %r' % line)
