@@ -535,8 +535,8 @@ SECTIONS = [
     ('Clocks: offset, drift, uncertainty',
      'hri_sync/ClockState (/<client>/clock_state)',
      lambda s: bool(s.clock_states)),
-    ('NTP round trips', 'ClockState.round_trip (recorded by hri_sync '
-     'with the session report, issue 12)',
+    ('NTP round trips', 'ClockState.round_trip (in recordings '
+     'made since ClockState carries it)',
      lambda s: any(hasattr(r.msg, 'round_trip')
                    for v in s.clock_states.values() for r in v)),
     ('Error bound', 'per-window error bound in ClientResult/Decision '
