@@ -5,7 +5,7 @@
 #   lint     catkin_lint -W1 reports no error;
 #   launch   roslaunch-check passes on every launch file, and every arg
 #            a user can set (no value=) has a doc;
-#   mypy     the core packages (timing, dance_off; mypy.ini) type-check.
+#   mypy     the core packages (mypy.ini: wire, clock, ..., fusion) type-check.
 # Without a rosdep database (no `rosdep update`, or no network) rosdep and
 # catkin_lint use an offline one in .ws/rosdep: Debian's own list of the
 # ROS keys plus scripts/rosdep/system-keys.yaml for the system keys.

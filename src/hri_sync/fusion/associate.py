@@ -1,0 +1,142 @@
+"""The same person across views, under one id for the session.
+
+Each view's tracked user (a ``(view, user)`` key) is tied to a fused
+person. A key keeps its person while its skeleton stays within
+``keep_gate`` of that person's last fused body; a new key joins the
+nearest person within ``gate`` that no other key of the same view holds
+(so two people close together stay two), or starts a new person (so a
+person seen by one view only is still a person). Two persons whose
+bodies overlap (torsos within ``merge_gate``) for ``merge_after`` s while
+no view sees both are one: the younger id joins the older. A person seen
+by no view for ``forget_after`` s is dropped; ids are never reused.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Dict, Hashable, List, Optional, Tuple
+
+import numpy as np
+
+from hri_sync.dance_off.joints import INDEX
+
+Key = Tuple[str, Hashable]      # (view, user id)
+
+CORE = [INDEX[j] for j in ('neck', 'torso', 'left_shoulder',
+                           'right_shoulder', 'left_hip', 'right_hip')]
+
+
+def body_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Median distance (m) of the core joints both bodies have (all
+    joints when they share none); inf when they share no joint."""
+    d = np.linalg.norm(a - b, axis=1)
+    core = d[CORE][np.isfinite(d[CORE])]
+    if core.size:
+        return float(np.median(core))
+    d = d[np.isfinite(d)]
+    return float(np.median(d)) if d.size else np.inf
+
+
+@dataclass
+class Person:
+    """A fused person: last body, last time seen, when first seen."""
+
+    positions: np.ndarray
+    seen: float
+    born: float
+    overlap: Dict[int, float] = field(default_factory=dict)
+
+
+class Associator:
+    """Keys to person ids, instant by instant."""
+
+    def __init__(self, gate: float = 0.5, keep_gate: float = 0.8,
+                 merge_gate: float = 0.25, merge_after: float = 0.5,
+                 forget_after: float = 1.0) -> None:
+        self.gate = gate
+        self.keep_gate = keep_gate
+        self.merge_gate = merge_gate
+        self.merge_after = merge_after
+        self.forget_after = forget_after
+        self.persons: Dict[int, Person] = {}
+        self.owner: Dict[Key, int] = {}
+        self.next_id = 1
+        self.switches = 0          # keys moved from one person to another
+
+    def assign(self, t: float, bodies: Dict[Key, np.ndarray]
+               ) -> Dict[Key, int]:
+        """Person id of each key's body (15, 3) at instant ``t``."""
+        for pid in [p for p, person in self.persons.items()
+                    if t - person.seen > self.forget_after]:
+            del self.persons[pid]
+        out: Dict[Key, int] = {}
+        for key in sorted(bodies, key=str):
+            owner = self.owner.get(key)
+            if owner is not None and owner in self.persons and \
+                    body_distance(bodies[key],
+                                  self.persons[owner].positions) \
+                    <= self.keep_gate:
+                out[key] = owner
+        self._join(t, bodies, out)
+        for key, pid in out.items():
+            if self.owner.get(key, pid) != pid:
+                self.switches += 1
+            self.owner[key] = pid
+        return self._merge(t, bodies, out)
+
+    def _join(self, t: float, bodies: Dict[Key, np.ndarray],
+              out: Dict[Key, int]) -> None:
+        """New keys to the nearest free person within gate, or new ids."""
+        left = sorted((k for k in bodies if k not in out), key=str)
+        while left:
+            best: Optional[Tuple[float, Key, int]] = None
+            for key in left:
+                taken = {p for k, p in out.items() if k[0] == key[0]}
+                for pid, person in self.persons.items():
+                    if pid in taken:
+                        continue
+                    d = body_distance(bodies[key], person.positions)
+                    if d <= self.gate and (best is None or d < best[0]):
+                        best = (d, key, pid)
+            if best is None:
+                key, pid = left[0], self.next_id
+                self.next_id += 1
+                self.persons[pid] = Person(bodies[key].copy(), t, t)
+            else:
+                _, key, pid = best
+            out[key] = pid
+            left.remove(key)
+
+    def _merge(self, t: float, bodies: Dict[Key, np.ndarray],
+               out: Dict[Key, int]) -> Dict[Key, int]:
+        """Join persons that overlap long enough with no view in common."""
+        views: Dict[int, set] = {}
+        for key, pid in out.items():
+            views.setdefault(pid, set()).add(key[0])
+        ids = sorted(views)
+        for i, a in enumerate(ids):
+            for b in ids[i + 1:]:
+                pa, pb = self.persons[a], self.persons[b]
+                close = not (views[a] & views[b]) and body_distance(
+                    pa.positions, pb.positions) <= self.merge_gate
+                if not close:
+                    pa.overlap.pop(b, None)
+                    continue
+                since = pa.overlap.setdefault(b, t)
+                if t - since >= self.merge_after:
+                    old, young = (a, b) if pa.born <= pb.born else (b, a)
+                    out = {k: old if p == young else p
+                           for k, p in out.items()}
+                    self.owner.update(out)
+                    self.persons.pop(young, None)
+                    return self._merge(t, bodies, out)
+        return out
+
+    def update(self, pid: int, positions: np.ndarray, t: float) -> None:
+        """The person's fused body at ``t`` (the reference next time)."""
+        person = self.persons[pid]
+        keep = ~np.isfinite(positions).all(axis=1)
+        new = positions.copy()
+        new[keep] = person.positions[keep]
+        person.positions = new
+        person.seen = t

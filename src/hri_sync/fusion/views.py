@@ -1,0 +1,102 @@
+"""Each view's health as the fusion sees it.
+
+A view is ``stalled`` when no skeleton came for ``stall_after`` s (the
+fusion stops waiting for it), its clock is ``lost`` when its samples'
+stamp uncertainty is over ``max_uncertainty`` s (they are left out),
+``nan_joints`` counts skeletons with NaN joints in the last ``window`` s
+(those joints are left out), and ``wrong_pose`` is set by the
+calibration check (the view is down-weighted). The view's pipeline
+latency (arrival minus capture) is kept to know how long to wait for it.
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+from dataclasses import dataclass, field
+from typing import Deque, Dict, List, Tuple
+
+import numpy as np
+
+
+@dataclass
+class HealthParams:
+    """Fault thresholds."""
+
+    stall_after: float = 0.5        # s without a skeleton
+    max_uncertainty: float = 0.02   # s
+    window: float = 5.0             # s
+
+
+@dataclass
+class ViewHealth:
+    """What the fusion knows of one view."""
+
+    params: HealthParams
+    arrivals: int = 0
+    last_arrival: float = -math.inf
+    last_uncertainty: float = 0.0
+    latencies: Deque[float] = field(
+        default_factory=lambda: collections.deque(maxlen=100))
+    stamps: Deque[float] = field(
+        default_factory=lambda: collections.deque(maxlen=30))
+    nan_times: Deque[float] = field(default_factory=collections.deque)
+    wrong_pose: bool = False
+    rejected: Dict[str, int] = field(default_factory=dict)
+
+    def arrived(self, now: float, stamp: float, uncertainty: float,
+                nan_joints: int) -> None:
+        """A skeleton captured at ``stamp`` arrived at ``now``."""
+        self.arrivals += 1
+        self.last_arrival = now
+        self.last_uncertainty = uncertainty
+        self.latencies.append(now - stamp)
+        if not self.stamps or stamp > self.stamps[-1]:
+            self.stamps.append(stamp)
+        if nan_joints:
+            self.nan_times.append(now)
+
+    def reject(self, reason: str) -> None:
+        """Count a skeleton left out."""
+        self.rejected[reason] = self.rejected.get(reason, 0) + 1
+
+    def latency(self) -> float:
+        """p95 of arrival minus capture (s), 0 before any."""
+        return float(np.percentile(list(self.latencies), 95)) \
+            if self.latencies else 0.0
+
+    def period(self) -> float:
+        """Median interval between its stamps (s), 0 before two."""
+        return float(np.median(np.diff(list(self.stamps)))) \
+            if len(self.stamps) > 1 else 0.0
+
+    def stalled(self, now: float) -> bool:
+        """No skeleton for stall_after s (or none yet)."""
+        return now - self.last_arrival > self.params.stall_after
+
+    def clock_lost(self) -> bool:
+        """Its stamps are too uncertain to fuse."""
+        return self.last_uncertainty > self.params.max_uncertainty
+
+    def faults(self, now: float) -> List[Tuple[str, str]]:
+        """(fault, detail) of the view now; [] when healthy."""
+        while self.nan_times and now - self.nan_times[0] > \
+                self.params.window:
+            self.nan_times.popleft()
+        out = []
+        if self.arrivals == 0:
+            out.append(('no_data', 'no skeleton yet'))
+        elif self.stalled(now):
+            out.append(('stalled', 'no skeleton for %.1f s'
+                        % (now - self.last_arrival)))
+        if self.clock_lost():
+            out.append(('clock_lost', 'stamp uncertainty %.1f ms > %.1f ms'
+                        % (self.last_uncertainty * 1e3,
+                           self.params.max_uncertainty * 1e3)))
+        if self.nan_times:
+            out.append(('nan_joints', '%d skeletons with NaN joints in '
+                        '%.0f s' % (len(self.nan_times), self.params.window)))
+        if self.wrong_pose:
+            out.append(('wrong_pose', 'disagrees with every other view: '
+                        'down-weighted'))
+        return out

@@ -1,0 +1,184 @@
+"""hri_sync.fusion: frames, alignment, association, fusion, calibration."""
+import math
+
+import numpy as np
+import pytest
+
+from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
+from hri_sync.fusion.align import Sample, Track
+from hri_sync.fusion.associate import Associator
+from hri_sync.fusion.calibration import Residuals, refine_pose
+from hri_sync.fusion.frames import SensorPose, facing, parse_pose
+from hri_sync.fusion.fuse import FuseParams, Observation, fuse
+
+RNG = np.random.default_rng(36)
+
+
+def body(x=0.0, y=0.0):
+    """A standing body in world (REP 103, floor z = 0) at (x, y)."""
+    p = np.zeros((NUM_JOINTS, 3))
+    rows = {'head': (0, 1.6), 'neck': (0, 1.4), 'torso': (0, 1.2),
+            'left_shoulder': (0.2, 1.4), 'right_shoulder': (-0.2, 1.4),
+            'left_elbow': (0.3, 1.15), 'right_elbow': (-0.3, 1.15),
+            'left_hand': (0.35, 0.9), 'right_hand': (-0.35, 0.9),
+            'left_hip': (0.1, 0.9), 'right_hip': (-0.1, 0.9),
+            'left_knee': (0.1, 0.45), 'right_knee': (-0.1, 0.45),
+            'left_foot': (0.1, 0.05), 'right_foot': (-0.1, 0.05)}
+    for name, (dy, z) in rows.items():
+        p[INDEX[name]] = (x, y + dy, z)
+    return p
+
+
+def test_pose_round_trip_and_axes():
+    pose = facing(3.0, 0.0, 1.0)
+    # A point 2 m straight ahead of the sensor, 0.5 m to its right and
+    # 0.2 m up (Skeleton frame) is 1 m from the origin towards the sensor,
+    # 0.5 m towards +y (the sensor faces -x, its right is +y), 1.2 m up.
+    assert np.allclose(pose.to_world([0.5, 0.2, 2.0]), [1.0, 0.5, 1.2])
+    points = RNG.normal(size=(20, 3))
+    assert np.allclose(pose.to_world(pose.from_world(points)), points)
+
+
+def test_parse_pose():
+    assert parse_pose('1 2 1.0 0.5') == SensorPose(1, 2, 1.0, 0.5)
+    assert parse_pose([1, 2, 1, 0.5, 0.1]).pitch == 0.1
+    for bad in ('1 2 3', '1 2 3 nan', 'a b c d'):
+        with pytest.raises(ValueError):
+            parse_pose(bad)
+
+
+def sample(t, positions, conf=1.0, u=0.001):
+    return Sample(t, np.array(positions, float), np.full(len(positions),
+                                                         conf), u)
+
+
+def test_track_interpolates_between_samples_not_to_a_period():
+    track = Track()
+    track.add(sample(1.000, body(0.0)))
+    track.add(sample(1.033, body(0.33)))
+    a = track.at(1.010)
+    assert a.positions[0, 0] == pytest.approx(0.1)
+    assert a.speed[0] == pytest.approx(10.0)
+    assert a.newest == 1.033
+    assert track.at(0.99) is None
+    assert track.at(1.05) is None
+    assert track.at(1.05, max_extrapolation=0.02).positions[0, 0] \
+        == pytest.approx(0.5)
+
+
+def test_track_gaps_missing_joints_and_repeats():
+    track = Track(max_gap=0.1)
+    p = body()
+    p[3] = np.nan
+    track.add(sample(0.0, body()))
+    assert not track.add(sample(0.0, body()))
+    track.add(sample(0.05, p))
+    a = track.at(0.02)
+    assert np.isnan(a.positions[3]).all() and a.confidence[3] == 0
+    track.add(sample(0.5, body()))
+    assert track.at(0.3) is None
+
+
+def test_association_one_view_person_two_close_people_stable_ids():
+    assoc = Associator()
+    ids = assoc.assign(0.0, {('a', 1): body(0, 0), ('b', 7): body(0.05, 0),
+                             ('a', 2): body(0, 0.45)})
+    assert ids[('a', 1)] == ids[('b', 7)] != ids[('a', 2)]
+    for k in range(1, 60):
+        t = k / 30
+        bodies = {('a', 1): body(0, 0.004 * k), ('a', 2): body(0, 0.45)}
+        if k < 30:
+            bodies[('b', 7)] = body(0.05, 0.004 * k)
+        now = assoc.assign(t, bodies)
+        for key, pid in now.items():
+            assoc.update(pid, bodies[key], t)
+            assert pid == ids[key]
+    assert assoc.switches == 0
+    assert len(assoc.persons) == 2
+
+
+def test_association_merges_duplicates_and_forgets():
+    assoc = Associator(merge_after=0.2, forget_after=0.5)
+    ids = {}
+    for k in range(30):
+        t = k / 30
+        bodies = {('a', 1): body(0, 0),
+                  ('b', 1): body(0, max(0.6 - 0.05 * k, 0.05))}
+        ids = assoc.assign(t, bodies)
+        if k == 0:
+            first = dict(ids)
+        for key, pid in ids.items():
+            assoc.update(pid, bodies[key], t)
+    assert first[('a', 1)] != first[('b', 1)]
+    assert ids[('b', 1)] == ids[('a', 1)] == first[('a', 1)]
+    assert list(assoc.persons) == [first[('a', 1)]]
+    assoc.assign(2.0, {})
+    assert not assoc.persons
+
+
+def obs(view, positions, conf=0.9, speed=0.0, u=0.001, weight=1.0):
+    return Observation(view, positions, np.full(NUM_JOINTS, conf),
+                       np.full(NUM_JOINTS, speed), u, weight)
+
+
+def test_fuse_weights_and_hidden_joint_from_the_other_view():
+    truth = body()
+    a, b = truth + 0.02, truth - 0.02
+    a[INDEX['left_hand']] += 0.3
+    oa, ob = obs('a', a), obs('b', b)
+    oa.confidence[INDEX['left_hand']] = 0.1
+    f = fuse([oa, ob], FuseParams())
+    assert np.allclose(f.positions[INDEX['head']], truth[INDEX['head']])
+    hand = f.positions[INDEX['left_hand']] - truth[INDEX['left_hand']]
+    assert np.linalg.norm(hand) < 0.06
+    assert f.confidence[INDEX['left_hand']] == pytest.approx(0.9)
+    assert f.views == ['a', 'b']
+
+
+def test_fuse_bound_grows_with_timing_uncertainty_times_speed():
+    slow = fuse([obs('a', body(), speed=0.1)], FuseParams())
+    fast = fuse([obs('a', body(), speed=3.0, u=0.01)], FuseParams())
+    assert fast.bound[0] >= slow.bound[0] + 0.01 * 3.0 * 0.5
+    assert slow.bound[0] == pytest.approx(2.8 * 0.05 / 0.9, rel=0.01)
+
+
+def test_fuse_drops_an_outlier_of_three_and_missing_joints():
+    views = [obs(v, body() + RNG.normal(0, 0.01, (NUM_JOINTS, 3)))
+             for v in 'abc']
+    views[2].positions[INDEX['torso']] += 1.0
+    for o in views:
+        o.positions[INDEX['head']] = np.nan
+    f = fuse(views, FuseParams())
+    assert np.linalg.norm(f.positions[INDEX['torso']]
+                          - body()[INDEX['torso']]) < 0.03
+    assert np.isnan(f.positions[INDEX['head']]).all()
+    assert f.confidence[INDEX['head']] == 0
+
+
+def test_residuals_blame_the_view_that_disagrees():
+    res = Residuals(min_count=10)
+    for k in range(20):
+        noise = [RNG.normal(0, 0.02, (NUM_JOINTS, 3)) for _ in range(3)]
+        views = {'a': body() + noise[0], 'b': body() + noise[1],
+                 'c': body(0.4) + noise[2]}
+        res.add(k / 30, {v: (p, np.ones(NUM_JOINTS))
+                         for v, p in views.items()})
+    assert res.wrong() == (['c'], [])
+    two = Residuals(min_count=10)
+    for k in range(20):
+        two.add(k / 30, {'a': (body(), np.ones(NUM_JOINTS)),
+                         'b': (body(0.4), np.ones(NUM_JOINTS))})
+    assert two.wrong() == ([], [('a', 'b')])
+
+
+def test_refine_pose_recovers_a_wrong_pose():
+    right = facing(3.0, 0.5, 1.0)
+    world = np.concatenate([body(x, y) for x, y in
+                            RNG.uniform(-1, 1, (30, 2))])
+    seen = right.from_world(world) + RNG.normal(0, 0.01, world.shape)
+    wrong = SensorPose(right.x + 0.3, right.y - 0.1, right.z,
+                       right.yaw + math.radians(10))
+    refined, before, after = refine_pose(wrong, seen, world)
+    assert before > 0.3 and after < 0.02
+    assert refined.yaw == pytest.approx(right.yaw, abs=0.01)
+    assert refined.x == pytest.approx(right.x, abs=0.03)
