@@ -182,3 +182,18 @@ def test_refine_pose_recovers_a_wrong_pose():
     assert before > 0.3 and after < 0.02
     assert refined.yaw == pytest.approx(right.yaw, abs=0.01)
     assert refined.x == pytest.approx(right.x, abs=0.03)
+
+
+def test_association_leaves_out_a_jump_then_lets_it_go():
+    assoc = Associator(release_after=0.5)
+    for k in range(30):
+        t = k / 30
+        far = k >= 10
+        bodies = {('a', 1): body(0, 0), ('b', 1): body(2.0 if far else 0, 0)}
+        ids = assoc.assign(t, bodies)
+        for key, pid in ids.items():
+            assoc.update(pid, bodies[key], t)
+        if 10 <= k < 25:
+            assert ('b', 1) not in ids
+    assert assoc.jumps == 15
+    assert ids[('b', 1)] != ids[('a', 1)]

@@ -2,7 +2,10 @@
 
 Each view's tracked user (a ``(view, user)`` key) is tied to a fused
 person. A key keeps its person while its skeleton stays within
-``keep_gate`` of that person's last fused body; a new key joins the
+``keep_gate`` of that person's last fused body; a key that jumps farther
+is that view's tracking failure (a tracker gives a new person a new user
+id): it is left out (``jumps`` counts them) and only let go after
+``release_after`` s far away, when it is a new key again. A new key joins the
 nearest person within ``gate`` that no other key of the same view holds
 (so two people close together stay two), or starts a new person (so a
 person seen by one view only is still a person). Two persons whose
@@ -52,12 +55,16 @@ class Associator:
 
     def __init__(self, gate: float = 0.5, keep_gate: float = 0.8,
                  merge_gate: float = 0.25, merge_after: float = 0.5,
-                 forget_after: float = 1.0) -> None:
+                 forget_after: float = 1.0, release_after: float = 2.0
+                 ) -> None:
         self.gate = gate
         self.keep_gate = keep_gate
         self.merge_gate = merge_gate
         self.merge_after = merge_after
         self.forget_after = forget_after
+        self.release_after = release_after
+        self.far_since: Dict[Key, float] = {}
+        self.jumps = 0             # instants a key was left out as a jump
         self.persons: Dict[int, Person] = {}
         self.owner: Dict[Key, int] = {}
         self.next_id = 1
@@ -70,14 +77,22 @@ class Associator:
                     if t - person.seen > self.forget_after]:
             del self.persons[pid]
         out: Dict[Key, int] = {}
+        jumped = set()
         for key in sorted(bodies, key=str):
             owner = self.owner.get(key)
-            if owner is not None and owner in self.persons and \
-                    body_distance(bodies[key],
-                                  self.persons[owner].positions) \
+            if owner is None or owner not in self.persons:
+                continue
+            if body_distance(bodies[key], self.persons[owner].positions) \
                     <= self.keep_gate:
                 out[key] = owner
-        self._join(t, bodies, out)
+                self.far_since.pop(key, None)
+            elif t - self.far_since.setdefault(key, t) < self.release_after:
+                jumped.add(key)
+                self.jumps += 1
+            else:
+                del self.owner[key], self.far_since[key]
+        self._join(t, {k: b for k, b in bodies.items() if k not in jumped},
+                   out)
         for key, pid in out.items():
             if self.owner.get(key, pid) != pid:
                 self.switches += 1

@@ -8,6 +8,8 @@ every live view has a sample at or after it (so interpolation, not
 extrapolation, brings each view there), or a view is late past its own
 period plus its p95 pipeline latency (it is then extrapolated a little or
 left out). A stalled view or one with a lost clock is not waited for.
+Each view's tracker profile (hri_sync.fusion.profile) dates its skeletons
+(stamp minus the tracker's delay) and corrects its joints first.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from hri_sync.fusion.associate import Associator, Key
 from hri_sync.fusion.calibration import Residuals
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import FuseParams, Fused, Observation, fuse
+from hri_sync.fusion.profile import Profile
 from hri_sync.fusion.views import HealthParams, ViewHealth
 
 
@@ -65,10 +68,13 @@ class Fusion:
 
     def __init__(self, poses: Dict[str, SensorPose],
                  params: Optional[FusionParams] = None,
-                 clock: Callable[[], float] = lambda: 0.0) -> None:
+                 clock: Callable[[], float] = lambda: 0.0,
+                 profiles: Optional[Dict[str, Profile]] = None) -> None:
         self.params = params or FusionParams()
         self.clock = clock
         self.poses = dict(poses)
+        self.profiles = {v: (profiles or {}).get(v) or Profile()
+                         for v in poses}
         self.health = {v: ViewHealth(self.params.health) for v in poses}
         self.tracks: Dict[Key, Track] = {}
         self.associator = Associator(gate=self.params.gate)
@@ -78,7 +84,8 @@ class Fusion:
     def add(self, view: str, user: Hashable, stamp: float,
             positions: np.ndarray, confidence: np.ndarray,
             uncertainty: float) -> Optional[str]:
-        """One skeleton as it arrives; the reason when it is left out."""
+        """One skeleton as it arrives; the reason when it is left out.
+        ``stamp``: global capture time; ``positions``: Skeleton frame."""
         if view not in self.poses:
             return 'unknown_view'
         health = self.health[view]
@@ -89,9 +96,13 @@ class Fusion:
         confidence = np.nan_to_num(np.array(confidence, float), nan=0.0)
         missing = ~np.isfinite(positions).all(axis=1)
         confidence[missing] = 0.0
+        profile = self.profiles[view]
+        stamp -= profile.delay
         health.arrived(self.clock(), stamp, uncertainty, int(missing.sum()))
+        uncertainty += profile.delay_spread
         world = self.poses[view].to_world(positions)
         world[missing] = np.nan
+        world = profile.correct(world)
         track = self.tracks.setdefault(
             (view, user), Track(max_gap=self.params.max_gap))
         if not track.add(Sample(stamp, world, np.clip(confidence, 0, 1),
@@ -155,8 +166,10 @@ class Fusion:
                 continue
             weight = self.params.suspect_weight \
                 if self.health[view].wrong_pose else 1.0
+            profile = self.profiles[view]
             out[key] = (Observation(view, a.positions, a.confidence,
-                                    a.speed, a.uncertainty, weight),
+                                    a.speed, a.uncertainty, weight,
+                                    profile.sigma, profile.sigma_common),
                         a.newest)
         return out
 

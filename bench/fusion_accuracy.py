@@ -1,0 +1,351 @@
+#!/usr/bin/python3
+"""Accuracy, latency and bounds of multi-sensor fusion against the truth.
+
+Renders one motion through the virtual Kinect from 2-4 poses around the
+dancer (front, behind and to the left, right, behind and to the right:
+the views behind see the body hide its own joints), tracks each view with
+the depth tracker (tracker_eval --dump), gives each view its own frame
+phase, clock drift, stamp error (the clock model's residual) and pipeline
+latency, feeds the skeletons to hri_sync.fusion in arrival order on a
+simulated clock (plus the fusion's own compute time) and compares with the
+rendered truth. Prints one JSON object:
+
+- ``single_view_mean_m``: each view's mean joint error on its tracked
+  frames; ``fused_mean_m``: the fused body's, on every fused instant;
+- ``best_view_hidden_mean_m`` / ``fused_hidden_mean_m``: on the instants
+  and joints the best single view has at confidence < 0.5 (hidden),
+  the best view (interpolated to the instant) and the fused body;
+- ``latency_p95_ms``: publish time minus the newest capture used, beside
+  ``slowest_pipeline_p95_ms`` (the slowest view's own latency);
+- ``duplicate_people``: person ids beyond the one dancer;
+  ``missing_frames``: instants without a person once tracking started;
+- ``bound_coverage``: share of fused joints within their 95 % bound;
+- ``no_time_alignment``: the same fusion fed each view's arrival time as
+  its stamp (a plain subscriber), same figures;
+- ``targets``: each target and whether it is met.
+
+    bench/fusion_accuracy.py --motion data/motion/cmu_60_01_salsa.track \
+        --views 3
+    bench/fusion_accuracy.py \
+        --motion /work/shared/data/mocap/cmu_61_01_salsa.bvh --views 4
+
+Renders are cached in --cache (default /tmp/hri_sync_fusion). Needs the
+built workspace sourced (source WS/devel/setup.bash).
+"""
+import argparse
+import concurrent.futures
+import hashlib
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import yaml
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, 'src'))
+
+from hri_sync.dance_off.joints import INDEX, NUM_JOINTS  # noqa: E402
+from hri_sync.dance_off.motion import Motion, load_motion  # noqa: E402
+from hri_sync.fusion.align import Sample, Track  # noqa: E402
+from hri_sync.fusion.frames import facing  # noqa: E402
+from hri_sync.fusion.pipeline import Fusion, FusionParams  # noqa: E402
+from hri_sync.fusion.profile import Profile, fit_profile  # noqa: E402
+
+FPS = 30.0
+PROFILE = os.path.join(ROOT, 'config', 'fusion_depth_tracker.yaml')
+HIDDEN = 0.5        # confidence under which a joint is hidden
+# name, position (m, the dancer's mean torso at the origin, facing +x),
+# frame phase (s), drift, stamp error sigma (s), pipeline latency (s).
+VIEWS = [
+    ('front', (3.3, 0.4), 0.000, 40e-6, 0.0004, 0.045),
+    ('back_left', (-2.3, 2.3), 0.011, -25e-6, 0.0008, 0.070),
+    ('right', (0.5, -3.3), 0.023, 10e-6, 0.0006, 0.055),
+    ('back_right', (-2.6, -2.0), 0.006, -60e-6, 0.0010, 0.085),
+]
+JITTER = 0.004      # s, mean of the exponential pipeline jitter
+TICK = 0.005        # s, the node's poll period
+
+
+def world_motion(motion):
+    """The motion in world (REP 103, floor z = 0, mean torso at the
+    origin, the dancer facing +x where the motion's own sensor was)."""
+    p = motion.positions
+    torso = p[:, INDEX['torso']].mean(axis=0)
+    world = np.stack([-(p[..., 2] - torso[2]), p[..., 0] - torso[0],
+                      p[..., 1] + 1.0], axis=-1)
+    return Motion(motion.times - motion.times[0], world, name=motion.name)
+
+
+def view_pose(i):
+    """The SensorPose of view ``i`` (level, 1 m up, towards the origin)."""
+    return facing(VIEWS[i][1][0], VIEWS[i][1][1], 1.0)
+
+
+def capture_times(i, n):
+    """True global capture time of view ``i``'s frames 0..n-1."""
+    _, _, phase, drift, _, _ = VIEWS[i]
+    return phase + np.arange(n) / FPS * (1 + drift)
+
+
+def render(i, world, cache, scene, eval_path):
+    """View ``i``'s tracker dump file (rendered once, then cached)."""
+    n = int(world.duration * FPS) - 2
+    key = hashlib.sha1(repr((world.name, world.positions.shape, VIEWS[i],
+                             scene, n)).encode()).hexdigest()[:12]
+    dump = os.path.join(cache, '%s_%s_%s.dump' % (world.name, VIEWS[i][0],
+                                                  key))
+    if os.path.exists(dump):
+        return dump
+    tau = np.arange(int(n / FPS * 60) + 2) / 60.0
+    _, _, phase, drift, _, _ = VIEWS[i]
+    t_world = np.clip(phase + tau * (1 + drift), 0, world.duration)
+    local = view_pose(i).from_world(world.positions_at(t_world))
+    track = dump[:-5] + '.track'
+    Motion(tau, local).save_track(track)
+    subprocess.run([eval_path, '--track', track, '--direct', '--scene',
+                    scene, '--seconds', '%.3f' % (n / FPS), '--dump',
+                    dump + '.part'], check=True, stdout=subprocess.DEVNULL)
+    os.replace(dump + '.part', dump)
+    return dump
+
+
+def read_dump(path):
+    """(tracked (n,), estimated (n, 15, 3), truth (n, 15, 3), conf)."""
+    rows = np.array([[float(v) for v in line.split()[:2 + 6 * NUM_JOINTS
+                                                    + NUM_JOINTS]]
+                     for line in open(path)])
+    k = 3 * NUM_JOINTS
+    return (rows[:, 1] > 0, rows[:, 2:2 + k].reshape(-1, NUM_JOINTS, 3),
+            rows[:, 2 + k:2 + 2 * k].reshape(-1, NUM_JOINTS, 3),
+            rows[:, 2 + 2 * k:])
+
+
+def messages(views, rng):
+    """Each view's skeletons as the fusion receives them: dicts with the
+    arrival time, stamp (true capture + the clock model's error), true
+    capture, uncertainty, Skeleton-frame joints and confidences."""
+    out = []
+    for i, (tracked, est, _, conf) in enumerate(views):
+        _, _, _, _, sigma, latency = VIEWS[i]
+        caught = capture_times(i, len(tracked))
+        for n in np.flatnonzero(tracked):
+            out.append({
+                'view': VIEWS[i][0], 'capture': caught[n],
+                'stamp': caught[n] + rng.normal(0, sigma),
+                'uncertainty': 2.5 * sigma + 1e-5,
+                'arrival': caught[n] + latency + rng.exponential(JITTER),
+                'positions': est[n], 'confidence': conf[n]})
+    return sorted(out, key=lambda m: m['arrival'])
+
+
+def run_fusion(msgs, poses, aligned, profile):
+    """Frames of the fusion fed ``msgs`` in arrival order, polled after
+    each and every TICK s; stamps are arrival times when not ``aligned``.
+    Also {stamp used: true capture} for the latency."""
+    sim = {'now': 0.0, 'wall': time.thread_time()}
+    fusion = Fusion(poses, FusionParams(),
+                    lambda: sim['now'] + time.thread_time() - sim['wall'],
+                    {v: profile for v in poses})
+    frames, captured = [], {}
+    tick = msgs[0]['arrival']
+    for m in msgs + [None]:
+        until = m['arrival'] if m else tick + 1.0
+        while tick < until:
+            sim.update(now=tick, wall=time.thread_time())
+            frames += fusion.poll()
+            tick += TICK
+        if m is None:
+            break
+        stamp = m['stamp'] if aligned else m['arrival']
+        captured[stamp - profile.delay] = m['capture']
+        sim.update(now=m['arrival'], wall=time.thread_time())
+        fusion.add(m['view'], 1, stamp, m['positions'], m['confidence'],
+                   m['uncertainty'])
+        frames += fusion.poll()
+    return frames, captured
+
+
+def truth_at(views, poses, t):
+    """The rendered truth in world at instants ``t`` (mean of views)."""
+    out = []
+    for i, (_, _, truth, _) in enumerate(views):
+        caught = capture_times(i, len(truth))
+        world = poses[i].to_world(truth)
+        out.append(Motion(caught, world).positions_at(t, 'clamp'))
+    return np.mean(out, axis=0)
+
+
+def best_view_track(msgs, view, poses, aligned, profile):
+    """The best view's Track (as the fusion keeps it: its profile
+    applied)."""
+    track = Track(keep=1e9)
+    pose = poses[[v[0] for v in VIEWS].index(view)]
+    for m in msgs:
+        if m['view'] == view:
+            stamp = m['stamp'] if aligned else m['arrival']
+            track.add(Sample(stamp - profile.delay,
+                             profile.correct(pose.to_world(m['positions'])),
+                             m['confidence'], m['uncertainty']))
+    return track
+
+
+def single_view_errors(views, poses, profile, truth):
+    """Each view's mean joint error (m) on its tracked frames, through the
+    tracker profile (dated, corrected) and as published."""
+    fixed, raw = [], []
+    for i, (tracked, est, own_truth, _) in enumerate(views):
+        raw.append(np.linalg.norm(est[tracked] - own_truth[tracked],
+                                  axis=-1).mean())
+        world = [profile.correct(p) for p in poses[i].to_world(est[tracked])]
+        when = capture_times(i, len(tracked))[tracked] - profile.delay
+        fixed.append(np.linalg.norm(np.array(world) - truth(when),
+                                    axis=-1).mean())
+    return fixed, raw
+
+
+def fitted_profile(views, poses, truth):
+    """The tracker profile measured on these views: the delay that fits
+    best (10 ms steps), then offsets and sigmas (delay_spread: the
+    delay)."""
+    t = np.arange(math.ceil(FPS), int(len(views[0][0]) - FPS)) / FPS
+    est, ok = [], np.ones(len(t), bool)
+    for i, (tracked, e, _, _) in enumerate(views):
+        caught = capture_times(i, len(tracked))
+        est.append(Motion(caught, poses[i].to_world(e)).positions_at(t))
+        ok &= np.interp(t, caught, tracked.astype(float)) >= 1.0
+    est = np.array(est)[:, ok]
+    scan = {d: np.linalg.norm(est - truth(t[ok] - d), axis=-1).mean()
+            for d in np.arange(0.0, 0.101, 0.01)}
+    delay = float(min(scan, key=scan.get))
+    return fit_profile(est, truth(t[ok] - delay), delay, delay)
+
+
+def figures(frames, captured, truth, best_track):
+    """The fused figures of one run (see the module docstring)."""
+    people = [f for f in frames if f.people]
+    stamps = np.array([f.stamp for f in people])
+    fused = np.array([f.people[0].body.positions for f in people])
+    bound = np.array([f.people[0].body.bound for f in people])
+    err = np.linalg.norm(fused - truth(stamps), axis=-1)
+    ok = np.isfinite(err)
+    hidden_best, hidden_fused = [], []
+    for k, t in enumerate(stamps):
+        a = best_track.at(t, 0.04)
+        if a is None:
+            continue
+        for j in np.flatnonzero((a.confidence < HIDDEN)
+                                & np.isfinite(a.positions).all(axis=1)
+                                & ok[k]):
+            hidden_best.append(np.linalg.norm(a.positions[j]
+                                              - truth([t])[0][j]))
+            hidden_fused.append(err[k, j])
+    latency = [f.published - captured.get(p.newest, p.newest)
+               for f in people for p in f.people]
+    first = people[0].stamp if people else math.inf
+    ids = {p.person for f in frames for p in f.people}
+    return {
+        'fused_mean_m': round(float(err[ok].mean()), 4),
+        'best_view_hidden_mean_m': round(float(np.mean(hidden_best)), 4),
+        'fused_hidden_mean_m': round(float(np.mean(hidden_fused)), 4),
+        'hidden_joint_instants': len(hidden_best),
+        'latency_p95_ms': round(float(np.percentile(latency, 95)) * 1e3, 1),
+        'duplicate_people': max(len(ids) - 1, 0),
+        'duplicate_frames': sum(len(f.people) > 1 for f in frames),
+        'missing_frames': sum(not f.people for f in frames
+                              if f.stamp >= first),
+        'bound_coverage': round(float((err[ok] <= bound[ok]).mean()), 4),
+        'fused_frames': len(people),
+    }
+
+
+def targets(out):
+    """Each target of the fusion and whether this run meets it."""
+    best = min(out['single_view_mean_m'].values())
+    limit = out['slowest_pipeline_p95_ms'] + 33 + 5
+    return {k: bool(v) for k, v in {
+        'fused_20pct_below_best_view': out['fused_mean_m'] <= 0.8 * best,
+        'hidden_40pct_below_best_view':
+            out['fused_hidden_mean_m'] <= 0.6 * out['best_view_hidden_mean_m'],
+        'latency_p95_within_%.0f_ms' % limit: out['latency_p95_ms'] <= limit,
+        'no_duplicate_people': out['duplicate_people'] == 0,
+        'bound_coverage_95pct': out['bound_coverage'] >= 0.95,
+    }.items()}
+
+
+def arguments():
+    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap.add_argument('--motion', required=True, help='.bvh, .npz or .track')
+    ap.add_argument('--views', type=int, default=3, choices=(2, 3, 4))
+    ap.add_argument('--scene', default='noise=kinect1')
+    ap.add_argument('--seed', type=int, default=1)
+    ap.add_argument('--cache', default='/tmp/hri_sync_fusion')
+    ap.add_argument('--profile', default=PROFILE,
+                    help='the tracker profile (YAML; default %(default)s)')
+    ap.add_argument('--fit-profile', action='store_true',
+                    help='print the tracker profile measured on this '
+                    'motion (YAML) instead of the figures')
+    return ap.parse_args()
+
+
+def rendered_views(args):
+    """The views' tracker dumps (read) and poses."""
+    eval_path = subprocess.run(
+        ['catkin_find', '--first-only', '--libexec', 'hri_sync',
+         'tracker_eval'], capture_output=True, text=True).stdout.strip()
+    if not eval_path:
+        sys.exit('fusion_accuracy: tracker_eval is not built; run make '
+                 'build and source WS/devel/setup.bash')
+    os.makedirs(args.cache, exist_ok=True)
+    world = world_motion(load_motion(args.motion))
+    with concurrent.futures.ThreadPoolExecutor(2) as pool:
+        dumps = list(pool.map(lambda i: render(i, world, args.cache,
+                                               args.scene, eval_path),
+                              range(args.views)))
+    return ([read_dump(d) for d in dumps],
+            [view_pose(i) for i in range(args.views)])
+
+
+def main():
+    args = arguments()
+    views, poses = rendered_views(args)
+    names = [v[0] for v in VIEWS[:args.views]]
+
+    def truth(t):
+        return truth_at(views, poses, t)
+
+    if args.fit_profile:
+        print(yaml.safe_dump(fitted_profile(views, poses, truth).to_dict(),
+                             default_flow_style=None, sort_keys=False))
+        return
+    with open(args.profile) as f:
+        profile = Profile.from_dict(yaml.safe_load(f))
+    msgs = messages(views, np.random.default_rng(args.seed))
+    fixed, raw = single_view_errors(views, poses, profile, truth)
+    best = names[int(np.argmin(fixed))]
+    out = {'motion': os.path.basename(args.motion), 'views': args.views,
+           'single_view_mean_m': dict(zip(names, np.round(fixed, 4))),
+           'single_view_published_mean_m': dict(zip(names,
+                                                    np.round(raw, 4))),
+           'best_view': best,
+           'slowest_pipeline_p95_ms': round(max(np.percentile(
+               [m['arrival'] - m['capture'] for m in msgs
+                if m['view'] == name], 95) for name in names) * 1e3, 1)}
+    for aligned in (True, False):
+        frames, captured = run_fusion(msgs, dict(zip(names, poses)),
+                                      aligned, profile)
+        result = figures(frames, captured, truth, best_view_track(
+            msgs, best, poses, aligned, profile))
+        if aligned:
+            out.update(result)
+        else:
+            out['no_time_alignment'] = result
+    out['targets'] = targets(out)
+    print(json.dumps(out, indent=1, default=float))
+
+
+if __name__ == '__main__':
+    main()

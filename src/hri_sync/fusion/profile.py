@@ -1,0 +1,113 @@
+"""A tracker's profile: how its joints differ from the true joints in a
+way every view of it shares.
+
+A skeleton tracker places joints by its own body model (its neck is not a
+motion-capture neck) and filters them over time (its joints describe the
+body ``delay`` s before the frame's capture). Views of one tracker share
+these errors, so fusing views cannot average them away; the profile
+removes them: the fusion moves each joint by ``-offsets[j]`` in the
+body's own axes (x forward, y left, z up, from the hips and neck) and
+dates the skeleton ``delay`` s before its stamp. ``delay_spread`` (95 %,
+s) is the timing uncertainty that delay adds (it varies with speed in a
+filter); ``sigma`` (m, one axis, at confidence 1) is the error a view has
+on its own, ``sigma_common`` (m, one axis) the error left that all views
+share. ``fit_profile`` measures them from views of a motion with its
+truth (bench/fusion_accuracy.py --fit-profile).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Dict, List, Optional
+
+import numpy as np
+
+from hri_sync.dance_off.joints import NUM_JOINTS
+from hri_sync.people.rep155 import body_axes
+
+
+@dataclass
+class Profile:
+    """One tracker's shared errors and error model."""
+
+    delay: float = 0.0
+    delay_spread: float = 0.0
+    sigma: float = 0.05
+    sigma_common: float = 0.0
+    offsets: np.ndarray = field(
+        default_factory=lambda: np.zeros((NUM_JOINTS, 3)))
+
+    def correct(self, positions: np.ndarray) -> np.ndarray:
+        """World joints (15, 3) with the offsets removed (unchanged when
+        the hips or neck are missing)."""
+        axes = body_axes(positions)
+        if axes is None or not self.offsets.any():
+            return positions
+        return positions - self.offsets @ axes.T
+
+    def to_dict(self) -> Dict[str, Any]:
+        """Plain values (a YAML param)."""
+        return {'delay': round(self.delay, 4),
+                'delay_spread': round(self.delay_spread, 4),
+                'sigma': round(self.sigma, 4),
+                'sigma_common': round(self.sigma_common, 4),
+                'offsets': np.round(self.offsets, 4).tolist()}
+
+    @classmethod
+    def from_dict(cls, d: Optional[Dict[str, Any]]) -> 'Profile':
+        """A Profile from ``to_dict``'s values (missing keys: defaults)."""
+        d = dict(d or {})
+        offsets = np.array(d.pop('offsets', np.zeros((NUM_JOINTS, 3))),
+                           float)
+        if offsets.shape != (NUM_JOINTS, 3) or \
+                not np.isfinite(offsets).all():
+            raise ValueError('a profile has 15 finite (x, y, z) offsets')
+        unknown = set(d) - {'delay', 'delay_spread', 'sigma',
+                            'sigma_common'}
+        if unknown:
+            raise ValueError('unknown profile keys: %s' % sorted(unknown))
+        values = {k: float(v) for k, v in d.items()}
+        if not all(np.isfinite(v) and v >= 0 for v in values.values()):
+            raise ValueError('profile values are finite and >= 0: %r' % d)
+        return cls(offsets=offsets, **values)
+
+
+def body_frame_errors(estimates: np.ndarray, truth: np.ndarray
+                      ) -> np.ndarray:
+    """(views, frames, 15, 3) errors in each estimate's body axes; NaN
+    where an estimate has no axes. ``estimates``: (views, frames, 15, 3),
+    ``truth``: (frames, 15, 3), world."""
+    out = np.full(estimates.shape, np.nan)
+    for v in range(estimates.shape[0]):
+        for k in range(estimates.shape[1]):
+            axes = body_axes(estimates[v, k])
+            if axes is not None:
+                out[v, k] = (estimates[v, k] - truth[k]) @ axes
+    return out
+
+
+def fit_profile(estimates: np.ndarray, truth: np.ndarray, delay: float,
+                delay_spread: float) -> Profile:
+    """The offsets and error model of views of one tracker (frames where
+    every view tracks), given its delay (estimates already at it)."""
+    err = body_frame_errors(estimates, truth)
+    ok = np.isfinite(err).all(axis=(0, 2, 3))
+    err = err[:, ok]
+    offsets = err.mean(axis=(0, 1))
+    rest = err - offsets
+    common = rest.mean(axis=0)
+    n = rest.shape[0]
+    own = rest - common
+    sigma = float(np.sqrt((own ** 2).mean() * n / max(n - 1, 1)))
+    sigma_common = float(np.sqrt(max((common ** 2).mean()
+                                     - sigma ** 2 / n, 0.0)))
+    return Profile(delay, delay_spread, sigma, sigma_common, offsets)
+
+
+def profiles(values: Dict[str, Any], views: List[str]) -> Dict[str, Profile]:
+    """Each view's Profile from a param: one profile dict for all views,
+    or {view: profile dict}."""
+    if values and all(v in views for v in values):
+        return {v: Profile.from_dict(values.get(v)) for v in views}
+    one = Profile.from_dict(values)
+    return {v: one for v in views}
