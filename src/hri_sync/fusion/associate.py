@@ -53,7 +53,7 @@ class Person:
 class Associator:
     """Keys to person ids, instant by instant."""
 
-    def __init__(self, gate: float = 0.5, keep_gate: float = 0.8,
+    def __init__(self, gate: float = 0.5, keep_gate: float = 1.5,
                  merge_gate: float = 0.25, merge_after: float = 0.5,
                  forget_after: float = 1.0, release_after: float = 2.0
                  ) -> None:

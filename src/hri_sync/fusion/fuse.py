@@ -16,7 +16,7 @@ the timing part from the weight-averaged stamp uncertainty and speed.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import List, Set, Tuple
+from typing import Dict, List
 
 import numpy as np
 
@@ -54,54 +54,61 @@ class Fused:
     views: List[str]            # the views that gave a joint
 
 
-def _weights(obs: List[Observation], j: int, p: FuseParams
-             ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-                        np.ndarray]:
-    """Points, inverse variances, timing terms, own and shared sigmas
-    (at the joint's confidence) of the views usable for joint ``j``."""
-    rows = [o for o in obs if np.isfinite(o.positions[j]).all()
-            and o.confidence[j] >= p.min_confidence and o.weight > 0]
-    pts = np.array([o.positions[j] for o in rows]).reshape(-1, 3)
-    conf = np.maximum([o.confidence[j] for o in rows], p.min_confidence)
-    timing = np.array([o.uncertainty * o.speed[j] for o in rows])
-    sigma = np.array([[o.sigma, o.sigma_common] for o in rows]
-                     ).reshape(-1, 2)
-    sigma[:, 0] /= conf
-    var = sigma[:, 0] ** 2 + (timing / p.k) ** 2
-    w = np.array([o.weight for o in rows]) / var
-    return pts, w, timing, conf, sigma
+def _stack(obs: List[Observation], p: FuseParams) -> Dict[str, np.ndarray]:
+    """The views' arrays (views first) and each joint's inverse variance
+    (0 where a view cannot give the joint)."""
+    a = {'pts': np.array([o.positions for o in obs], float),
+         'conf': np.array([o.confidence for o in obs], float),
+         'timing': np.array([o.uncertainty * o.speed for o in obs], float)}
+    weight = np.array([o.weight for o in obs], float)[:, None]
+    usable = np.isfinite(a['pts']).all(axis=2) \
+        & (a['conf'] >= p.min_confidence) & (weight > 0)
+    a['own'] = np.array([o.sigma for o in obs])[:, None] \
+        / np.maximum(a['conf'], p.min_confidence)
+    a['common'] = np.array([o.sigma_common for o in obs])[:, None] \
+        + np.zeros_like(a['conf'])
+    var = a['own'] ** 2 + (a['timing'] / p.k) ** 2
+    a['w'] = np.where(usable, weight / var, 0.0)
+    a['w'] *= _kept(a['pts'], usable, p.outlier)
+    return a
 
 
-def _drop_outliers(pts: np.ndarray, limit: float) -> np.ndarray:
-    """Mask of the points within ``limit`` of the points' median (3+)."""
-    keep = np.ones(len(pts), bool)
-    if len(pts) < 3:
+def _kept(pts: np.ndarray, usable: np.ndarray, limit: float) -> np.ndarray:
+    """Mask of the views' joints within ``limit`` of the views' median,
+    for the joints three or more views give (all usable ones elsewhere,
+    and where fewer than two would be left)."""
+    keep = usable.copy()
+    many = usable.sum(axis=0) >= 3
+    if not many.any():
         return keep
-    keep = np.linalg.norm(pts - np.median(pts, axis=0), axis=1) <= limit
-    return keep if keep.sum() >= 2 else np.ones(len(pts), bool)
+    masked = np.where(usable[..., None], pts, np.nan)[:, many]
+    ordered = np.sort(masked, axis=0)            # NaN last
+    n = usable[:, many].sum(axis=0)[None, :, None]
+    median = (np.take_along_axis(ordered, (n - 1) // 2, axis=0)
+              + np.take_along_axis(ordered, n // 2, axis=0))[0] / 2
+    near = np.linalg.norm(masked - median, axis=2) <= limit
+    near &= usable[:, many]
+    enough = near.sum(axis=0) >= 2
+    keep[:, many] = np.where(enough, near, usable[:, many])
+    return keep
 
 
 def fuse(obs: List[Observation], p: FuseParams) -> Fused:
     """The fused body of one person from its views' observations."""
-    n = obs[0].positions.shape[0]
-    out = Fused(np.full((n, 3), np.nan), np.zeros(n), np.full(n, np.nan),
-                [])
-    used: Set[str] = set()
-    for j in range(n):
-        pts, w, timing, conf, sigma = _weights(obs, j, p)
-        if not len(pts):
-            continue
-        keep = _drop_outliers(pts, p.outlier)
-        pts, w, timing, conf, sigma = (pts[keep], w[keep], timing[keep],
-                                       conf[keep], sigma[keep])
-        out.positions[j] = (w[:, None] * pts).sum(axis=0) / w.sum()
-        out.confidence[j] = conf.max()
-        own = (w ** 2 * sigma[:, 0] ** 2).sum() / w.sum() ** 2
-        common = ((w * sigma[:, 1]).sum() / w.sum()) ** 2
-        out.bound[j] = p.k * np.sqrt(own + common) \
-            + (w * timing).sum() / w.sum()
-        views = [o.view for o in obs if np.isfinite(o.positions[j]).all()
-                 and o.confidence[j] >= p.min_confidence and o.weight > 0]
-        used.update(v for v, k in zip(views, keep) if k)
-    out.views = sorted(used)
-    return out
+    a = _stack(obs, p)
+    w = a['w']
+    total = w.sum(axis=0)
+    has = total > 0
+    safe = np.where(has, total, 1.0)
+    pts = np.nan_to_num(a['pts'])
+    positions = (w[..., None] * pts).sum(axis=0) / safe[:, None]
+    own = (w ** 2 * a['own'] ** 2).sum(axis=0) / safe ** 2
+    common = ((w * a['common']).sum(axis=0) / safe) ** 2
+    bound = p.k * np.sqrt(own + common) \
+        + (w * a['timing']).sum(axis=0) / safe
+    confidence = np.where(w > 0, a['conf'], 0.0).max(axis=0)
+    positions[~has] = np.nan
+    bound[~has] = np.nan
+    views = sorted({o.view for o, used in zip(obs, (w > 0).any(axis=1))
+                    if used})
+    return Fused(positions, np.where(has, confidence, 0.0), bound, views)

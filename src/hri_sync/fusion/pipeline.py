@@ -85,11 +85,12 @@ class Fusion:
             positions: np.ndarray, confidence: np.ndarray,
             uncertainty: float) -> Optional[str]:
         """One skeleton as it arrives; the reason when it is left out.
-        ``stamp``: global capture time; ``positions``: Skeleton frame."""
+        ``stamp``: global capture time; ``positions``: Skeleton frame;
+        ``uncertainty``: inf when the view's clock model is lost."""
         if view not in self.poses:
             return 'unknown_view'
         health = self.health[view]
-        if not (math.isfinite(stamp) and math.isfinite(uncertainty)):
+        if not math.isfinite(stamp) or math.isnan(uncertainty):
             health.reject('bad_stamp')
             return 'bad_stamp'
         positions = np.array(positions, float).reshape(-1, 3)

@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import collections
 import math
+import statistics
 from dataclasses import dataclass, field
 from typing import Deque, Dict, List, Tuple
 
-import numpy as np
 
 
 @dataclass
@@ -43,6 +43,8 @@ class ViewHealth:
     nan_times: Deque[float] = field(default_factory=collections.deque)
     wrong_pose: bool = False
     rejected: Dict[str, int] = field(default_factory=dict)
+    _latency: float = 0.0
+    _period: float = 0.0
 
     def arrived(self, now: float, stamp: float, uncertainty: float,
                 nan_joints: int) -> None:
@@ -53,6 +55,11 @@ class ViewHealth:
         self.latencies.append(now - stamp)
         if not self.stamps or stamp > self.stamps[-1]:
             self.stamps.append(stamp)
+        ordered = sorted(self.latencies)
+        self._latency = ordered[int(0.95 * (len(ordered) - 1))]
+        if len(self.stamps) > 1:
+            s = list(self.stamps)
+            self._period = statistics.median(b - a for a, b in zip(s, s[1:]))
         if nan_joints:
             self.nan_times.append(now)
 
@@ -62,13 +69,11 @@ class ViewHealth:
 
     def latency(self) -> float:
         """p95 of arrival minus capture (s), 0 before any."""
-        return float(np.percentile(list(self.latencies), 95)) \
-            if self.latencies else 0.0
+        return self._latency
 
     def period(self) -> float:
         """Median interval between its stamps (s), 0 before two."""
-        return float(np.median(np.diff(list(self.stamps)))) \
-            if len(self.stamps) > 1 else 0.0
+        return self._period
 
     def stalled(self, now: float) -> bool:
         """No skeleton for stall_after s (or none yet)."""

@@ -1,0 +1,71 @@
+"""What the fusion says on /diagnostics, as plain statuses.
+
+``view <id>``: the view's faults (ERROR when it is left out: stalled,
+clock lost; WARN: no data yet, NaN joints, wrong pose), its pipeline
+latency and stamp uncertainty; ``calibration``: the residual (mm) of each
+pair of views (WARN over the threshold); ``people``: the fused people,
+with the views each is fused from, id switches and left-out jumps.
+"""
+
+from __future__ import annotations
+
+from typing import List, Tuple
+
+from hri_sync.fusion.pipeline import Frame, Fusion
+
+OK, WARN, ERROR = 0, 1, 2       # diagnostic_msgs/DiagnosticStatus levels
+LEFT_OUT = ('stalled', 'clock_lost')
+
+Status = Tuple[str, int, str, List[Tuple[str, str]]]
+
+
+def view_status(fusion: Fusion, view: str) -> Status:
+    """One view's status."""
+    faults = fusion.faults()[view]
+    health = fusion.health[view]
+    level = max([ERROR if f in LEFT_OUT else WARN for f, _ in faults],
+                default=OK)
+    message = '; '.join('%s: %s' % f for f in faults) or 'fused'
+    values = [('faults', ' '.join(f for f, _ in faults) or 'none'),
+              ('skeletons', str(health.arrivals)),
+              ('latency p95 (ms)', '%.1f' % (health.latency() * 1e3)),
+              ('period (ms)', '%.1f' % (health.period() * 1e3)),
+              ('stamp uncertainty (ms)',
+               '%.3f' % (health.last_uncertainty * 1e3))]
+    values += [('rejected ' + r, str(n))
+               for r, n in sorted(health.rejected.items())]
+    return 'view %s' % view, level, message, values
+
+
+def calibration_status(fusion: Fusion) -> Status:
+    """The residual of every pair of views."""
+    ready = fusion.residuals.ready()
+    blamed, unexplained = fusion.residuals.wrong()
+    values = [('%s-%s (mm)' % pair, '%.0f' % (r * 1e3))
+              for pair, r in sorted(ready.items())]
+    if blamed:
+        return ('calibration', WARN, 'wrong pose: %s (down-weighted)'
+                % ', '.join(blamed), values)
+    if unexplained:
+        return ('calibration', WARN, 'residual over %.0f mm: %s'
+                % (fusion.residuals.threshold * 1e3,
+                   ', '.join('%s-%s' % p for p in unexplained)), values)
+    if not ready:
+        return 'calibration', OK, 'no pair of views sees a person yet', []
+    return 'calibration', OK, 'views agree', values
+
+
+def people_status(fusion: Fusion, last: Frame | None) -> Status:
+    """The fused people of the last frame."""
+    people = last.people if last else []
+    values = [('person %d views' % p.person, ' '.join(p.body.views))
+              for p in people]
+    values += [('id switches', str(fusion.associator.switches)),
+               ('jumps left out', str(fusion.associator.jumps))]
+    return 'people', OK, '%d fused' % len(people), values
+
+
+def statuses(fusion: Fusion, last: Frame | None) -> List[Status]:
+    """Every status of the fusion now."""
+    return ([view_status(fusion, v) for v in sorted(fusion.poses)]
+            + [calibration_status(fusion), people_status(fusion, last)])

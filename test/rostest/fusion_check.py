@@ -1,0 +1,75 @@
+#!/usr/bin/python3
+"""Checks the fusion node through a fault of one view (fusion_*.test).
+
+Before the fault (~fault_after s) and after it: fused skeletons keep
+coming (3 s windows with at least ~min_rate per s: low, for a busy
+machine), one person, every joint with a confidence; the
+diagnostics name the fault (~expect, a fault of hri_sync.fusion.views) on
+view ~faulty's status, and no other view's.
+"""
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+from diagnostic_msgs.msg import DiagnosticArray
+
+from hri_sync.msg import Skeleton
+from hri_sync.ros.params import init_checker, wait_for
+
+
+class FusionFault(unittest.TestCase):
+
+    @classmethod
+    def setUpClass(cls):
+        init_checker('fusion_check')
+        cls.lock = threading.Lock()
+        cls.skeletons, cls.faults = [], {}
+        rospy.Subscriber('/fused/skeleton', Skeleton, cls.on_skeleton)
+        rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diag)
+
+    @classmethod
+    def on_skeleton(cls, msg):
+        with cls.lock:
+            cls.skeletons.append((time.time(), msg))
+
+    @classmethod
+    def on_diag(cls, msg):
+        with cls.lock:
+            for s in msg.status:
+                if ': view ' in s.name:
+                    faults = dict((v.key, v.value) for v in s.values)
+                    cls.faults[s.name.split(': view ')[1]] = \
+                        faults.get('faults', '')
+
+    def rate_since(self, t0, span=3.0):
+        wait_for(lambda: time.time() > t0 + span, span + 5.0, 0.05)
+        with self.lock:
+            got = [m for t, m in self.skeletons if t0 <= t <= t0 + span]
+        return got, len(got) / span
+
+    def test_fault_named_and_fusion_goes_on(self):
+        expect = rospy.get_param('~expect')
+        least = rospy.get_param('~min_rate', 3.0)
+        faulty = rospy.get_param('~faulty')
+        self.assertTrue(wait_for(lambda: self.skeletons, 60.0, 0.1),
+                        'no fused skeleton')
+        got, rate = self.rate_since(time.time() + 1.0)
+        self.assertGreaterEqual(rate, least, 'before the fault')
+        self.assertTrue(wait_for(
+            lambda: expect in self.faults.get(faulty, ''), 60.0, 0.1),
+            'diagnostics never named %s on %s: %s'
+            % (expect, faulty, self.faults))
+        got, rate = self.rate_since(time.time())
+        self.assertGreaterEqual(rate, least, 'after the fault')
+        self.assertEqual({m.user_id for m in got}, {got[0].user_id})
+        for m in got:
+            self.assertTrue(all(c > 0 for c in m.confidence))
+        with self.lock:
+            others = {v: f for v, f in self.faults.items() if v != faulty}
+        self.assertEqual(set(others.values()), {'none'}, others)
+
+
+if __name__ == '__main__':
+    rostest.rosrun('hri_sync', 'fusion_check', FusionFault)

@@ -1,0 +1,82 @@
+#!/usr/bin/python3
+"""Three views of one dancer for the fusion rostests, with one fault.
+
+Publishes /<view>/skeleton (hri_sync/Skeleton, 30 Hz, stamped 20 ms
+before now, joints of data/motion ~motion seen from each view's pose in
+~poses, 1 cm noise) and /<view>/clock_state (ok, 0.5 ms). ~fault, on view
+~faulty from ~fault_after s: ``stall`` (it stops), ``clock_lost`` (its
+ClockState is not ok), ``wrong_pose`` (it is seen from its pose moved
+0.3 m and turned 10 degrees, the fusion keeps the declared one),
+``nan_joints`` (every skeleton has NaN hands), or ``none``.
+"""
+import math
+import os
+import time
+
+import numpy as np
+import rospy
+from geometry_msgs.msg import Point
+
+from hri_sync.dance_off.motion import load_motion
+from hri_sync.fusion.frames import SensorPose, parse_pose
+from hri_sync.msg import ClockState, Skeleton
+from hri_sync.ros.params import init_checker
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(
+    os.path.abspath(__file__))))
+ORIGINAL = SensorPose(2.5, 0.0, 1.0, math.pi)   # the motion's own sensor
+
+
+def clock_state(view, ok):
+    return ClockState(client_id=view, ok=ok, reason='' if ok else 'lost',
+                      local_ref=time.time(), uncertainty=0.0005, samples=5)
+
+
+def main():
+    init_checker('fusion_views')
+    motion = load_motion(os.path.join(ROOT, 'data', 'motion', '%s.track'
+                                      % rospy.get_param('~motion')))
+    poses = {v: parse_pose(p) for v, p in rospy.get_param('~poses').items()}
+    fault, faulty = rospy.get_param('~fault'), rospy.get_param('~faulty')
+    after = rospy.get_param('~fault_after', 4.0)
+    seen = dict(poses)
+    if fault == 'wrong_pose':
+        p = poses[faulty]
+        seen[faulty] = SensorPose(p.x + 0.3, p.y, p.z,
+                                  p.yaw + math.radians(10))
+    pubs = {v: rospy.Publisher('/%s/skeleton' % v, Skeleton, queue_size=30)
+            for v in poses}
+    clocks = {v: rospy.Publisher('/%s/clock_state' % v, ClockState,
+                                 queue_size=1, latch=True) for v in poses}
+    for v in poses:
+        clocks[v].publish(clock_state(v, True))
+    rng = np.random.default_rng(36)
+    start, lost = time.time(), False
+    rate = rospy.Rate(30)
+    while not rospy.is_shutdown():
+        stamp = time.time() - 0.02
+        late = time.time() - start > after
+        world = ORIGINAL.to_world(motion.positions_at([stamp - start])[0])
+        for v, pub in pubs.items():
+            bad = late and v == faulty
+            if bad and fault == 'stall':
+                continue
+            if bad and fault == 'clock_lost' and not lost:
+                clocks[v].publish(clock_state(v, False))
+                lost = True
+            pts = seen[v].from_world(world) + rng.normal(0, 0.01, (15, 3))
+            if bad and fault == 'nan_joints':
+                pts[7:9] = math.nan
+            msg = Skeleton(client_id=v, user_id=1)
+            msg.header.stamp = msg.device_stamp = rospy.Time.from_sec(stamp)
+            msg.header.frame_id = '%s_sensor' % v
+            msg.positions = [Point(*p) for p in pts]
+            for q in msg.orientations:
+                q.w = 1.0
+            msg.confidence = [0.9] * 15
+            pub.publish(msg)
+        rate.sleep()
+
+
+if __name__ == '__main__':
+    main()
