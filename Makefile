@@ -10,7 +10,7 @@ PIP_PACKAGES := rosbags pylsl mcap
 SOURCE := source $(WS)/devel/setup.bash
 
 .PHONY: setup apt venv build test unit check test-install test-site rostest tracker-accuracy \
-	test-load demo demo-sensors bench bench-sensors \
+	test-load demo demo-sensors demo-fusion bench bench-sensors \
 	bench-dj-rob clean
 
 # The venv (pip) and the build (the compiler) at once, after apt.
@@ -122,6 +122,13 @@ bench-sensors: setup
 
 bench: setup
 	@$(SOURCE) && $(ROS_PY) $(ROOT)/bench/sync_skew.py --clients 2 --rounds 20
+
+# Three virtual Kinects around one dancer, each on its own skewed clock,
+# fused; each view's and the fused error and the latency
+# (bench/fusion_accuracy.py; docs/fusion.md).
+demo-fusion: setup
+	@$(SOURCE) && $(ROS_PY) $(ROOT)/bench/fusion_accuracy.py --views 3 \
+	  --motion $(ROOT)/data/motion/cmu_60_01_salsa.track --table
 
 bench-dj-rob: setup
 	@$(SOURCE) && $(ROS_PY) $(ROOT)/bench/dj_rob_start.py --rounds 10 --dur 3

@@ -285,6 +285,8 @@ def arguments():
     ap.add_argument('--cache', default='/tmp/hri_sync_fusion')
     ap.add_argument('--profile', default=PROFILE,
                     help='the tracker profile (YAML; default %(default)s)')
+    ap.add_argument('--table', action='store_true',
+                    help='print a short table for people instead of JSON')
     ap.add_argument('--fit-profile', action='store_true',
                     help='print the tracker profile measured on this '
                     'motion (YAML) instead of the figures')
@@ -344,7 +346,28 @@ def main():
         else:
             out['no_time_alignment'] = result
     out['targets'] = targets(out)
-    print(json.dumps(out, indent=1, default=float))
+    if args.table:
+        print_table(out)
+    else:
+        print(json.dumps(out, indent=1, default=float))
+
+
+def print_table(out):
+    """The demo's view of the figures."""
+    plain = out['no_time_alignment']
+    print('%-24s %10s %16s' % ('mean joint error (m)', 'all', 'best view hides'))
+    for view, err in out['single_view_mean_m'].items():
+        print('%-24s %10.3f %16s' % (view, err, '%.3f' % out[
+            'best_view_hidden_mean_m'] if view == out['best_view'] else ''))
+    print('%-24s %10.3f %16.3f' % ('fused', out['fused_mean_m'],
+                                   out['fused_hidden_mean_m']))
+    print('%-24s %10.3f %16.3f' % ('fused, arrival stamps',
+                                   plain['fused_mean_m'],
+                                   plain['fused_hidden_mean_m']))
+    print('latency p95 %.0f ms (slowest view\'s pipeline %.0f ms); '
+          '%d duplicate people; %.1f %% of truth within the 95 %% bounds'
+          % (out['latency_p95_ms'], out['slowest_pipeline_p95_ms'],
+             out['duplicate_people'], 100 * out['bound_coverage']))
 
 
 if __name__ == '__main__':

@@ -7,7 +7,7 @@ import pytest
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
 from hri_sync.fusion.align import Sample, Track
 from hri_sync.fusion.associate import Associator
-from hri_sync.fusion.calibration import Residuals, refine_pose
+from hri_sync.fusion.calibration import Residuals, refine_pose, shared_points
 from hri_sync.fusion.frames import SensorPose, facing, parse_pose
 from hri_sync.fusion.fuse import FuseParams, Observation, fuse
 
@@ -197,3 +197,25 @@ def test_association_leaves_out_a_jump_then_lets_it_go():
             assert ('b', 1) not in ids
     assert assoc.jumps == 15
     assert ids[('b', 1)] != ids[('a', 1)]
+
+
+def test_shared_points_refine_a_view_from_the_others():
+    right = {'a': facing(3.0, 0.5, 1.0), 'b': facing(-2.0, 2.0, 1.0),
+             'c': facing(0.5, -3.0, 1.0)}
+    samples = {v: [] for v in right}
+    phase = {'a': 0.0, 'b': 0.011, 'c': 0.023}
+    for k in range(90):
+        for v, pose in right.items():
+            t = k / 30 + phase[v]
+            world = body(math.sin(t), 0.5 * math.cos(t))
+            samples[v].append((t, pose.from_world(world)
+                               + RNG.normal(0, 0.01, world.shape),
+                               np.full(NUM_JOINTS, 0.9)))
+    sensor, world = shared_points(samples['c'], {v: samples[v]
+                                                 for v in 'ab'}, right)
+    assert len(sensor) > 500
+    wrong = SensorPose(0.8, -3.0, 1.0, right['c'].yaw + math.radians(10))
+    refined, before, after = refine_pose(wrong, sensor, world)
+    assert before > 0.2 and after < 0.03
+    assert refined.x == pytest.approx(0.5, abs=0.05)
+    assert refined.yaw == pytest.approx(right['c'].yaw, abs=0.02)

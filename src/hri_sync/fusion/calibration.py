@@ -7,7 +7,9 @@ confidence >= ``min_confidence``), averaged with a time constant of
 ``tau`` s. A view whose residuals with every other view are over
 ``threshold`` while the other views agree with each other (three or more
 views) has a wrong pose; with two views a high residual names the pair
-only (either pose may be wrong).
+only (either pose may be wrong). ``shared_points`` and ``refine_pose``
+refine a view's pose from a person the other views see
+(scripts/fusion_refine_pose.py).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from typing import Dict, List, Optional, Tuple
 import numpy as np
 
 from hri_sync.dance_off.frames import SENSOR, rotation
+from hri_sync.fusion.align import Sample, Track
 from hri_sync.fusion.frames import MIRROR, SensorPose
 
 Pair = Tuple[str, str]
@@ -128,3 +131,49 @@ def _fit(q: np.ndarray, w: np.ndarray, pitch: float) -> SensorPose:
     rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     t = w.mean(axis=0) - rz @ q.mean(axis=0)
     return SensorPose(float(t[0]), float(t[1]), float(t[2]), yaw, pitch)
+
+
+Skeletons = List[Tuple[float, np.ndarray, np.ndarray]]
+
+
+def _track(samples: Skeletons, pose: Optional[SensorPose]) -> Track:
+    """A Track of (stamp, Skeleton-frame joints, confidence) samples, in
+    world when ``pose`` is given, else as they are."""
+    track = Track(keep=math.inf)
+    for stamp, positions, confidence in samples:
+        p = np.asarray(positions, float)
+        track.add(Sample(stamp, pose.to_world(p) if pose else p,
+                         np.asarray(confidence, float), 0.0))
+    return track
+
+
+def shared_points(target: Skeletons, others: Dict[str, Skeletons],
+                  poses: Dict[str, SensorPose], rate: float = 30.0,
+                  min_confidence: float = 0.5
+                  ) -> Tuple[np.ndarray, np.ndarray]:
+    """(target's Skeleton-frame joints, the same joints in world from the
+    other views), (N, 3) each: at instants ``rate`` Hz apart where the
+    target and another view see a joint with ``min_confidence``, the
+    other views' mean."""
+    mine = _track(target, None)
+    theirs = [_track(s, poses[v]) for v, s in sorted(others.items())]
+    if len(mine.samples) < 2:
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    start, end = mine.samples[0].stamp, mine.samples[-1].stamp
+    sensor, world = [], []
+    for t in np.arange(math.ceil(start * rate), end * rate) / rate:
+        a = mine.at(t)
+        refs = [r for r in (tr.at(t) for tr in theirs) if r is not None]
+        if a is None or not refs:
+            continue
+        seen = np.array([r.confidence >= min_confidence for r in refs])
+        pts = np.array([np.nan_to_num(r.positions) for r in refs])
+        count = seen.sum(axis=0)
+        ok = (a.confidence >= min_confidence) & (count > 0)
+        mean = (pts * seen[..., None]).sum(axis=0) / np.maximum(count, 1)[
+            :, None]
+        sensor.append(a.positions[ok])
+        world.append(mean[ok])
+    if not sensor:
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    return np.concatenate(sensor), np.concatenate(world)
