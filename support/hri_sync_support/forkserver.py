@@ -68,7 +68,7 @@ PRELOAD = ('numpy', 'yaml', 'genpy', 'genpy.rostime', 'roslib',
 CORE = ('hri_sync.wire', 'hri_sync.clock', 'hri_sync.control',
         'hri_sync.decision', 'hri_sync.client_process',
         'hri_sync.data_process', 'hri_sync.dance_off', 'hri_sync.robot',
-        'hri_sync.people', 'hri_sync.sensors')
+        'hri_sync.people', 'hri_sync.sensors', 'hri_sync.fusion')
 PR_SET_NAME = 15
 CLONE_NEWNET = 0x40000000
 _KEEP = []  # the server's objects a copy must not close on collection

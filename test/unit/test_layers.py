@@ -4,12 +4,13 @@ shell imports ROS (rospy, the generated messages, ...), and no module
 imports itself back through others.
 
     wire  <  clock  <  control, decision, client_process, data_process
-          <  dance_off, people, sensors  <  robot  <  tools  <  shell
+          <  dance_off, people, sensors  <  robot, fusion  <  tools  <  shell
 
 The shell is ``hri_sync.ros`` (what the nodes share) and every module
 named ``ros_*.py`` (a module's ROS side, kept beside its core).  ``wire``
 imports nothing of the package; the paper's four modules share a layer,
-as do ``people``, ``sensors`` and ``dance_off``.
+as do ``people``, ``sensors`` and ``dance_off``, and ``robot`` and
+``fusion``.
 """
 import ast
 import glob
@@ -20,7 +21,8 @@ import pytest
 SRC = os.path.join(os.path.dirname(__file__), '..', '..', 'src', 'hri_sync')
 RANK = {'wire': 0, 'clock': 1, 'control': 2, 'decision': 2,
         'client_process': 2, 'data_process': 2, 'dance_off': 3,
-        'people': 3, 'sensors': 3, 'robot': 4, 'tools': 5, 'ros': 6}
+        'people': 3, 'sensors': 3, 'robot': 4, 'fusion': 4, 'tools': 5,
+        'ros': 6}
 SHELL = 6
 ROS = ('rospy', 'rosbag', 'roslib', 'rosgraph', 'genpy', 'rostopic',
        'hri_sync.msg', 'hri_sync.srv', 'std_msgs', 'sensor_msgs',
