@@ -355,7 +355,8 @@ def main():
 def print_table(out):
     """The demo's view of the figures."""
     plain = out['no_time_alignment']
-    print('%-24s %10s %16s' % ('mean joint error (m)', 'all', 'best view hides'))
+    print('%-24s %10s %16s' % ('mean joint error (m)', 'all',
+                                'best view hides'))
     for view, err in out['single_view_mean_m'].items():
         print('%-24s %10.3f %16s' % (view, err, '%.3f' % out[
             'best_view_hidden_mean_m'] if view == out['best_view'] else ''))

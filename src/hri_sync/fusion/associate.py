@@ -17,7 +17,7 @@ by no view for ``forget_after`` s is dropped; ids are never reused.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Dict, Hashable, List, Optional, Tuple
+from typing import Dict, Hashable, Optional, Tuple
 
 import numpy as np
 
