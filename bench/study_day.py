@@ -14,7 +14,8 @@ clocks) and DJ Rob on kobuki_sim with the music.  This process starts
 each round on the CM's ``start_round`` service (``--dur`` s windows, the
 next one ``--pause`` s after a decision, while DJ Rob gestures) until
 ``--hours`` have passed, and the recorder splits its bag every
-``--split-minutes``.
+``--split-minutes`` (repeating the latched messages, such as the decision
+rule's config, at the start of each part).
 
 Every ``--sample`` s it writes OUT/study_day.json (a checkpoint: the
 figures exist whatever happens to the run): per node (every process the
@@ -204,7 +205,8 @@ def launch_text(opts, bag):
         '    <arg name="preflight" value="false"/>',
         '    <arg name="aggregator" value="false"/>',
         '    <arg name="bag" value="%s"/>' % bag,
-        '    <arg name="bag_options" value="--split --duration=%dm"/>'
+        '    <arg name="bag_options" value="--split --duration=%dm '
+        '--repeat-latched"/>'
         % opts.split_minutes,
         '  </include>']
     for i, c in enumerate(CLIENTS):
@@ -585,11 +587,18 @@ def main():
     ap.add_argument('--out', default='/tmp/study_day')
     ap.add_argument('--analyze', metavar='OUT',
                     help='analyze the run in OUT (no ROS master needed)')
+    ap.add_argument('--tools', default='verify,report',
+                    help='with --analyze: verify_decisions and/or report')
+    ap.add_argument('--watch', action='store_true',
+                    help='with --analyze: check the bags as the run closes '
+                    'them, until it has finished')
     opts = ap.parse_args()
     if opts.analyze:
         sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-        import study_day_analysis
-        print(json.dumps(study_day_analysis.analyze(opts.analyze)))
+        import study_day_analysis as sda
+        tools = tuple(t for t in opts.tools.split(',') if t)
+        fn = sda.watch if opts.watch else sda.analyze
+        print(json.dumps(fn(opts.analyze, tools)))
         return 0
     opts.out = os.path.abspath(opts.out)
     run(opts)

@@ -16,6 +16,7 @@ import re
 import struct
 import subprocess
 import sys
+import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import study_day as sd  # noqa: E402
@@ -95,52 +96,152 @@ def run_tool(argv, timeout):
     return p.returncode, p.stdout.splitlines()
 
 
-def verify(bags, decisions, out):
-    """verify_decisions on all the bags: its status and which decided
-    rounds it checked as agreeing."""
-    code, lines = run_tool(['rosrun', 'hri_sync', 'verify_decisions']
-                           + bags, 3600)
-    with open(os.path.join(out, 'verify_decisions.txt'), 'w') as f:
-        f.write('\n'.join(lines) + '\n')
-    ok_rounds = set()
-    bad_rounds = set()
+def chunks(paths, size=3):
+    """Consecutive parts, ``size`` at a time, each chunk overlapping the
+    next by one part: every split between two parts is inside a chunk, so
+    every round (shorter than a part) is whole in some chunk."""
+    out, i = [], 0
+    while paths:
+        out.append(paths[i:i + size])
+        if i + size >= len(paths):
+            return out
+        i += size - 1
+    return out
+
+
+def config_bag(first, dst):
+    """A bag of the latched /dance_off/config of the first part only (the
+    recorder wrote it there only, unless --repeat-latched)."""
+    import rosbag
+    with rosbag.Bag(first) as src, rosbag.Bag(dst, 'w') as out:
+        for topic, msg, t in src.read_messages(
+                topics=['/dance_off/config', 'dance_off/config']):
+            out.write(topic, msg, t)
+
+
+def chunk_dir(out, k, parts):
+    """OUT/chunks/K: the config bag and links to ``parts``, named as the
+    parts of one split recording (chunk_0.bag, chunk_1.bag, ...)."""
+    d = os.path.join(out, 'chunks', '%02d' % k)
+    os.makedirs(d, exist_ok=True)
+    names = [os.path.join(d, 'chunk_0.bag')]
+    if not os.path.exists(names[0]):
+        config_bag(parts[0] if k == 0 else
+                   os.path.join(os.path.dirname(parts[0]), 'session_0.bag'),
+                   names[0])
+    for i, p in enumerate(parts):
+        link = os.path.join(d, 'chunk_%d.bag' % (i + 1))
+        if not os.path.lexists(link):
+            os.symlink(os.path.abspath(p), link)
+        names.append(link)
+    return d, names
+
+
+def verify_lines(lines):
+    """{round: ok} of verify_decisions' output: ok when the round's
+    decision line and every client row say ok and the robot was checked
+    (not n/a) and right; False on a mismatch or a wrong robot; rounds
+    without a decision line are left out."""
+    rows = {}
     for line in lines:
-        m = re.match(r'\s*(\d+)\s+(.*)$', line)
-        if not m or int(m.group(1)) not in decisions:
+        m = re.match(r'\s*(\d+) (.*)$', line)
+        if m:
+            rows.setdefault(int(m.group(1)), []).append(m.group(2))
+    out = {}
+    for n, texts in rows.items():
+        decision = [t for t in texts if t.startswith('decision:')]
+        robot = [t for t in texts if t.startswith('robot:')]
+        if not decision:
             continue
-        n, rest = int(m.group(1)), m.group(2)
-        if 'robot' in rest.split()[:1]:
-            if 'FAIL' in rest or 'wrong' in rest:
-                bad_rounds.add(n)
-            continue
-        (bad_rounds if 'FAIL' in rest or 'differ' in rest
-         else ok_rounds).add(n)
-    return {'exit_status': code, 'decisions_in_bags': len(decisions),
-            'rounds_listed': len(ok_rounds | bad_rounds),
-            'rounds_with_problems': sorted(bad_rounds),
-            'last_lines': lines[-6:],
-            'met': code == 0 and not bad_rounds}
+        if any('MISMATCH' in t or 'ROBOT WRONG' in t for t in texts):
+            out[n] = False
+        elif decision[0].endswith('ok') and robot and \
+                'n/a' not in robot[0]:
+            out[n] = True
+    return out
 
 
-def report(bags, decisions, out):
-    """report on all the bags: its status and its rounds' verdicts."""
-    rdir = os.path.join(out, 'report')
-    code, lines = run_tool(['rosrun', 'hri_sync', 'report'] + bags
-                           + ['--out', rdir], 3600)
-    verdicts = {}
+def report_rounds(summary):
+    """{round: ok} of report's summary.json (cut-off rounds left out)."""
+    out = {}
+    for s in summary.get('sessions', []):
+        for r in s.get('rounds', []):
+            if not r.get('cut_off'):
+                out[r['round']] = bool(r.get('ok'))
+    return out
+
+
+def run_verify(d, names):
+    """verify_decisions on one chunk: {round: ok} and its status."""
+    code, lines = run_tool(['rosrun', 'hri_sync', 'verify_decisions']
+                           + names, 7200)
+    with open(os.path.join(d, 'verify_decisions.txt'), 'w') as f:
+        f.write('\n'.join(lines) + '\n')
+    return {'status': code,
+            'rounds': {str(n): v for n, v in verify_lines(lines).items()}}
+
+
+def run_report(d, names):
+    """report on one chunk: {round: ok} of its summary and its status."""
+    code, lines = run_tool(['rosrun', 'hri_sync', 'report'] + names
+                           + ['--out', os.path.join(d, 'report')], 7200)
     try:
-        with open(os.path.join(rdir, 'summary.json')) as f:
-            summary = json.load(f)
-        for r in summary.get('rounds', []):
-            verdicts[r.get('round')] = r.get('verdict', r.get('ok'))
-    except (OSError, ValueError, AttributeError):
-        summary = None
-    return {'exit_status': code, 'decisions_in_bags': len(decisions),
-            'rounds_in_summary': len(verdicts),
-            'verdicts': sorted({str(v) for v in verdicts.values()}),
-            'last_lines': lines[-4:], 'html': os.path.join(rdir,
-                                                           'index.html'),
-            'met': code == 0}
+        with open(os.path.join(d, 'report', 'summary.json')) as f:
+            rounds = report_rounds(json.load(f))
+    except (OSError, ValueError):
+        rounds = {}
+    return {'status': code, 'tail': lines[-3:],
+            'rounds': {str(n): v for n, v in rounds.items()}}
+
+
+TOOLS = {'verify': run_verify, 'report': run_report}
+
+
+def check_chunk(out, k, parts, tool):
+    """``tool`` (verify or report) on one chunk as one session, cached in
+    OUT/chunks/K/TOOL.json: {parts, status, rounds: {round: ok}}."""
+    d, names = chunk_dir(out, k, parts)
+    cached = os.path.join(d, tool + '.json')
+    key = [os.path.basename(p) for p in parts]
+    if os.path.exists(cached):
+        with open(cached) as f:
+            result = json.load(f)
+        if result['parts'] == key:
+            return result
+    t = time.time()
+    result = dict(TOOLS[tool](d, names), parts=key,
+                  seconds=round(time.time() - t, 1))
+    sd.write_json(cached, result)
+    return result
+
+
+def final_chunks(bags, finished):
+    """The chunks whose parts will not change: all of them once the run
+    has finished, else those of the full size."""
+    return [c for c in chunks(bags) if finished or len(c) == 3]
+
+
+def verify_all(out, bags, decided, finished, say, tools=('verify',
+                                                         'report')):
+    """Every decided round checked by verify_decisions and report in a
+    chunk that holds it whole: the rounds each agreed with, and not."""
+    out_ = {'chunks': len(chunks(bags))}
+    for tool in tools:
+        results = []
+        for k, parts in enumerate(final_chunks(bags, finished)):
+            say('%s, chunk %d: %s' % (tool, k, ', '.join(
+                os.path.basename(p) for p in parts)))
+            results.append(check_chunk(out, k, parts, tool))
+        ok = {int(n) for r in results for n, v in r['rounds'].items() if v}
+        bad = {int(n) for r in results for n, v in r['rounds'].items()
+               if v is False} - ok
+        out_[tool] = {'chunks_done': len(results),
+                      'seconds': round(sum(r['seconds'] for r in results)),
+                      'rounds_agreeing': len(ok & set(decided)),
+                      'rounds_disagreeing': sorted(bad),
+                      'decided_not_checked': len(set(decided) - ok - bad),
+                      'met': bool(decided) and set(decided) <= ok}
+    return out_
 
 
 def plot(run, out):
@@ -179,7 +280,8 @@ def plot(run, out):
     return [os.path.join(out, 'rss.png'), os.path.join(out, 'rounds.png')]
 
 
-def analyze(out):
+def analyze(out, tools=('verify', 'report'),
+            say=lambda m: print(m, file=sys.stderr, flush=True)):
     """Everything above; the JSON (also written to OUT/analysis.json)."""
     with open(os.path.join(out, 'study_day.json')) as f:
         run = json.load(f)
@@ -195,11 +297,30 @@ def analyze(out):
         stamps, results, decisions, bounds = read_bags(bags, cfg['clients'])
         result['frames_across_splits'] = frames_across_splits(
             stamps, results, bounds, cfg['rate_hz'])
-        result['verify_decisions'] = verify(bags, decisions, out)
-        result['report'] = report(bags, decisions, out)
-        decided = [r['round'] for r in run['rounds'] if r.get('decided')]
+        decided = sorted(n for n, d in decisions.items()
+                         if d.outcome != 'aborted')
+        seen = [r['round'] for r in run['rounds'] if r.get('decided')]
         result['decisions_recorded_vs_seen'] = {
-            'seen_live': len(decided), 'in_bags': len(decisions),
-            'missing_from_bags': sorted(set(decided) - set(decisions))[:20]}
+            'seen_live': len(seen), 'in_bags': len(decisions),
+            'missing_from_bags': sorted(set(seen) - set(decisions))[:20]}
+        result.update(verify_all(out, bags, decided, run['finished'], say,
+                                 tools))
     sd.write_json(os.path.join(out, 'analysis.json'), result)
     return result
+
+
+def watch(out, tools=('verify', 'report'), period=300.0,
+          say=lambda m: print(m, file=sys.stderr, flush=True)):
+    """Check the chunks as the run closes them (verify first), until the
+    run has finished and every chunk is done; the last analysis."""
+    while True:
+        with open(os.path.join(out, 'study_day.json')) as f:
+            finished = json.load(f)['finished']
+        bags, _ = split_bags(out)
+        for tool in tools:
+            for k, parts in enumerate(final_chunks(bags, finished)):
+                check_chunk(out, k, parts, tool)
+                say('%s: chunk %d done' % (tool, k))
+        if finished:
+            return analyze(out, tools, say)
+        time.sleep(period)
