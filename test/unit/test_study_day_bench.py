@@ -120,3 +120,72 @@ def test_frames_in_a_window_across_a_split():
                     for i in range(6000))
     assert sd.count_in_window(stamps, 110.0, 130.0) == 2000
     assert sd.straddles(110.0, 130.0, [105.0, 120.0, 131.0]) == [120.0]
+
+
+import study_day_analysis as sda  # noqa: E402
+
+
+def test_chunks_overlap_so_every_split_is_inside_one():
+    parts = ['p%d' % i for i in range(8)]
+    got = sda.chunks(parts)
+    assert got == [['p0', 'p1', 'p2'], ['p2', 'p3', 'p4'],
+                   ['p4', 'p5', 'p6'], ['p6', 'p7']]
+    inside = {(c[i], c[i + 1]) for c in got for i in range(len(c) - 1)}
+    assert inside == {(parts[i], parts[i + 1]) for i in range(7)}
+    assert sda.chunks(['p0']) == [['p0']]
+    assert sda.final_chunks(parts, False) == got[:3]
+
+
+VERIFY = """x.bag .. chunk_3.bag (4 split parts): 3 decisions
+x.bag .. chunk_3.bag (4 split parts): round 9: CUT OFF: it began
+round client   status   frames(rec/re)  value recorded   recomputed  check
+    7 c1       ok         5000/5000         38.6832514       38.6832514  ok
+    7 decision: recorded winner (participant 1), recomputed winner  ok
+    8 c1       ok         5000/4999         38.6832514       38.6832514  \
+MISMATCH: frames 5000 recorded, 4999 recomputed
+    8 decision: recorded winner (participant 1), recomputed winner  ok
+    6 c1       ok         10/5000         1.0       2.0  MISMATCH: no
+    6 decision: recorded winner (participant 1), recomputed winner  ok
+robot: participants at +45.0, +15.0 deg
+    7 robot: expected to face participant 1: robot faced participant 1
+    8 robot: expected to face participant 1: robot faced participant 1
+    6 robot: expected to face participant 1: robot: n/a (the recording)
+"""
+
+
+def test_verify_lines_reads_each_rounds_verdict():
+    assert sda.verify_lines(VERIFY.splitlines()) == {7: True, 8: False,
+                                                     6: False}
+
+
+def test_report_rounds_leave_out_cut_off_rounds():
+    summary = {'sessions': [{'rounds': [
+        {'round': 1, 'cut_off': False, 'ok': True},
+        {'round': 2, 'cut_off': True, 'ok': False},
+        {'round': 3, 'cut_off': False, 'ok': False}]}]}
+    assert sda.report_rounds(summary) == {1: True, 3: False}
+
+
+class Stamp:
+    def __init__(self, t):
+        self.t = t
+
+    def to_sec(self):
+        return self.t
+
+
+class Result:
+    def __init__(self, start, end, frames):
+        self.capture_start, self.capture_end = Stamp(start), Stamp(end)
+        self.frames, self.frames_rejected = frames, 0
+
+
+def test_frames_across_splits_counts_the_bags_against_the_results():
+    stamps = {'c1': [10.005 + 0.01 * i for i in range(3000)]}
+    results = {(1, 'c1'): Result(10.0, 20.0, 1000),
+               (2, 'c1'): Result(20.0, 30.0, 1000),
+               (3, 'c1'): Result(30.0, 40.0, 1001)}
+    out = sda.frames_across_splits(stamps, results, [25.0], 100.0)
+    assert out['windows'] == 3 and out['windows_across_a_split'] == 1
+    assert out['frames_lost'] == 1 and not out['met']
+    assert [r['round'] for r in out['windows_missing_frames']] == [3]
