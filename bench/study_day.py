@@ -144,6 +144,38 @@ def compare_windows(rounds, key, span, total, tol=0.2):
     return out
 
 
+def by_window(rounds, samples, span):
+    """The run in windows of ``span`` s (by window end): per window its
+    rounds, clock agreement and decision latency p50 and p99 (ms), the
+    lowest share of the nominal frames a result got, and the mean load
+    average of its samples: how the figures move over hours, and with
+    the machine's load."""
+    def p(xs, q):
+        v = percentile(xs, q)
+        return None if math.isnan(v) else round(v, 3)
+    ends = [r['end_s'] for r in rounds if r.get('end_s') is not None]
+    out = []
+    for k in range(int(max(ends, default=-1) // span) + 1):
+        a, b = k * span, (k + 1) * span
+        rs = [r for r in rounds if r.get('end_s') is not None
+              and a <= r['end_s'] < b]
+        clock = [r.get('clock_agreement_ms') for r in rs]
+        lat = [r.get('decision_ms') for r in rs]
+        loads = [s['load_1min'] for s in samples if a <= s['t_s'] < b]
+        ratios = [n / r['frames_expected'] for r in rs
+                  if r.get('frames_expected')
+                  for n in r.get('frames', {}).values()]
+        out.append({'from_min': round(a / 60), 'rounds': len(rs),
+                    'clock_p50_ms': p(clock, 50), 'clock_p99_ms': p(clock, 99),
+                    'decision_p50_ms': p(lat, 50),
+                    'decision_p99_ms': p(lat, 99),
+                    'frames_min_share': round(min(ratios), 3)
+                    if ratios else None,
+                    'load_mean': round(sum(loads) / len(loads), 1)
+                    if loads else None})
+    return out
+
+
 def rss_growth(samples, baseline_s, tol=0.1):
     """Per node: RSS (kB) at the first sample at or after ``baseline_s``
     against the last sample's, within ``tol``?  Nodes that were not in

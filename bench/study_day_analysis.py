@@ -287,6 +287,10 @@ def analyze(out, tools=('verify', 'report'),
         run = json.load(f)
     cfg = run['config']
     result = {'run_finished': run['finished'], 'summary': run['summary']}
+    expected = cfg['rate_hz'] * cfg['dur_s']
+    result['by_10_minutes'] = sd.by_window(
+        [dict(r, frames_expected=expected) for r in run['rounds']],
+        run['samples'], 600.0)
     try:
         result['plots'] = plot(run, out)
     except ImportError as e:

@@ -189,3 +189,20 @@ def test_frames_across_splits_counts_the_bags_against_the_results():
     assert out['windows'] == 3 and out['windows_across_a_split'] == 1
     assert out['frames_lost'] == 1 and not out['met']
     assert [r['round'] for r in out['windows_missing_frames']] == [3]
+
+
+def test_by_window_splits_the_run_by_window_end():
+    rounds = [{'end_s': 100.0, 'clock_agreement_ms': 0.1, 'decision_ms': 50,
+               'frames': {'c1': 90}, 'frames_expected': 100},
+              {'end_s': 500.0, 'clock_agreement_ms': 0.3, 'decision_ms': 70,
+               'frames': {'c1': 100}, 'frames_expected': 100},
+              {'end_s': 1300.0, 'clock_agreement_ms': 2.0,
+               'decision_ms': 90, 'frames': {}, 'frames_expected': 100},
+              {'end_s': None}]
+    samples = [{'t_s': 0.0, 'load_1min': 2.0}, {'t_s': 300.0,
+                                               'load_1min': 4.0}]
+    out = sd.by_window(rounds, samples, 600.0)
+    assert [w['rounds'] for w in out] == [2, 0, 1]
+    assert out[0]['clock_p50_ms'] == 0.2 and out[0]['load_mean'] == 3.0
+    assert out[0]['frames_min_share'] == 0.9
+    assert out[1]['clock_p99_ms'] is None and out[2]['decision_p50_ms'] == 90
