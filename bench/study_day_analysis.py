@@ -32,19 +32,26 @@ def split_bags(out):
     return bags, active
 
 
+def both_forms(names):
+    """Each topic name relative (as the site files record them, in the
+    system's namespace) and absolute."""
+    return [n for name in names for n in (name, '/' + name)]
+
+
 def read_bags(paths, clients):
     """(captured stamps per client sorted, results {(round, client): msg},
     decisions {round: msg}, boundaries: each later bag's first time)."""
     import rosbag
     stamps = {c: [] for c in clients}
     results, decisions, boundaries = {}, {}, []
-    topics = ['/%s/captured' % c for c in clients] + [
-        '/client_result', '/decision']
+    topics = both_forms(['%s/captured' % c for c in clients] + [
+        'client_result', 'decision'])
     for i, path in enumerate(paths):
         with rosbag.Bag(path) as bag:
             if i:
                 boundaries.append(bag.get_start_time())
             for topic, msg, _ in bag.read_messages(topics=topics, raw=True):
+                topic = '/' + topic.lstrip('/')
                 if topic.endswith('/captured'):
                     _, sec, nsec = struct.unpack_from('<III', msg[1], 0)
                     stamps[topic.split('/')[1]].append(sec + nsec * 1e-9)
@@ -110,12 +117,19 @@ def chunks(paths, size=3):
 
 
 def config_bag(first, dst):
-    """A bag of the latched /dance_off/config of the first part only (the
-    recorder wrote it there only, unless --repeat-latched)."""
+    """A bag of what a chunk after the first lacks from the first part:
+    the latched /dance_off/config (in the first part only, unless
+    --repeat-latched) and DJ Rob's first odometry, the origin of the
+    robot check's headings."""
     import rosbag
+    odom = False
     with rosbag.Bag(first) as src, rosbag.Bag(dst, 'w') as out:
         for topic, msg, t in src.read_messages(
-                topics=['/dance_off/config', 'dance_off/config']):
+                topics=both_forms(['dance_off/config', 'odom'])):
+            if topic.lstrip('/') == 'odom':
+                if odom:
+                    continue
+                odom = True
             out.write(topic, msg, t)
 
 
