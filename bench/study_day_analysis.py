@@ -279,15 +279,18 @@ def plot(run, out):
     fig.tight_layout()
     fig.savefig(os.path.join(out, 'rss.png'), dpi=100)
     rounds = [r for r in run['rounds'] if r.get('end_s') is not None]
-    fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
     for ax, key, label in ((axes[0], 'clock_agreement_ms',
                             'clock agreement, ms'),
                            (axes[1], 'decision_ms', 'decision latency, ms')):
         pts = [(r['end_s'] / 3600, r[key]) for r in rounds
-               if r.get(key) is not None]
-        ax.plot([p[0] for p in pts], [p[1] for p in pts], '.', ms=4)
+               if r.get(key) is not None and r[key] > 0]
+        ax.semilogy([p[0] for p in pts], [p[1] for p in pts], '.', ms=4)
         ax.set_ylabel(label)
-    axes[1].set_xlabel('hours since start (window end)')
+    axes[2].plot([s['t_s'] / 3600 for s in samples],
+                 [s['load_1min'] for s in samples], lw=1)
+    axes[2].set_ylabel('load average (1 min)')
+    axes[2].set_xlabel('hours since start (window end)')
     fig.tight_layout()
     fig.savefig(os.path.join(out, 'rounds.png'), dpi=100)
     plt.close('all')
