@@ -286,6 +286,7 @@ class Rounds:
                          queue_size=100)
 
     def row(self, n):
+        """The row of round ``n`` (created if new; under the lock)."""
         return self.rounds.setdefault(n, {'round': n, 'frames': {},
                                           'status': {}})
 
@@ -366,6 +367,7 @@ def process_sample(launch_pid):
 
 
 def disk_bytes(pattern):
+    """Bytes of the files matching ``pattern``."""
     total = 0
     for path in glob.glob(pattern):
         try:
@@ -383,7 +385,7 @@ def host_cpu():
     return sum(vals) - idle, sum(vals)
 
 
-# --- the summary --------------------------------------------------------------
+# --- the summary ------------------------------------------------------------
 
 def cost(samples, hours):
     """CPU share (cores) of the launch's processes and of the host, disk
@@ -465,13 +467,14 @@ def summarize(rounds, samples, opts, elapsed):
 
 
 def write_json(path, obj):
+    """Write ``obj`` to ``path`` at once (a reader never sees half)."""
     tmp = path + '.tmp'
     with open(tmp, 'w') as f:
         json.dump(obj, f, indent=1)
     os.replace(tmp, path)
 
 
-# --- the run ------------------------------------------------------------------
+# --- the run ----------------------------------------------------------------
 
 def drive_rounds(rospy, rounds, opts, deadline, stop):
     """Start rounds on the CM's service until ``deadline`` (time.time())."""
@@ -497,6 +500,8 @@ def drive_rounds(rospy, rounds, opts, deadline, stop):
 
 
 def take_sample(launch, opts, t0, last_host):
+    """One sample: load, host CPU, bag bytes, every process's pid, RSS,
+    CPU seconds."""
     procs = process_sample(launch.pid)
     busy, total = host_cpu()
     return {'t_s': round(time.time() - t0, 1),
@@ -509,6 +514,7 @@ def take_sample(launch, opts, t0, last_host):
 
 
 def checkpoint(opts, t0, rounds, samples, launch_file, done=False):
+    """Write OUT/study_day.json: config, summary, rounds, samples."""
     elapsed = time.time() - t0
     rows = rounds.rows(read_monitor(os.path.join(opts.out,
                                                  'rounds_monitor.json')))
@@ -531,6 +537,7 @@ def checkpoint(opts, t0, rounds, samples, launch_file, done=False):
 
 
 def stop_launch(launch):
+    """SIGINT to the launch's process group, SIGKILL after 60 s."""
     if launch.poll() is not None:
         return
     os.killpg(launch.pid, signal.SIGINT)
@@ -542,6 +549,7 @@ def stop_launch(launch):
 
 
 def run(opts):
+    """Write the launch file, start it, record until the end."""
     os.makedirs(os.path.join(opts.out, 'bags'), exist_ok=True)
     launch_file = os.path.join(opts.out, 'study_day.launch')
     with open(launch_file, 'w') as f:
@@ -566,6 +574,7 @@ def run(opts):
 
 
 def record(opts, launch, launch_file, stop):
+    """Drive the rounds and sample every --sample s until --hours."""
     import rosgraph
     import rospy
     import hri_sync.msg as msgs
