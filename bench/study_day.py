@@ -630,6 +630,8 @@ def main():
                     help='analyze the run in OUT (no ROS master needed)')
     ap.add_argument('--tools', default='verify,report',
                     help='with --analyze: verify_decisions and/or report')
+    ap.add_argument('--chunks', help='with --analyze: check only these '
+                    'chunks (e.g. 3,4: two processes can share the work)')
     ap.add_argument('--watch', action='store_true',
                     help='with --analyze: check the bags as the run closes '
                     'them, until it has finished')
@@ -638,6 +640,8 @@ def main():
         sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
         import study_day_analysis as sda
         tools = tuple(t for t in opts.tools.split(',') if t)
+        if opts.chunks:
+            sda.ONLY = {int(k) for k in opts.chunks.split(',')}
         fn = sda.watch if opts.watch else sda.analyze
         print(json.dumps(fn(opts.analyze, tools)))
         return 0

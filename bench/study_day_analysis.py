@@ -229,10 +229,15 @@ def check_chunk(out, k, parts, tool):
     return result
 
 
+ONLY = None     # the chunk numbers to check (--chunks); None: all
+
+
 def final_chunks(bags, finished):
-    """The chunks whose parts will not change: all of them once the run
-    has finished, else those of the full size."""
-    return [c for c in chunks(bags) if finished or len(c) == 3]
+    """(number, parts) of the chunks whose parts will not change: all of
+    them once the run has finished, else those of the full size; only
+    those of ONLY when set."""
+    return [(k, c) for k, c in enumerate(chunks(bags))
+            if (finished or len(c) == 3) and (ONLY is None or k in ONLY)]
 
 
 def verify_all(out, bags, decided, finished, say, tools=('verify',
@@ -242,7 +247,7 @@ def verify_all(out, bags, decided, finished, say, tools=('verify',
     out_ = {'chunks': len(chunks(bags))}
     for tool in tools:
         results = []
-        for k, parts in enumerate(final_chunks(bags, finished)):
+        for k, parts in final_chunks(bags, finished):
             say('%s, chunk %d: %s' % (tool, k, ', '.join(
                 os.path.basename(p) for p in parts)))
             results.append(check_chunk(out, k, parts, tool))
@@ -339,7 +344,7 @@ def watch(out, tools=('verify', 'report'), period=300.0,
             finished = json.load(f)['finished']
         bags, _ = split_bags(out)
         for tool in tools:
-            for k, parts in enumerate(final_chunks(bags, finished)):
+            for k, parts in final_chunks(bags, finished):
                 check_chunk(out, k, parts, tool)
                 say('%s: chunk %d done' % (tool, k))
         if finished:

@@ -133,7 +133,10 @@ def test_chunks_overlap_so_every_split_is_inside_one():
     inside = {(c[i], c[i + 1]) for c in got for i in range(len(c) - 1)}
     assert inside == {(parts[i], parts[i + 1]) for i in range(7)}
     assert sda.chunks(['p0']) == [['p0']]
-    assert sda.final_chunks(parts, False) == got[:3]
+    assert sda.final_chunks(parts, False) == list(enumerate(got[:3]))
+    sda.ONLY = {1, 3}
+    assert sda.final_chunks(parts, True) == [(1, got[1]), (3, got[3])]
+    sda.ONLY = None
 
 
 VERIFY = """x.bag .. chunk_3.bag (4 split parts): 3 decisions
