@@ -144,3 +144,47 @@ def test_reindex_keeps_every_message_before_the_cut(tmp_path):
                   if t < cut]
         after = [(c.topic, t, bytes(raw)) for c, t, raw in b.messages()]
     assert sorted(before) == sorted(after)
+
+
+def test_split_groups_puts_the_parts_of_a_recording_together():
+    paths = ['d/s_1.bag', 'a.bag', 'd/s_0.bag', 'd/s_10.bag', 'd/s_2.bag',
+             'e/s_3.bag']
+    assert bag.split_groups(paths) == [
+        ['d/s_0.bag', 'd/s_1.bag', 'd/s_2.bag', 'd/s_10.bag'], ['a.bag'],
+        ['e/s_3.bag']]
+    assert bag.group_label(['a.bag']) == 'a.bag'
+    assert '2 split parts' in bag.group_label(['d/s_0.bag', 'd/s_1.bag'])
+
+
+def split_in_two(tmp_path):
+    """session_robot.bag cut as rosbag record --split cuts it: mid-round,
+    the latched /dance_off/config in the first part only."""
+    with Reader(SESSION) as r:
+        cut = capture_time(SESSION, 1) + (r.end_time - capture_time(
+            SESSION, 1)) // 2
+    parts = [str(tmp_path / 's_0.bag'), str(tmp_path / 's_1.bag')]
+    bag_edit.copy_bag(SESSION, parts[0],
+                      edit=lambda _topic, t, m: m if t < cut else None)
+    bag_edit.copy_bag(SESSION, parts[1],
+                      edit=lambda _topic, t, m: m if t >= cut else None)
+    return parts
+
+
+def test_the_parts_of_a_split_recording_are_one_session(tmp_path):
+    whole = build_session(bag.read_bag(SESSION))
+    parts = split_in_two(tmp_path)
+    merged = build_session(bag.open_session(bag.split_groups(parts)[0],
+                                            say=lambda *_: None))
+    second = build_session(bag.read_bag(parts[1]))
+    assert merged.config == whole.config and not second.config
+    decided = sorted(n for n, r in whole.rounds.items() if r.decision)
+    assert decided and sorted(
+        n for n, r in merged.rounds.items() if r.decision) == decided
+    assert merged.cut_off == whole.cut_off
+    for topic, recs in whole_messages(SESSION).items():
+        assert len(bag.open_session(parts, say=lambda *_: None)
+                   .messages.get(topic, [])) == recs, topic
+
+
+def whole_messages(path):
+    return {t: len(m) for t, m in bag.read_bag(path).messages.items()}

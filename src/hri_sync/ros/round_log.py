@@ -76,14 +76,24 @@ class RoundLog:
             self._pending.setdefault(client, []).append(
                 (msg.header.stamp.to_sec(), truth, ident))
 
+    def forget(self, n):
+        """Drop the record of round ``n`` (a monitor that has reported it:
+        over a study day of hours the captured samples of every round
+        would otherwise stay, and each new sample be matched against every
+        old window).  A late message for it starts an empty record."""
+        with self.lock:
+            self.rounds.pop(n, None)
+
     def assign_captured(self):
         """File captured samples under the round whose window holds them."""
         with self.lock:
+            windows = [(c.start, c.end, r) for c, r in (
+                (Capture.from_msg(r['capture']), r)
+                for r in self.rounds.values() if r['capture'])]
             for client, samples in self._pending.items():
                 for s in samples:
-                    for n, r in self.rounds.items():
-                        c = r['capture'] and Capture.from_msg(r['capture'])
-                        if c and c.start <= s[0] < c.end:
+                    for start, end, r in windows:
+                        if start <= s[0] < end:
                             r['captured'].setdefault(client, []).append(s)
             self._pending = {}
 

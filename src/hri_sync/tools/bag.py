@@ -16,10 +16,13 @@ both shapes.
 """
 import glob
 import os
+import re
 import struct
 from dataclasses import dataclass, field
 
 PKG = 'hri_sync'
+# A part of a recording that rosbag record --split wrote: PREFIX_N.bag.
+SPLIT_PART = re.compile(r'^(.*)_(\d+)\.bag$')
 MAGIC = b'#ROSBAG V2.0\n'
 OP_MSGDATA, OP_BAGHEADER, OP_IDXDATA, OP_CHUNK, OP_CHUNKINFO, OP_CONN = \
     2, 3, 4, 5, 6, 7
@@ -429,3 +432,58 @@ def open_bags(paths, allow_old=False, do_reindex=False, say=print):
             path = dst
         out.append(read_bag(path, allow_old))
     return out
+
+
+def split_groups(paths):
+    """``paths`` grouped by recording: the parts that ``rosbag record
+    --split`` wrote (PREFIX_0.bag, PREFIX_1.bag, ...) together in part
+    order, every other bag alone; groups in the order of their first
+    path."""
+    groups, where = [], {}
+    for path in paths:
+        m = SPLIT_PART.match(path)
+        if m is None:
+            groups.append([path])
+        elif m.group(1) in where:
+            groups[where[m.group(1)]].append(path)
+        else:
+            where[m.group(1)] = len(groups)
+            groups.append([path])
+    return [sorted(g, key=lambda p: int(SPLIT_PART.match(p).group(2)))
+            if len(g) > 1 else g for g in groups]
+
+
+def group_label(paths):
+    """How a group of split_groups is named in messages."""
+    if len(paths) == 1:
+        return paths[0]
+    return '%s .. %s (%d split parts)' % (paths[0],
+                                          os.path.basename(paths[-1]),
+                                          len(paths))
+
+
+def merge_contents(parts):
+    """One BagContents of the parts of a split recording, in order: one
+    session, where each part alone lacks what came before it (a latched
+    message such as /dance_off/config is in the first part only) and
+    cuts the rounds that cross its ends."""
+    if len(parts) == 1:
+        return parts[0]
+    out = BagContents(parts[0].path, start=min(p.start for p in parts),
+                      end=max(p.end for p in parts))
+    for part in parts:
+        out.topics.update(part.topics)
+        for topic, recs in part.messages.items():
+            out.messages.setdefault(topic, []).extend(recs)
+        out.old_types.update(part.old_types)
+        out.pre_header.extend(t for t in part.pre_header
+                              if t not in out.pre_header)
+    for recs in out.messages.values():
+        recs.sort(key=lambda r: r.t)
+    return out
+
+
+def open_session(paths, allow_old=False, do_reindex=False, say=print):
+    """open_bags of one group of split_groups, merged into one
+    BagContents."""
+    return merge_contents(open_bags(paths, allow_old, do_reindex, say))

@@ -63,10 +63,10 @@ def build(paths, out_dir, allow_old=False, do_reindex=False,
               'sessions': [], 'errors': []}
     images = {}
     contents = []
-    for i, path in enumerate(paths):
+    for group in bag.split_groups(paths):
         try:
-            contents.append(bag.open_bags([path], allow_old, do_reindex,
-                                          say)[0])
+            contents.append(bag.open_session(group, allow_old, do_reindex,
+                                             say))
         except bag.BagError as e:
             report['errors'].append(str(e))
     if not contents:
