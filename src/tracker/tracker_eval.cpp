@@ -15,7 +15,9 @@
 // --direct renders in-process instead of through OpenNI (same renderer).
 // --users N (1-4): the multi-user tracker the node runs (MultiTracker, N users at
 // most), scored on the tracked user whose torso is nearest the person's (as a
-// participant zone picks them); 0 (default): the single-user DepthTracker.
+// participant zone picks them); 0 (default): the single-user DepthTracker. With
+// --direct it counts ghosts: users more than 0.7 m along the floor from every
+// rendered person's torso.
 // --oni plays a recording (every frame, N loops, default 4; its own field of view
 // and device stamps) through the tracker: no truth, so it reports each frame's
 // state, the users per frame (a recording of one person: more than one is a
@@ -101,6 +103,8 @@ class Runner {
     mp.max_users = users;
     multi_ = std::make_unique<MultiTracker>(cam, params, mp);
   }
+  /// The room's up in the sensor frame (a tilted sensor's), for ghost distances.
+  void setUp(const Vec3& up) { up_ = up; }
   /// people: every rendered person's torso (the person, bystander, crowd), or
   /// null when they are not known (then no ghost is counted).
   SkeletonEstimate update(const uint16_t* depth, double t, const Joints& truth, const std::vector<Vec3>* people) {
@@ -108,9 +112,15 @@ class Runner {
     const MultiEstimate m = multi_->update(depth, t);
     users_ += m.tracked_users;
     last_users_ = static_cast<int>(m.users.size());
-    for (const UserEstimate& u : m.users) {  // a user more than 0.7 m from every person is a ghost
+    // A user more than 0.7 m along the floor from every person's torso is a
+    // ghost; heights are left out, as the tracker's association leaves them
+    // out: a person half hidden behind another shows only their legs.
+    for (const UserEstimate& u : m.users) {
       double nearest = 1e9;
-      for (const Vec3& p : people ? *people : std::vector<Vec3>()) nearest = std::min(nearest, (u.centroid - p).norm());
+      for (const Vec3& p : people ? *people : std::vector<Vec3>()) {
+        const Vec3 d = u.centroid - p;
+        nearest = std::min(nearest, (d - up_ * d.dot(up_)).norm());
+      }
       if (people && nearest > 0.7) { ++ghost_frames_; ghost_ids_.insert(u.user_id); }
     }
     SkeletonEstimate best;
@@ -136,6 +146,7 @@ class Runner {
   long ghost_frames_ = 0;
   std::set<uint32_t> ghost_ids_;
   int last_users_ = 0;
+  Vec3 up_{0, 1, 0};
 };
 
 // --oni: a recording through the tracker, loops times (see the header comment).
@@ -271,6 +282,7 @@ int main(int argc, char** argv) {
   const int total = static_cast<int>(seconds * fps);
   if (users < 0 || users > 4) { std::fprintf(stderr, "tracker_eval: --users must be 0-4\n"); return 2; }
   Runner tracker(cam, params, users);
+  if (scene) tracker.setUp(scene->toSensor(Vec3(0, 1, 0)) - scene->toSensor(Vec3()));
   Stats st;
 
   if (direct) {
