@@ -23,7 +23,10 @@ Kinect v1), rendered in-process (--direct; the driver renders the same frames,
 test/unit/virtual_kinect_gtest.cpp), and prints one JSON object with every
 cell and whether it meets the targets (mean <= 0.10 m and hands p95 <= 0.25 m
 without a bystander; tracked >= 90 % after calibration; >= 30 frames per CPU
-second at 320x240); --markdown FILE also writes the table.
+second at 320x240); --markdown FILE also writes the table. With --users N
+(the node's multi-user tracker) each cell also counts ghost users (users
+more than 0.7 m along the floor from every rendered person; none is the
+target): ghost_user_frames and ghost_users_per_minute.
 
 Needs the built workspace sourced (source WS/devel/setup.bash).
 """
@@ -163,7 +166,8 @@ def matrix(exe, track, args):
                       'seen_hands_p95_error_m', 'tracked_share',
                       'tracked_share_after_calibration',
                       'first_tracked_frame', 'fps', 'frames', 'resolution',
-                      'mean_tracked_users'):
+                      'mean_tracked_users', 'ghost_user_frames',
+                      'ghost_users_per_minute'):
                 cell[k] = r[k]
             cell['met'] = judge(cell)
             print(json.dumps(cell), file=sys.stderr, flush=True)
@@ -175,20 +179,23 @@ def markdown(result):
     """The table for docs/tracker.md."""
     mark = {True: 'yes', False: '**no**', None: 'n/a'}
     lines = ['| body (height) | scene | noise | mean (m) | hands p95 (m) | '
-             'tracked after calib. | frames / CPU s | targets met |',
-             '|---|---|---|---|---|---|---|---|']
+             'tracked after calib. | frames / CPU s | ghost users / min | '
+             'targets met |',
+             '|---|---|---|---|---|---|---|---|---|']
     def error(value):
         return '%.3f' % value if value >= 0 else 'none (never tracked)'
     for c in result['cells']:
         met = judge(c)
         body = ('%s (capsule fit model)' % c['body'] if c['body'] == 'model'
                 else '%s (%.2f m)' % (c['body'], c['body_height_m']))
+        ghosts = c.get('ghost_users_per_minute')
         lines.append(
-            '| %s | %s | %s | %s | %s | %.1f %% | %.0f | '
+            '| %s | %s | %s | %s | %s | %.1f %% | %.0f | %s | '
             'mean %s, hands %s, tracked %s, speed %s |' % (
                 body, c['scene'], c['noise'],
                 error(c['mean_error_m']), error(c['hands_p95_error_m']),
                 100 * c['tracked_share_after_calibration'], c['fps'],
+                'n/a (--users 0)' if ghosts is None else '%g' % ghosts,
                 mark[met['mean_error']], mark[met['hands_p95']],
                 mark[met['tracked']], mark[met['fps']]))
     return '\n'.join(lines) + '\n'

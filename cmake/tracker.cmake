@@ -72,9 +72,9 @@ endfunction()
 hri_sync_openni2_program(record_oni src/virtual_kinect/record_oni.cpp)
 hri_sync_openni2_program(oni_info src/virtual_kinect/oni_info.cpp)
 # The depth noise statistics of a recording or a rendered scene (docs/tracker.md, "Kinect v1 noise").
-hri_sync_openni2_program(depth_noise_stats src/virtual_kinect/depth_noise_stats.cpp)
+hri_sync_openni2_program(depth_noise_stats src/virtual_kinect/depth_noise_stats.cpp src/virtual_kinect/oni_clip.cpp)
 target_link_libraries(depth_noise_stats hri_sync_tracker_core)
-hri_sync_openni2_program(tracker_eval src/tracker/tracker_eval.cpp)
+hri_sync_openni2_program(tracker_eval src/tracker/tracker_eval.cpp src/virtual_kinect/oni_clip.cpp)
 target_link_libraries(tracker_eval hri_sync_tracker_core)
 # Bench: the segmentation stages' CPU cost per frame (installed as tracker_eval is).
 add_executable(tracker_stage_cost bench/tracker_stage_cost.cpp)

@@ -103,12 +103,15 @@ struct KinectNoise {
 struct SceneOptions {
   double sensor_height = 1.0;   ///< m above the floor (0.5-2)
   double tilt_deg = 0.0;        ///< sensor pitched down (0-20 deg)
+  bool person = true;           ///< false: the room without the person (the truth still follows the motion)
   double wall_gap = -1.0;       ///< wall behind the person: m behind their back where the
                                 ///< motion goes farthest (0.1-1.5); < 0: no wall
   double distance = -1.0;       ///< m from the sensor to the person's mean hip centre
                                 ///< (1-5, along the floor); < 0: where the motion has them
   bool legacy_background = false;  ///< the old back wall at 4.5 m and a cabinet
-  std::string furniture = "none";  ///< none, table, chair
+  /// none, table, chair, box, board, door, curtain, coat_stand, small_object
+  /// (docs/tracker.md, "Virtual Kinect scenes"): clutter that is no person.
+  std::string furniture = "none";
   double furniture_x = 0.9;     ///< furniture centre, m right (+x) of the person's mean position
   std::string bystander = "none";  ///< none, walk (crosses the room), stand (stands beside)
   double bystander_offset = 0.8;   ///< walk: m behind (+) or in front (-) of the person;
@@ -160,6 +163,8 @@ class Scene {
   struct Box { Vec3 lo, hi; };
   struct Surfaces;
   void collect(double t, Surfaces* s, SceneFrame* out) const;
+  /// The furniture's boxes (SceneOptions::furniture), after the wall is placed.
+  void placeFurniture();
 
   BodyRig person_;
   /// The joints (room frame) of extra person k at t: the bystander (k = 0)

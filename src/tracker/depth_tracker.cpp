@@ -157,6 +157,27 @@ double seeThrough(const PointGrid& g, const Plane& plane, const std::vector<int>
   return cells ? double(through) / cells : 1.0;
 }
 
+// The share of a part's lowest cells (one per image column) under which the
+// view is open: the cell two rows below shows the floor or something farther
+// away. Below the image's bottom, no reading, or something nearer (an
+// occluder) hides what is under it.
+double openBelow(const PointGrid& g, const Blob& p) {
+  std::vector<int> lowest(g.width, -1);
+  for (int i : p.cells) {
+    const int x = i % g.width;
+    if (lowest[x] < 0 || i / g.width > lowest[x] / g.width) lowest[x] = i;
+  }
+  int columns = 0, open = 0;
+  for (int i : lowest) {
+    if (i < 0) continue;
+    ++columns;
+    const int below = i + 2 * g.width;
+    if (below >= g.width * g.height || !g.ok(below)) continue;
+    open += g.points[below].z > g.points[i].z - maxJump(g.points[i].z);
+  }
+  return columns ? double(open) / columns : 0.0;
+}
+
 }  // namespace
 
 PointGrid makeGrid(const uint16_t* depth_mm, const Camera& cam, int step) {
@@ -374,10 +395,11 @@ bool personSized(const PointGrid& g, const Blob& p) {
 
 std::string notAPerson(const PointGrid& g, const Blob& p, const Plane& floor) {
   auto height = [&](const Vec3& q) { return floor.found ? floor.height(q) : q.y + 1.0; };
-  double head_lo = 1e9, head_hi = -1e9, chest_lo = 1e9, chest_hi = -1e9;
+  double head_lo = 1e9, head_hi = -1e9, chest_lo = 1e9, chest_hi = -1e9, leg_lo = 1e9, leg_hi = -1e9;
   for (int i : p.cells) {
     const Vec3& q = g.points[i];
     const double below_top = p.hi - height(q);
+    if (height(q) >= 0.3 && height(q) <= 0.5) { leg_lo = std::min(leg_lo, q.x); leg_hi = std::max(leg_hi, q.x); }
     if (below_top <= 0.25) { head_lo = std::min(head_lo, q.x); head_hi = std::max(head_hi, q.x); }
     if (below_top >= 0.3 && below_top <= 0.6) { chest_lo = std::min(chest_lo, q.x); chest_hi = std::max(chest_hi, q.x); }
   }
@@ -390,6 +412,10 @@ std::string notAPerson(const PointGrid& g, const Blob& p, const Plane& floor) {
     std::snprintf(why, sizeof why, "its top is %.2f m above the floor", p.hi);
   } else if (floor.found && p.lo > 0.5 * p.hi) {
     std::snprintf(why, sizeof why, "it does not stand: its lowest point is %.2f m above the floor", p.lo);
+  } else if (floor.found && p.lo > 0.3 && openBelow(g, p) > 0.5) {  // no hidden legs: it hangs
+    std::snprintf(why, sizeof why, "it hangs: %.2f m above the floor, the view open below it", p.lo);
+  } else if (floor.found && leg_hi >= leg_lo && leg_hi - leg_lo < 0.05) {  // narrower than any leg seen side-on
+    std::snprintf(why, sizeof why, "no legs: 0.3-0.5 m above the floor it is %.2f m across (a pole)", leg_hi - leg_lo);
   }
   return why;
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <limits>
 #include <stdexcept>
 
@@ -245,8 +246,11 @@ void SceneOptions::validate() const {
   checkRange("tilt", tilt_deg, 0.0, 20.0);
   if (wall_gap >= 0) checkRange("wall", wall_gap, 0.1, 1.5);
   if (distance >= 0) checkRange("distance", distance, 1.0, 5.0);
-  if (furniture != "none" && furniture != "table" && furniture != "chair") {
-    throw std::invalid_argument("furniture must be none, table or chair, not '" + furniture + "'");
+  static const char* const kFurniture[] = {"none", "table", "chair", "box", "board", "door", "curtain",
+                                            "coat_stand", "small_object"};
+  if (std::find(std::begin(kFurniture), std::end(kFurniture), furniture) == std::end(kFurniture)) {
+    throw std::invalid_argument("furniture must be none, table, chair, box, board, door, curtain, coat_stand "
+                                "or small_object, not '" + furniture + "'");
   }
   checkRange("furniture_x", furniture_x, -3.0, 3.0);
   if (bystander != "none" && bystander != "walk" && bystander != "stand") {
@@ -297,18 +301,7 @@ Scene::Scene(const Track& person, const BodyShape& shape, const SceneOptions& op
   // where the motion goes farthest from the sensor.
   wall_z_ = opt_.wall_gap >= 0 ? far + 0.15 * shape.girth + shape.clothing + opt_.wall_gap : 0;
 
-  const double fx = person_centre_.x + opt_.furniture_x, fz = person_centre_.z;
-  auto leg = [&](double x, double z, double h) {
-    furniture_.push_back({{x - 0.025, 0, z - 0.025}, {x + 0.025, h, z + 0.025}});
-  };
-  if (opt_.furniture == "table") {  // 0.8 x 0.6 m top, 0.74 m high
-    furniture_.push_back({{fx - 0.4, 0.70, fz - 0.3}, {fx + 0.4, 0.74, fz + 0.3}});
-    for (double sx : {-0.35, 0.35}) for (double sz : {-0.25, 0.25}) leg(fx + sx, fz + sz, 0.70);
-  } else if (opt_.furniture == "chair") {  // 0.45 m seat facing the sensor, back rest behind
-    furniture_.push_back({{fx - 0.225, 0.42, fz - 0.225}, {fx + 0.225, 0.46, fz + 0.225}});
-    furniture_.push_back({{fx - 0.225, 0.46, fz + 0.19}, {fx + 0.225, 0.92, fz + 0.225}});
-    for (double sx : {-0.2, 0.2}) for (double sz : {-0.2, 0.2}) leg(fx + sx, fz + sz, 0.42);
-  }
+  placeFurniture();
   if (opt_.needsWalk()) {
     if (bystander_motion == nullptr) throw std::invalid_argument("a bystander needs a motion (a walk track)");
     if (opt_.bystander != "none") bystander_.emplace_back(*bystander_motion, opt_.bystander_shape);
@@ -317,6 +310,45 @@ Scene::Scene(const Track& person, const BodyShape& shape, const SceneOptions& op
     int m = 0;
     for (const Joints& j : bystander_motion->frames()) { c += (j[L_HIP] + j[R_HIP]) * 0.5; ++m; }
     walk_centre_ = c * (1.0 / std::max(m, 1));
+  }
+}
+
+// The furniture: one branch per piece, each a few boxes (room frame).
+void Scene::placeFurniture() {
+  const double fx = person_centre_.x + opt_.furniture_x, fz = person_centre_.z;
+  // Flat things stand against the wall when there is one, else beside the person.
+  const double back = opt_.wall_gap >= 0 ? wall_z_ - 0.02 : fz + 0.3;
+  auto box = [&](double x0, double y0, double z0, double x1, double y1, double z1) {
+    furniture_.push_back({{x0, y0, z0}, {x1, y1, z1}});
+  };
+  auto leg = [&](double x, double z, double h) { box(x - 0.025, 0, z - 0.025, x + 0.025, h, z + 0.025); };
+  const std::string& f = opt_.furniture;
+  if (f == "table") {  // 0.8 x 0.6 m top, 0.74 m high
+    box(fx - 0.4, 0.70, fz - 0.3, fx + 0.4, 0.74, fz + 0.3);
+    for (double sx : {-0.35, 0.35}) for (double sz : {-0.25, 0.25}) leg(fx + sx, fz + sz, 0.70);
+  } else if (f == "chair") {  // 0.45 m seat facing the sensor, back rest behind
+    box(fx - 0.225, 0.42, fz - 0.225, fx + 0.225, 0.46, fz + 0.225);
+    box(fx - 0.225, 0.46, fz + 0.19, fx + 0.225, 0.92, fz + 0.225);
+    for (double sx : {-0.2, 0.2}) for (double sz : {-0.2, 0.2}) leg(fx + sx, fz + sz, 0.42);
+  } else if (f == "box") {  // a moving box, 0.6 x 0.6 x 0.5 m, on the floor
+    box(fx - 0.3, 0, fz - 0.25, fx + 0.3, 0.6, fz + 0.25);
+  } else if (f == "board") {  // a person-sized flat panel, 0.5 x 1.8 m, 2 cm thick, on its edge
+    box(fx - 0.25, 0, back - 0.12, fx + 0.25, 1.8, back - 0.10);
+  } else if (f == "door") {  // a door-like slab, 0.9 x 2.0 m, 4 cm thick
+    box(fx - 0.45, 0, back - 0.14, fx + 0.45, 2.0, back - 0.10);
+  } else if (f == "curtain") {  // 1.2 m of curtain, 2.2 m high, in folds 0.1 m wide and 8 cm deep
+    for (int k = 0; k < 12; ++k) {
+      const double z = back - 0.06 - (k % 2 ? 0.08 : 0.0);
+      box(fx - 0.6 + 0.1 * k, 0.02, z - 0.03, fx - 0.5 + 0.1 * k, 2.2, z);
+    }
+  } else if (f == "coat_stand") {  // a 1.8 m pole on a foot, a coat hanging from its hooks
+    box(fx - 0.2, 0, fz - 0.2, fx + 0.2, 0.03, fz + 0.2);
+    box(fx - 0.02, 0, fz - 0.02, fx + 0.02, 1.8, fz + 0.02);
+    box(fx - 0.22, 0.75, fz - 0.14, fx + 0.22, 1.62, fz + 0.06);
+  } else if (f == "small_object") {  // 0.3 x 0.35 x 0.25 m on a 0.45 m stool, against the wall
+    box(fx - 0.15, 0.45, back - 0.27, fx + 0.15, 0.80, back - 0.02);
+    box(fx - 0.17, 0.42, back - 0.29, fx + 0.17, 0.45, back);
+    for (double sx : {-0.14, 0.14}) for (double sz : {-0.26, -0.03}) leg(fx + sx, back + sz, 0.42);
   }
 }
 
@@ -373,7 +405,7 @@ void Scene::collect(double t, Surfaces* s, SceneFrame* out) const {
   };
   Joints room = person_.pose(t);
   for (Vec3& p : room) p += shift_ + Vec3(0, -kTrackFloor, 0);
-  addBody(person_, room, LABEL_PERSON);
+  if (opt_.person) addBody(person_, room, LABEL_PERSON);
   for (int k = 0; k < NUM_JOINTS; ++k) out->truth[k] = toSensor(room[k]);
   const bool has_bystander = opt_.bystander != "none";
   out->has_bystander = has_bystander;
@@ -749,7 +781,8 @@ bool flag(const std::string& key, const std::string& value) {
 }  // namespace
 
 const char* sceneKeys() {
-  return "body, height, girth, limbs, arms, legs, clothing, clothes_albedo, wall, distance, furniture, furniture_x, "
+  return "body, height, girth, limbs, arms, legs, clothing, clothes_albedo, person, wall, distance, furniture, "
+         "furniture_x, "
          "bystander, bystander_offset, bystander_body, bystander_track, crowd, crowd_motion, crowd_spacing, sensor_height, tilt, "
          "noise=kinect1|kinect1_iid, "
          "shadow, holes, baseline, projector, min_range, max_range, seed";
@@ -788,6 +821,7 @@ bool applySceneKey(const std::string& key, const std::string& value, SceneSpec* 
     s.wall_gap = value == "none" ? -1.0 : number(key, value);
     if (s.wall_gap >= 0) checkRange("wall", s.wall_gap, 0.1, 1.5);
   } else if (key == "distance") { s.distance = number(key, value);
+  } else if (key == "person") { s.person = flag(key, value);
   } else if (key == "furniture") { s.furniture = value;
   } else if (key == "furniture_x") { s.furniture_x = number(key, value);
   } else if (key == "bystander") { s.bystander = value;

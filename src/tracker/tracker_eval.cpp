@@ -4,6 +4,7 @@
 //   tracker_eval --track FILE.track [--res 320x240] [--seconds S] [--background 0|1]
 //                [--noise SIGMA] [--scene KEY=V&KEY=V...] [--direct] [--step N] [--dump FILE]
 //                [--snapshot N] [--users N]
+//   tracker_eval --oni FILE.oni [--loops N] [--users N] [--dump FILE]
 // --scene: the virtual Kinect's scene keys (body, wall, bystander, noise=kinect1, ...;
 // docs/tracker.md); the truth is then the rendered (reshaped) body's joints.
 // --snapshot N writes frame N's depth (uint16 mm) and pixel labels (uint8) to
@@ -14,7 +15,15 @@
 // --direct renders in-process instead of through OpenNI (same renderer).
 // --users N (1-4): the multi-user tracker the node runs (MultiTracker, N users at
 // most), scored on the tracked user whose torso is nearest the person's (as a
-// participant zone picks them); 0 (default): the single-user DepthTracker.
+// participant zone picks them); 0 (default): the single-user DepthTracker. With
+// --direct it counts ghosts: users more than 0.7 m along the floor from every
+// rendered person's torso.
+// --oni plays a recording (every frame, N loops, default 4; its own field of view
+// and device stamps) through the tracker: no truth, so it reports each frame's
+// state, the users per frame (a recording of one person: more than one is a
+// ghost), the frames with any leg joint of confidence > 0, and each joint's
+// frame-to-frame motion p95 over consecutive published frames where it has
+// confidence > 0; --dump as above with zero truth.
 #include <OpenNI.h>
 
 #include <algorithm>
@@ -23,6 +32,7 @@
 #include <set>
 #include <stdexcept>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -30,6 +40,7 @@
 #include "hri_sync/body.h"
 #include "hri_sync/depth_tracker.h"
 #include "hri_sync/multi_tracker.h"
+#include "hri_sync/oni_clip.h"
 #include "hri_sync/render.h"
 #include "hri_sync/scene.h"
 
@@ -92,15 +103,24 @@ class Runner {
     mp.max_users = users;
     multi_ = std::make_unique<MultiTracker>(cam, params, mp);
   }
+  /// The room's up in the sensor frame (a tilted sensor's), for ghost distances.
+  void setUp(const Vec3& up) { up_ = up; }
   /// people: every rendered person's torso (the person, bystander, crowd), or
   /// null when they are not known (then no ghost is counted).
   SkeletonEstimate update(const uint16_t* depth, double t, const Joints& truth, const std::vector<Vec3>* people) {
     if (single_) return single_->update(depth, t);
     const MultiEstimate m = multi_->update(depth, t);
     users_ += m.tracked_users;
-    for (const UserEstimate& u : m.users) {  // a user more than 0.7 m from every person is a ghost
+    last_users_ = static_cast<int>(m.users.size());
+    // A user more than 0.7 m along the floor from every person's torso is a
+    // ghost; heights are left out, as the tracker's association leaves them
+    // out: a person half hidden behind another shows only their legs.
+    for (const UserEstimate& u : m.users) {
       double nearest = 1e9;
-      for (const Vec3& p : people ? *people : std::vector<Vec3>()) nearest = std::min(nearest, (u.centroid - p).norm());
+      for (const Vec3& p : people ? *people : std::vector<Vec3>()) {
+        const Vec3 d = u.centroid - p;
+        nearest = std::min(nearest, (d - up_ * d.dot(up_)).norm());
+      }
       if (people && nearest > 0.7) { ++ghost_frames_; ghost_ids_.insert(u.user_id); }
     }
     SkeletonEstimate best;
@@ -116,6 +136,8 @@ class Runner {
   long trackedUsers() const { return users_; }  ///< summed over frames
   long ghostFrames() const { return ghost_frames_; }  ///< ghost users summed over frames
   size_t ghostUsers() const { return ghost_ids_.size(); }  ///< ids ever given to a ghost
+  int lastUsers() const { return last_users_; }  ///< users (tracked or not) in the last frame
+  uint32_t idsIssued() const { return multi_ ? multi_->idsIssued() : 0; }
 
  private:
   std::unique_ptr<DepthTracker> single_;
@@ -123,7 +145,62 @@ class Runner {
   long users_ = 0;
   long ghost_frames_ = 0;
   std::set<uint32_t> ghost_ids_;
+  int last_users_ = 0;
+  Vec3 up_{0, 1, 0};
 };
+
+// --oni: a recording through the tracker, loops times (see the header comment).
+int runOni(const std::string& path, int loops, int users, const TrackerParams& params) {
+  if (openni::OpenNI::initialize() != openni::STATUS_OK) {
+    std::fprintf(stderr, "tracker_eval: OpenNI: %s\n", openni::OpenNI::getExtendedError());
+    return 1;
+  }
+  DepthClip clip;
+  if (!readOniClip(path, 0, &clip)) return 1;
+  Camera cam;
+  cam.width = clip.width;
+  cam.height = clip.height;
+  cam.setFov(clip.hfov, clip.vfov);
+  Runner tracker(cam, params, users);
+  Stats st;
+  const size_t n = clip.frames.size();
+  const double period = n > 1 ? (clip.stamps.back() - clip.stamps.front()) / (n - 1) : 1.0 / 30;
+  const double span = clip.stamps.back() - clip.stamps.front() + period;
+  std::vector<std::vector<double>> moves(NUM_JOINTS);
+  std::string states;
+  int max_users = 0, leg_frames = 0;
+  SkeletonEstimate prev;
+  const Joints zero{};
+  for (int loop = 0; loop < loops; ++loop) {
+    for (size_t f = 0; f < n; ++f) {
+      const double t = clip.stamps[f] - clip.stamps.front() + loop * span;
+      const SkeletonEstimate est = tracker.update(clip.frames[f].data(), t, zero, nullptr);
+      account(&st, est, zero);
+      max_users = std::max(max_users, tracker.lastUsers());
+      bool legs = false;
+      for (int k : {L_HIP, R_HIP, L_KNEE, R_KNEE, L_FOOT, R_FOOT}) legs |= est.tracked && est.confidence[k] > 0;
+      leg_frames += legs;
+      for (int k = 0; k < NUM_JOINTS && est.tracked && prev.tracked; ++k)
+        if (est.confidence[k] > 0 && prev.confidence[k] > 0) moves[k].push_back((est.joints[k] - prev.joints[k]).norm());
+      prev = est;
+      if (loop == 0) states += std::string(f ? ", \"" : "\"") + est.state + "\"";
+    }
+  }
+  std::string joints;
+  for (int k = 0; k < NUM_JOINTS; ++k) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%s\"%s\": %.4f", k ? ", " : "", kJointNames[k], pct(moves[k], 0.95));
+    joints += buf;
+  }
+  std::printf("{\"oni\": \"%s\", \"frames\": %d, \"loops\": %d, \"period_s\": %.4f, \"tracked_share\": %.4f, "
+              "\"frames_with_legs\": %d, \"max_users_in_a_frame\": %d, \"user_ids_issued\": %u, "
+              "\"frame_to_frame_p95_m\": {%s}, \"states_first_loop\": [%s]}\n",
+              path.c_str(), st.frames, loops, period, st.frames ? double(st.tracked) / st.frames : 0.0, leg_frames,
+              max_users, tracker.idsIssued(), joints.c_str(), states.c_str());
+  std::fflush(stdout);
+  if (g_dump) std::fclose(g_dump);
+  std::_Exit(st.frames > 0 ? 0 : 1);  // as oni_info: the file player can crash at teardown
+}
 
 }  // namespace
 
@@ -135,7 +212,8 @@ int main(int argc, char** argv) {
   double seconds = 0, noise = 0.0015;
   std::string scene_query;
   bool direct = false, background = false;
-  int users = 0;
+  int users = 0, loops = 4;
+  std::string oni;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -156,7 +234,13 @@ int main(int argc, char** argv) {
     else if (a == "--snapshot") g_snapshot = std::stoi(next());
     else if (a == "--users") users = std::stoi(next());
     else if (a == "--dump") g_dump = std::fopen(next().c_str(), "w");
+    else if (a == "--oni") oni = next();
+    else if (a == "--loops") loops = std::stoi(next());
     else { std::fprintf(stderr, "tracker_eval: unknown argument %s\n", a.c_str()); return 2; }
+  }
+  if (!oni.empty()) {
+    if (users < 0 || users > 4 || loops < 1) { std::fprintf(stderr, "tracker_eval: --users 0-4, --loops >= 1\n"); return 2; }
+    return runOni(oni, loops, users, params);
   }
   if (track_path.empty()) { std::fprintf(stderr, "usage: tracker_eval --track FILE.track [...]\n"); return 2; }
   Track track;
@@ -198,6 +282,7 @@ int main(int argc, char** argv) {
   const int total = static_cast<int>(seconds * fps);
   if (users < 0 || users > 4) { std::fprintf(stderr, "tracker_eval: --users must be 0-4\n"); return 2; }
   Runner tracker(cam, params, users);
+  if (scene) tracker.setUp(scene->toSensor(Vec3(0, 1, 0)) - scene->toSensor(Vec3()));
   Stats st;
 
   if (direct) {

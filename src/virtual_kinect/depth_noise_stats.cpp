@@ -35,6 +35,7 @@
 #include <string>
 #include <vector>
 
+#include "hri_sync/oni_clip.h"
 #include "hri_sync/scene.h"
 
 using namespace hri_sync;
@@ -55,31 +56,12 @@ bool readOni(const std::string& path, int max_frames, Clip* clip) {
     std::fprintf(stderr, "depth_noise_stats: OpenNI init failed: %s\n", openni::OpenNI::getExtendedError());
     return false;
   }
-  openni::Device dev;
-  openni::VideoStream depth;
-  if (dev.open(path.c_str()) != openni::STATUS_OK || !dev.isFile() ||
-      depth.create(dev, openni::SENSOR_DEPTH) != openni::STATUS_OK) {
-    std::fprintf(stderr, "depth_noise_stats: cannot read depth from '%s': %s\n", path.c_str(),
-                 openni::OpenNI::getExtendedError());
-    return false;
-  }
-  openni::PlaybackControl* pb = dev.getPlaybackControl();
-  int n = pb->getNumberOfFrames(depth);
-  if (max_frames > 0) n = std::min(n, max_frames);
-  pb->setSpeed(-1);  // manual stepping: every frame once
-  pb->setRepeatEnabled(false);
-  depth.start();
-  openni::VideoFrameRef f;
-  for (int i = 0; i < n; ++i) {
-    if (depth.readFrame(&f) != openni::STATUS_OK) break;
-    clip->w = f.getWidth();
-    clip->h = f.getHeight();
-    const auto* px = static_cast<const openni::DepthPixel*>(f.getData());
-    clip->frames.emplace_back(px, px + clip->w * clip->h);
-  }
-  // As oni_info: the stock file player can crash while its streams are torn down;
-  // the caller prints and leaves with _Exit.
-  return !clip->frames.empty();
+  DepthClip real;
+  if (!readOniClip(path, max_frames, &real)) return false;
+  clip->w = real.width;
+  clip->h = real.height;
+  clip->frames = std::move(real.frames);
+  return true;
 }
 
 bool renderScene(const std::string& track_path, const std::string& query, int frames, const std::string& res,

@@ -346,28 +346,60 @@ TEST(StillPerson, StaysApartFromAWallAtTheSensorsRange) {
   EXPECT_LE(s.trunk_expressiveness, 0.1);
 }
 
+// Users farther than 0.7 m along the floor from the person's torso (every
+// user when the scene has no person), and the frames the person is tracked in.
+struct GhostRun {
+  int ghosts = 0, tracked = 0;
+};
+GhostRun ghostRun(const Scene& scene, int frames) {
+  Camera cam;
+  MultiTracker tracker(cam);
+  SceneFrame f;
+  GhostRun run;
+  for (int n = 0; n < frames; ++n) {
+    scene.render(n / 30.0, n + 1, cam, &f);
+    const MultiEstimate m = tracker.update(f.depth_mm.data(), n / 30.0);
+    for (const UserEstimate& u : m.users) {
+      const Vec3 d = u.centroid - f.truth[TORSO];
+      if (!scene.options().person || std::hypot(d.x, d.z) > 0.7) ++run.ghosts;
+      run.tracked += u.estimate.tracked;
+    }
+  }
+  return run;
+}
+
 // No ghosts: furniture at the edges of the view, the floor-wall seam, and an
 // empty room with the same clutter never become users.
 TEST(Ghosts, FurnitureAndSeamsAreNoUsers) {
-  Camera cam;
   for (const char* keys : {"wall=0.3&furniture=chair&furniture_x=1.4&noise=kinect1",
                            "wall=0.3&furniture=table&furniture_x=-1.3&noise=kinect1",
                            "wall=0.2&furniture=chair&furniture_x=-0.9&noise=kinect1"}) {
-    const Scene scene = makeScene(stillAt(2.8), keys);
-    MultiTracker tracker(cam);
-    SceneFrame f;
-    int ghosts = 0, tracked = 0;
-    for (int n = 0; n < 90; ++n) {
-      scene.render(n / 30.0, n + 1, cam, &f);
-      const MultiEstimate m = tracker.update(f.depth_mm.data(), n / 30.0);
-      for (const UserEstimate& u : m.users) {
-        const Vec3 d = u.centroid - f.truth[TORSO];
-        if (std::hypot(d.x, d.z) > 0.7) ++ghosts;
-        tracked += u.estimate.tracked;
+    const GhostRun run = ghostRun(makeScene(stillAt(2.8), keys), 90);
+    std::printf("%s: ghost user-frames %d, tracked %d of 90\n", keys, run.ghosts, run.tracked);
+    EXPECT_EQ(run.ghosts, 0) << keys;
+    EXPECT_GT(run.tracked, 60) << keys;
+  }
+}
+
+// Clutter that is no person: a box, a person-sized flat board, a door-like
+// slab, a curtain's folds, a coat on a stand (it passes the head and chest
+// tests: it hangs with the view open below it) and the real recording's
+// case, a small object in front of the wall 1.4 m beside a still person
+// 0.3 m before the wall; at the left and right edges of the view, with the
+// person in view and without.
+TEST(Ghosts, ClutterIsNoUser) {
+  for (const char* thing : {"box", "board", "door", "curtain", "coat_stand", "small_object"}) {
+    for (const char* x : {"1.4", "-1.3"}) {
+      for (const char* person : {"1", "0"}) {
+        const std::string keys = std::string("person=") + person + "&wall=0.3&furniture=" + thing +
+                                 "&furniture_x=" + x + "&noise=kinect1";
+        const GhostRun run = ghostRun(makeScene(stillAt(2.8), keys), 45);
+        std::printf("%s: ghost user-frames %d, tracked %d of 45\n", keys.c_str(), run.ghosts, run.tracked);
+        EXPECT_EQ(run.ghosts, 0) << keys;
+        if (person[0] == '1') {
+          EXPECT_GT(run.tracked, 20) << keys;
+        }
       }
     }
-    std::printf("%s: ghost user-frames %d, tracked %d of 90\n", keys, ghosts, tracked);
-    EXPECT_EQ(ghosts, 0) << keys;
-    EXPECT_GT(tracked, 60) << keys;
   }
 }
