@@ -10,8 +10,9 @@ from hri_sync.ros.diagnostics import round_diagnostics
 from hri_sync.ros.inbox import Inbox
 from hri_sync.ros.names import client_topic, protocol_topic
 from hri_sync.ros.outbox import Publisher
-from hri_sync.ros.params import (ParamError, header, param, positive, stamp,
-                                 wait_for)
+from hri_sync.ros.params import ParamError, param, positive
+from hri_sync.ros.stamps import header, stamp
+from hri_sync.ros.timers import wait_for
 from hri_sync.clock.ros_synced_clock import SyncedClock
 from hri_sync.client_process.health import client_tally
 from hri_sync.client_process.liveness import Beat, Liveness

@@ -12,8 +12,9 @@ import rospy
 from diagnostic_msgs.msg import KeyValue
 
 from hri_sync.msg import CaptureCommand, ClientResult, ClockState, DpmState
-from hri_sync.ros.params import (ParamError, after, header, param, positive,
-                                 secs, stamp)
+from hri_sync.ros.params import ParamError, param, positive
+from hri_sync.ros.stamps import header, secs, stamp
+from hri_sync.ros.timers import after
 from hri_sync.clock.ros_clock_state import model_from_msg
 from hri_sync.ros.diagnostics import ProcessDiagnostics
 from hri_sync.ros.inbox import Inbox

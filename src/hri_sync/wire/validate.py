@@ -29,10 +29,10 @@ import re
 from dataclasses import dataclass, field
 from typing import Any, Callable, Collection, Optional
 
+from hri_sync.wire.times import TIME_LIMIT, fits_ros_time
 from hri_sync.wire.vocabulary import (NUM_JOINTS, Action, ActionEnd, Outcome,
                                       ResultStatus, RoundState)
 
-TIME_LIMIT = 2.0 ** 32      # rospy times hold uint32 seconds
 NAME_RE = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
 
 
@@ -128,9 +128,9 @@ def time_value(t: float | str, what: str, optional: bool = False) -> float:
     if t <= 0:
         raise Rejected('time_not_positive', '%s=%r is not a positive time'
                        % (what, t), what)
-    if t >= TIME_LIMIT:
+    if not fits_ros_time(t):
         raise Rejected('time_unrepresentable', '%s=%r s is beyond the last '
-                       'ROS time (2**32 s)' % (what, t), what)
+                       'ROS time (%d s)' % (what, t, TIME_LIMIT), what)
     return t
 
 
