@@ -437,6 +437,16 @@ def test_clients_wait_waits_for_a_sample_from_each_sensor():
     assert w.on_samples(11.0) == []
 
 
+def test_clients_wait_names_samples_the_dpm_refuses():
+    w = ClientsWait(['a'], dpms=['a'])
+    w.on_links({'a'}, 0.0)
+    w.on_state('a', True)
+    w.on_dpm('a', 0, 'a sensor_msgs/LaserScan on a sensor_msgs/Range topic')
+    assert w.describe(['a']) == (
+        "a (its DPM refuses its sensor's samples (a sensor_msgs/LaserScan "
+        "on a sensor_msgs/Range topic))")
+
+
 def test_clients_wait_times_samples_from_when_only_they_are_waited():
     w = ClientsWait(['a'], dpms=['a'], sample_timeout=10.0)
     assert w.on_samples(0.0) == []       # no clock yet: not timed

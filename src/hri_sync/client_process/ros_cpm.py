@@ -102,7 +102,8 @@ class ClientProcess:
 
         def on_state(msg):
             live.on_beat(Beat(time.time(), msg.input, msg.samples,
-                              msg.sample_age, msg.rate))
+                              msg.sample_age, msg.rate, msg.refused,
+                              msg.refused_reason))
         self.inbox.subscribe(
             client_topic(self.client_id, 'dpm_state'), DpmState, on_state,
             'dpm',

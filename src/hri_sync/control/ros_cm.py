@@ -202,7 +202,7 @@ class ControlModule:
 
         def on_dpm(msg, client):
             with lock:
-                wait.on_dpm(client, msg.samples)
+                wait.on_dpm(client, msg.samples, msg.refused_reason)
 
         def on_state(msg, client):
             try:

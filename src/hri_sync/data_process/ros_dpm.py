@@ -71,6 +71,7 @@ class DataProcessModule:
                              'std_msgs/Header' % probe.msg_type)
         self.lock = threading.Lock()
         self.unstamped = 0
+        self.refused, self.refused_reason = 0, ''  # samples refused
         # ~republish: false turns the captured topic off (benchmarks).
         self.republisher = Republisher(rospy.Publisher(
             'captured', msg_class, queue_size=100000), param(
@@ -143,6 +144,8 @@ class DataProcessModule:
         except (genpy.DeserializationError, struct.error, ValueError) as e:
             with self.lock:
                 self.core.refuse('unreadable')
+                self.refused += 1
+                self.refused_reason = str(e)
             rospy.logwarn_throttle(5, '%s: unreadable sample refused: %s',
                                    self.client_id, e)
             return
@@ -158,10 +161,12 @@ class DataProcessModule:
             now = time.time()
             with self.lock:
                 samples, age, rate = self.meter.state(now)
+                refused, why = self.refused, self.refused_reason
             self.state_pub.publish(DpmState(
                 header=header(now), client_id=self.client_id,
                 input=self.input_topic, samples=min(samples, 2 ** 32 - 1),
-                sample_age=age, rate=rate))
+                sample_age=age, rate=rate, refused=min(refused, 2 ** 32 - 1),
+                refused_reason=why))
             time.sleep(self.heartbeat_period)
 
     def on_command(self, cmd):

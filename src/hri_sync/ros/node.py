@@ -1,9 +1,13 @@
 """A node's life: its start, its end on a config error or a master
 restart, and its shutdown with its parent."""
+import hashlib
+import json
 import os
 import signal
+import socket
 import sys
 import threading
+import time
 
 import rospy
 
@@ -24,11 +28,75 @@ def _shutdown_in_a_thread(signum, _frame):
                      args=('signal-%d' % signum,)).start()
 
 
+CONFIG_EXIT = 2         # the exit status of a node with a config error
+
+
+def _launcher():
+    """'host:pid' of the roslaunch (or rostest) that started this
+    process, or None when its parent is not one (rosrun, a shell)."""
+    ppid = os.getppid()
+    try:
+        with open('/proc/%d/cmdline' % ppid, 'rb') as f:
+            argv = f.read().split(b'\0')[:2]
+    except OSError:
+        return None
+    if not any(os.path.basename(a) in (b'roslaunch', b'rostest')
+               for a in argv):
+        return None
+    return '%s:%d' % (socket.gethostname(), ppid)
+
+
+def _config(node):
+    """A digest of the params under ``node`` (its ~params) but the
+    config error mark."""
+    try:
+        params = rospy.get_param(node, {})
+    except Exception:       # no master: nothing to compare
+        return ''
+    if isinstance(params, dict):
+        params.pop('config_error', None)
+    return hashlib.sha1(json.dumps(params, sort_keys=True,
+                                   default=str).encode()).hexdigest()
+
+
+def _stay_down(node):
+    """After a config error roslaunch respawns the node with the same
+    params: that copy stays down, says so once and waits until its
+    ~params change (then it starts) or its roslaunch stops it."""
+    mark = node + '/config_error'
+    launcher = _launcher()
+    try:
+        seen = rospy.get_param(mark, None) if launcher else None
+    except Exception:       # no master: the node's start will say so
+        return
+    config = _config(node)
+    if seen != '%s %s' % (launcher, config):
+        return
+    print('%s stays down after its config error (above): correct its '
+          'params, or the launch file, and launch again' % node,
+          file=sys.stderr, flush=True)
+    try:
+        while _config(node) == config:
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        raise SystemExit(CONFIG_EXIT)
+
+
+def _mark_config_error(node):
+    """Mark a config error for a copy respawned by this node's
+    roslaunch (``_stay_down``)."""
+    launcher = _launcher()
+    if launcher:
+        rospy.set_param(node + '/config_error',
+                        '%s %s' % (launcher, _config(node)))
+
+
 def run_node(name, main, master_restart='exit'):
     """init_node, watch the master, then run ``main()``.
 
-    A ParamError ends the node with a fatal message naming the param (exit
-    status 2).  A restart of the ROS master (``master_watch``) is logged
+    A ParamError (a config error) ends the node with one fatal message
+    naming the param (exit status ``CONFIG_EXIT``); a copy its roslaunch
+    respawns with the same params stays down (``_stay_down``).  A restart of the ROS master (``master_watch``) is logged
     and, with ``master_restart='exit'``, shuts the node down with exit
     status ``master_watch.RESTART_EXIT`` (75) for roslaunch to respawn it;
     with 'warn' the node keeps running unregistered.  The node shuts down
@@ -43,11 +111,13 @@ def run_node(name, main, master_restart='exit'):
         raise ValueError("master_restart must be 'exit' or 'warn', got %r"
                          % (master_restart,))
     die_with_parent(signal.SIGTERM)
+    node = unique.resolved_node_name(name, sys.argv)
     try:
-        unique.check(unique.resolved_node_name(name, sys.argv))
+        unique.check(node)
     except unique.Duplicate as e:
         print('%s: %s' % (name, e), file=sys.stderr, flush=True)
         raise SystemExit(unique.DUPLICATE_EXIT)
+    _stay_down(node)
     stop_serving_at_shutdown()
     rospy.init_node(name)
     signal.signal(signal.SIGTERM, _shutdown_in_a_thread)
@@ -61,7 +131,8 @@ def run_node(name, main, master_restart='exit'):
         main()
     except ParamError as e:
         rospy.logfatal('%s: %s', rospy.get_name(), e)
-        raise SystemExit(2)
+        _mark_config_error(node)
+        raise SystemExit(CONFIG_EXIT)
     except rospy.ROSInterruptException:
         pass
     except Exception as e:

@@ -513,7 +513,8 @@ def decision(*, header: Any, round: Any, outcome: Any, winner: Any,
 
 
 def dpm_state(*, header: Any, client_id: Any, input: Any, samples: Any,
-              sample_age: Any, rate: Any, ctx: Context) -> None:
+              sample_age: Any, rate: Any, refused: Any = 0,
+              refused_reason: Any = '', ctx: Context) -> None:
     """<id>/dpm_state: a DPM's heartbeat for its CPM (same host).
 
     ``header.stamp`` is the host's local clock, near ``ctx.local_now``;
@@ -526,6 +527,8 @@ def dpm_state(*, header: Any, client_id: Any, input: Any, samples: Any,
     client_name(client_id, 'client_id', ctx)
     text(input, 'input', ctx)
     count(samples, 'samples', 2 ** 32 - 1)
+    count(refused, 'refused', 2 ** 32 - 1)
+    text(refused_reason, 'refused_reason', ctx)
     number(sample_age, 'sample_age', 0.0, lim.past + lim.future, nan=True)
     number(rate, 'rate', 0.0, 1e6, nan=True)
     if samples and math.isnan(sample_age):
