@@ -40,7 +40,12 @@ FORCE:
 
 build:
 	@mkdir -p $(WS)/src $(WS)/devel/lib/python3/dist-packages
-	@[ -e $(WS)/src/hri_sync ] || ln -s $(ROOT) $(WS)/src/hri_sync
+	@# The workspace sees the package through links to its files, not a
+	@# link to the folder that holds .ws (find, in rosrun, would loop).
+	@[ ! -L $(WS)/src/hri_sync ] || rm $(WS)/src/hri_sync
+	@mkdir -p $(WS)/src/hri_sync && cd $(ROOT) && for f in * .[!.]*; do \
+	  case $$f in .ws|.venv|.git) ;; *) ln -sfn $(ROOT)/$$f $(WS)/src/hri_sync/$$f;; esac; \
+	done; find $(WS)/src/hri_sync -maxdepth 1 -xtype l -delete
 	@# A job per core, off setup's jobserver (where pip holds a slot) and
 	@# without catkin_make's default load limit (-l: a load left by a
 	@# previous run would hold the build to one job).
@@ -48,10 +53,6 @@ build:
 	  env -u MAKEFLAGS -u MFLAGS catkin_make -j$$(nproc) -DPYTHON_EXECUTABLE=$(ROS_PY) -DCMAKE_BUILD_TYPE=Release \
 	  -DCATKIN_ENABLE_TESTING=ON > $(WS)/build.log 2>&1 \
 	  || { tail -40 $(WS)/build.log; exit 1; }
-	@# rosrun searches the package folder, which holds .ws: keep the devel
-	@# relays the only executable copies of the nodes (nodes/ are not +x).
-	@find $(WS)/build -type f \( -path '*atomic_configure*' -o -path '*installspace*' \) \
-	  -perm /111 -exec chmod a-x {} +
 	@echo "built: source $(WS)/devel/setup.bash"
 
 # Each stage's command (the targets below run setup first; `test` runs it

@@ -327,7 +327,9 @@ def test_stray_acks_are_logged_and_ignored():
     assert logs(s.on_ack(ack('alice', round_id=0)), 'warn') == [
         "ACK from alice for round 0 ignored (round 1 open; ignored so far: "
         "{'old_round': 1})"]
-    s.on_ack(ack('mallory'))
+    assert logs(s.on_ack(ack('alicia')), 'warn') == [
+        "ACK for round 1 ignored: unknown client 'alicia': valid: alice, "
+        "bob, carol; did you mean 'alice'? (~clients)"]
     assert dict(s.current.ignored) == {'old_round': 1, 'unknown_client': 1}
     for c in CLIENTS:
         s.on_ack(ack(c))

@@ -15,6 +15,7 @@ from hri_sync.ros.stamps import header, stamp
 from hri_sync.ros.timers import wait_for
 from hri_sync.clock.ros_synced_clock import SyncedClock
 from hri_sync.client_process.health import client_tally
+from hri_sync.wire.config import unknown
 from hri_sync.client_process.liveness import Beat, Liveness
 from hri_sync.client_process.schedule import ClientSchedule, Late
 from hri_sync.wire.protocol import Capture
@@ -154,6 +155,12 @@ class ClientProcess:
                                          self.clock.now(), self.clock)
         if order is None:
             why = ', '.join(self.schedule.ignored - before)
+            if why == 'acked_not_a_participant':
+                rospy.logwarn_once(
+                    '%s: round %d went on without this client, which ACKed '
+                    'it: the server has no such client (its ~clients), or '
+                    'the ACK came late: %s', self.client_id, msg.round,
+                    unknown('client', self.client_id, msg.clients))
             log = (rospy.loginfo if why == 'not_a_participant'
                    else rospy.logwarn)
             log('%s: capture_data of round %d ignored (%s); ignored so far: '

@@ -24,6 +24,7 @@ from typing import Any, TYPE_CHECKING
 from hri_sync.control.round import ControlRound
 from hri_sync.wire.protocol import Abort, Ack, ProtocolError
 from hri_sync.wire.vocabulary import RoundState
+from hri_sync.wire.config import unknown
 
 if TYPE_CHECKING:
     from hri_sync.wire.protocol import Capture, StrAftPolicy
@@ -187,6 +188,11 @@ class ControlSession:
         if rnd is None:
             return [Log('warn', 'ACK from %s for round %d before any round: '
                         'ignored' % (msg.client_id, msg.round))]
+        if msg.client_id not in rnd.clients:
+            rnd.on_ack(ack)
+            return [Log('warn', 'ACK for round %d ignored: %s (~clients)'
+                        % (msg.round, unknown('client', msg.client_id,
+                                              rnd.clients)))]
         if not rnd.on_ack(ack):
             return [Log('warn', 'ACK from %s for round %d ignored (round %d '
                         'open; ignored so far: %s)'
