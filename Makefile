@@ -64,6 +64,11 @@ SITE = $(SOURCE) && $(ROS_PY) $(ROOT)/test/system/site_multihost.py
 # The tracker's accuracy table against its baseline (bench/tracker_regression.py).
 TRACKER_ACCURACY = $(SOURCE) && $(ROS_PY) $(ROOT)/bench/tracker_regression.py --check $(ROOT)/test/data/tracker_accuracy.json
 ROSTESTS = $(SOURCE) && $(ROS_PY) $(ROOT)/scripts/run_rostests.py $(ROOT)/test
+# What a newcomer meets: the traps found on a fresh clone, and the first
+# hour of the README and the "add a sensor" guide (test/system/).
+SYSTEM_PY = $(SOURCE) && PYTHONPATH=$(ROOT)/support:$$PYTHONPATH $(VENV)/bin/python
+TRAPS = $(SYSTEM_PY) $(ROOT)/test/system/newcomer_traps.py
+FIRST_HOUR = $(SYSTEM_PY) $(ROOT)/test/system/first_hour.py
 
 # numpy, which every rospy message module imports, starts an OpenBLAS
 # thread per core (0.13 s of CPU per process); none of the suite's ~1500
@@ -100,7 +105,8 @@ test: setup
 	  --max-jobs $${ROSTEST_MAX_JOBS:-$$((j + 2))} \
 	  --stage 'unit=$(UNIT)' --stage 'check=$(CHECK)' \
 	  --stage 'install_space=$(INSTALL_CHECK)' --stage 'site_multihost=$(SITE)' \
-	  --stage 'tracker_accuracy=$(TRACKER_ACCURACY)'
+	  --stage 'tracker_accuracy=$(TRACKER_ACCURACY)' \
+	  --stage 'newcomer_traps=$(TRAPS)' --stage 'first_hour=$(FIRST_HOUR)'
 
 # `make test` RUNS times in a row beside one busy loop per core, JSON
 # summary last (scripts/test_under_load.py; e.g. make test-load RUNS=1).
