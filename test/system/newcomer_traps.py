@@ -88,7 +88,7 @@ def unknown_type(procs, port):
     log = log_of(procs, 'pkg')
     check("unknown message package 'sensr_msgs'" in log
           and "did you mean 'sensor_msgs'?" in log and 'rosdep' not in log
-          and 'msg_typ' not in log,
+          and "'msg_typ'" not in log,
           'an unknown message package is named with the nearest (and the '
           'earlier launch left no stale key)')
     stop(p)
