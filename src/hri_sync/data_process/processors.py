@@ -245,9 +245,9 @@ def load_processor(
     """
     cls = processor_class(path)
     params = dict(params or {})
-    sig = inspect.signature(cls.__init__)
+    sig = inspect.signature(cls)
     if not any(p.kind == p.VAR_KEYWORD for p in sig.parameters.values()):
-        keys = [k for k in sig.parameters if k != 'self']
+        keys = list(sig.parameters)
         bad = unknown_keys('key of %s' % cls.__name__, params, keys)
         if bad:
             raise ValueError('~processor_params: ' + bad)

@@ -513,8 +513,8 @@ def decision(*, header: Any, round: Any, outcome: Any, winner: Any,
 
 
 def dpm_state(*, header: Any, client_id: Any, input: Any, samples: Any,
-              sample_age: Any, rate: Any, refused: Any = 0,
-              refused_reason: Any = '', ctx: Context) -> None:
+              sample_age: Any, rate: Any, refused: Any,
+              refused_reason: Any, ctx: Context) -> None:
     """<id>/dpm_state: a DPM's heartbeat for its CPM (same host).
 
     ``header.stamp`` is the host's local clock, near ``ctx.local_now``;
