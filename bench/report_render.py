@@ -4,7 +4,7 @@
 Runs ``nodes/report BAG... --out TMP`` ``--runs`` times as a user would
 (a fresh process each time: imports, reading, figures, plots, page) and
 prints JSON (last line): wall seconds per run (min, median, max), the
-rounds rendered, the bags' size and the page's size. Issue 12's target:
+rounds rendered, the bags' size and the page's size. The target:
 a demo bag (``make demo``) in under 10 s.
 
     .venv/bin/python bench/report_render.py /tmp/hri_sync_demo_*.bag

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Benchmark: several simulated robots dancing in unison (issue 19 item 2).
+"""Benchmark: several simulated robots dancing in unison.
 
 For each N of --robots, runs --rounds rounds (time server, server, one
 participant on a synthetic sensor, N robots from robots.launch: robot1..N

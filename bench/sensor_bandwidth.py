@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The data path at sensor bandwidth (issue 20, item 5), as JSON.
+"""The data path at sensor bandwidth as JSON.
 
     source <ws>/devel/setup.bash
     /usr/bin/python3 bench/sensor_bandwidth.py --scenario camera --dur 60

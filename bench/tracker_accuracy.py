@@ -17,7 +17,7 @@ per CPU second of the tracker (one core).
     bench/tracker_accuracy.py --motion data/motion/cmu_60_01_salsa.track \
         --scene 'body=tall_slim&wall=0.3&noise=kinect1'
 
---matrix runs the issue 18 table: body shapes x scenes (empty: floor only;
+--matrix runs the accuracy table: body shapes x scenes (empty: floor only;
 wall + floor; bystander: a second person walking behind) x noise (none;
 Kinect v1), rendered in-process (--direct; the driver renders the same frames,
 test/unit/virtual_kinect_gtest.cpp), and prints one JSON object with every
@@ -229,7 +229,7 @@ def main():
                          "'body=tall_slim&wall=0.3&noise=kinect1' "
                          "(docs/tracker.md); --noise is then unused")
     ap.add_argument('--matrix', action='store_true',
-                    help='the issue 18 table: bodies x scenes x noise')
+                    help='the accuracy table: bodies x scenes x noise')
     ap.add_argument('--bodies', default=','.join(MATRIX_BODIES),
                     help='--matrix body shapes, comma-separated')
     ap.add_argument('--jobs', type=int, default=1,

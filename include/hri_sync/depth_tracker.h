@@ -46,6 +46,33 @@ std::vector<Plane> fitWalls(const PointGrid& g, const Plane& floor, uint32_t see
 /// How far (m) a point at depth z may lie off a plane it belongs to: 3 cm plus
 /// the Kinect v1 depth step and noise (~1.25 steps of 2.85e-3 z^2).
 double planeMargin(double z);
+/// The wall moved along its normal to this frame's depth of it: the mean offset
+/// of the points within 1.5 margins of it, trimmed to one margin about their
+/// median; unchanged when fewer than 50 cells show it.
+Plane followWall(const PointGrid& g, const Plane& floor, const Plane& wall);
+/// Whether this frame still shows the wall: at least 1 m^2 of points on it
+/// and fewer cells behind it (more than two margins) than on it.
+bool wallStands(const PointGrid& g, const Plane& floor, const Plane& wall);
+
+/// The room: the floor and the background planes, kept steady from frame to
+/// frame. Both are refitted every 30 frames. Each frame, every wall follows the
+/// frame's depth (a Kinect v1 shifts the depth of a whole frame now and then,
+/// by centimetres at 4 m); a refit that misses a wall the room holds (most of
+/// it read as no return in this frame, or hidden) keeps the wall while the
+/// frame still shows it (wallStands).
+class Room {
+ public:
+  /// The room on this frame's grid.
+  void update(const PointGrid& g);
+  void reset() { *this = Room(); }
+  const Plane& floor() const { return floor_; }
+  const std::vector<Plane>& walls() const { return walls_; }
+
+ private:
+  Plane floor_;
+  std::vector<Plane> walls_;
+  int frames_ = 0;
+};
 
 struct Segmentation {
   std::vector<int> cells;        ///< grid indices of the user
@@ -229,11 +256,11 @@ class DepthTracker {
   void lose();
   const BodyModel& model() const { return model_; }
   const Plane& floor() const { return floor_; }
-  const std::vector<Plane>& walls() const { return walls_; }
+  const std::vector<Plane>& walls() const { return room_.walls(); }
   void reset();
 
  private:
-  /// Stage "segmentation": the floor and the walls (refitted every 30 frames) and the user.
+  /// Stage "segmentation": the room (floor and walls) and the user.
   Segmentation segment(const PointGrid& g);
   /// The bone lengths: calibrated on the first frames, then refined by the search.
   void calibrate(const PointGrid& g, const Segmentation& seg, const Joints& j, const LabelAssignment& assign);
@@ -246,9 +273,8 @@ class DepthTracker {
 
   Camera cam_;
   TrackerParams params_;
-  Plane floor_;
-  std::vector<Plane> walls_;
-  int frames_ = 0;
+  Room room_;
+  Plane floor_;                 ///< the room's, or the multi-user tracker's
   BodyModel model_;
   std::vector<CalibrationSample> calib_;
   bool have_prev_ = false;

@@ -75,9 +75,7 @@ class MultiTracker {
   Camera cam_;
   TrackerParams params_;
   MultiParams multi_;
-  Plane floor_;
-  std::vector<Plane> walls_;
-  int frames_ = 0;
+  Room room_;
   std::vector<User> users_;
   uint32_t next_id_ = 1;
 };

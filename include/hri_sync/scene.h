@@ -104,7 +104,9 @@ struct SceneOptions {
   double sensor_height = 1.0;   ///< m above the floor (0.5-2)
   double tilt_deg = 0.0;        ///< sensor pitched down (0-20 deg)
   double wall_gap = -1.0;       ///< wall behind the person: m behind their back where the
-                                ///< motion goes farthest (0.2-1.5); < 0: no wall
+                                ///< motion goes farthest (0.1-1.5); < 0: no wall
+  double distance = -1.0;       ///< m from the sensor to the person's mean hip centre
+                                ///< (1-5, along the floor); < 0: where the motion has them
   bool legacy_background = false;  ///< the old back wall at 4.5 m and a cabinet
   std::string furniture = "none";  ///< none, table, chair
   double furniture_x = 0.9;     ///< furniture centre, m right (+x) of the person's mean position
@@ -170,6 +172,7 @@ class Scene {
   uint32_t seed_;
   double wall_z_ = 0;
   Vec3 person_centre_;              ///< mean hip centre over the track, room frame
+  Vec3 shift_;                      ///< added to the motion's positions (SceneOptions::distance)
   Vec3 walk_centre_;                ///< the walk motion's mean hip centre, track frame
   std::vector<Box> furniture_;
 };

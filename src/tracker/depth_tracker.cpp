@@ -252,6 +252,74 @@ std::vector<Plane> fitWalls(const PointGrid& g, const Plane& floor, uint32_t see
   return walls;
 }
 
+namespace {
+
+// The offset of the points within band of a wall from it (m), trimmed to one
+// margin about their median; false when fewer than 50 cells show it.
+bool wallOffset(const PointGrid& g, const Plane& floor, const Plane& wall, double band, double* offset) {
+  std::vector<double> h;
+  std::vector<double> margin;
+  for (int i = 0; i < g.width * g.height; ++i) {
+    if (!g.ok(i) || (floor.found && floor.height(g.points[i]) < 0.05)) continue;
+    const double m = planeMargin(g.points[i].z), d = wall.height(g.points[i]);
+    if (std::fabs(d) < band * m) { h.push_back(d); margin.push_back(m); }
+  }
+  if (h.size() < 50) return false;
+  const double mid = median(h);
+  double sum = 0;
+  int n = 0;
+  for (size_t k = 0; k < h.size(); ++k) {
+    if (std::fabs(h[k] - mid) < margin[k]) { sum += h[k]; ++n; }
+  }
+  *offset = n ? sum / n : mid;
+  return true;
+}
+
+}  // namespace
+
+Plane followWall(const PointGrid& g, const Plane& floor, const Plane& wall) {
+  Plane out = wall;
+  double offset = 0;
+  if (wallOffset(g, floor, wall, 1.5, &offset)) out.d -= offset;
+  return out;
+}
+
+bool wallStands(const PointGrid& g, const Plane& floor, const Plane& wall) {
+  const double cell = g.step * Camera().xzFactor() / (g.width * g.step);  // cell size at 1 m, per m of depth
+  double area = 0;
+  int on = 0, behind = 0;
+  for (int i = 0; i < g.width * g.height; ++i) {
+    if (!g.ok(i) || (floor.found && floor.height(g.points[i]) < 0.05)) continue;
+    const Vec3& p = g.points[i];
+    const double d = wall.height(p), m = planeMargin(p.z);
+    if (std::fabs(d) < m) { ++on; area += (p.z * cell) * (p.z * cell); }
+    behind += d < -2 * m;
+  }
+  return area >= 1.0 && behind < on;
+}
+
+void Room::update(const PointGrid& g) {
+  const bool refit = frames_ % 30 == 0;
+  if (!floor_.found || refit) {
+    Plane f = fitFloor(g, 7 + frames_);
+    if (f.found) floor_ = f;
+  }
+  std::vector<Plane> walls;
+  if (refit) walls = fitWalls(g, floor_, 11 + frames_);
+  ++frames_;
+  // Walls held and not found again stay while the frame shows them.
+  const size_t fresh = walls.size();
+  for (const Plane& old : walls_) {
+    const Plane w = followWall(g, floor_, old);
+    bool again = false;
+    for (size_t k = 0; k < fresh; ++k) {
+      again |= walls[k].n.dot(w.n) > 0.985 && std::fabs(walls[k].d - w.d) < 2 * planeMargin(std::fabs(w.d));
+    }
+    if (!again && (!refit || wallStands(g, floor_, w))) walls.push_back(w);
+  }
+  walls_.swap(walls);
+}
+
 std::vector<Blob> blobs(const PointGrid& g, const Plane& floor, const std::vector<Plane>& walls) {
   const int n = g.width * g.height;
   std::vector<int> comp(n, -1);
@@ -515,9 +583,8 @@ DepthTracker::DepthTracker(const Camera& cam, TrackerParams params) : cam_(cam),
 DepthTracker::~DepthTracker() = default;
 
 void DepthTracker::reset() {
+  room_.reset();
   floor_ = Plane();
-  walls_.clear();
-  frames_ = 0;
   model_ = BodyModel();
   calib_.clear();
   calib_frames_.clear();
@@ -754,13 +821,9 @@ BodyPose placeJoints(TrunkFrame tf, const std::array<std::vector<Vec3>, NUM_LABE
 }
 
 Segmentation DepthTracker::segment(const PointGrid& g) {
-  if (!floor_.found || frames_ % 30 == 0) {
-    Plane f = fitFloor(g, 7 + frames_);
-    if (f.found) floor_ = f;
-  }
-  if (frames_ % 30 == 0) walls_ = fitWalls(g, floor_, 11 + frames_);
-  ++frames_;
-  return segmentUser(g, floor_, have_prev_ ? &prev_centroid_ : nullptr, walls_);
+  room_.update(g);
+  floor_ = room_.floor();
+  return segmentUser(g, floor_, have_prev_ ? &prev_centroid_ : nullptr, room_.walls());
 }
 
 LabelMemory DepthTracker::memory() const {

@@ -13,15 +13,13 @@ MultiTracker::MultiTracker(const Camera& cam, TrackerParams params, MultiParams 
 }
 
 double MultiTracker::acrossFloor(const Vec3& a, const Vec3& b) const {
-  const Vec3 up = floor_.found ? floor_.n : Vec3(0, 1, 0);
+  const Vec3 up = room_.floor().found ? room_.floor().n : Vec3(0, 1, 0);
   const Vec3 d = a - b;
   return (d - up * d.dot(up)).norm();
 }
 
 void MultiTracker::reset() {
-  floor_ = Plane();
-  walls_.clear();
-  frames_ = 0;
+  room_.reset();
   users_.clear();
   next_id_ = 1;
 }
@@ -84,7 +82,7 @@ void MultiTracker::admit(const PointGrid& g, const std::vector<Blob>& parts, con
                        static_cast<int>(parts[k].cells.size()) < multi_.new_user_cells)) {
       continue;
     }
-    if (active >= multi_.max_users || !notAPerson(g, parts[k], floor_).empty()) continue;
+    if (active >= multi_.max_users || !notAPerson(g, parts[k], room_.floor()).empty()) continue;
     if (static_cast<int>(users_.size()) >= multi_.max_users) {  // room: forget the longest lost
       size_t oldest = users_.size();
       for (size_t u = 0; u < users_.size(); ++u) {
@@ -123,16 +121,11 @@ std::vector<std::vector<int>> MultiTracker::fragments(const std::vector<Blob>& p
 MultiEstimate MultiTracker::update(const uint16_t* depth_mm, double t) {
   MultiEstimate out;
   const PointGrid g = makeGrid(depth_mm, cam_, params_.grid_step);
-  if (!floor_.found || frames_ % 30 == 0) {  // the room, as DepthTracker::segment finds it
-    Plane f = fitFloor(g, 7 + frames_);
-    if (f.found) floor_ = f;
-  }
-  if (frames_ % 30 == 0) walls_ = fitWalls(g, floor_, 11 + frames_);
-  ++frames_;
+  room_.update(g);
   users_.erase(std::remove_if(users_.begin(), users_.end(), [&](const User& u) {
                  return !u.seen && (t - u.last_seen > multi_.lost_timeout || t < u.last_seen);
                }), users_.end());
-  const std::vector<Blob> parts = blobs(g, floor_, walls_);
+  const std::vector<Blob> parts = blobs(g, room_.floor(), room_.walls());
   std::vector<int> people;
   for (size_t k = 0; k < parts.size(); ++k) if (personSized(g, parts[k])) people.push_back(static_cast<int>(k));
   std::vector<int> taken_by = associate(parts, people, t);
@@ -150,7 +143,7 @@ MultiEstimate MultiTracker::update(const uint16_t* depth_mm, double t) {
     user.centroid = seg.centroid;
     user.last_seen = t;
     user.seen = true;
-    UserEstimate ue{user.id, user.tracker->follow(g, seg, floor_, t), seg.centroid};
+    UserEstimate ue{user.id, user.tracker->follow(g, seg, room_.floor(), t), seg.centroid};
     out.tracked_users += ue.estimate.tracked;
     if (out.state.empty()) out.state = ue.estimate.state;
     out.users.push_back(std::move(ue));

@@ -243,7 +243,8 @@ double KinectNoise::depthStep(double z) const {
 void SceneOptions::validate() const {
   checkRange("sensor_height", sensor_height, 0.5, 2.0);
   checkRange("tilt", tilt_deg, 0.0, 20.0);
-  if (wall_gap >= 0) checkRange("wall", wall_gap, 0.2, 1.5);
+  if (wall_gap >= 0) checkRange("wall", wall_gap, 0.1, 1.5);
+  if (distance >= 0) checkRange("distance", distance, 1.0, 5.0);
   if (furniture != "none" && furniture != "table" && furniture != "chair") {
     throw std::invalid_argument("furniture must be none, table or chair, not '" + furniture + "'");
   }
@@ -289,6 +290,9 @@ Scene::Scene(const Track& person, const BodyShape& shape, const SceneOptions& op
     far = std::max(far, hips.z);
   }
   person_centre_ = person_centre_ * (1.0 / std::max(n, 1)) + Vec3(0, -kTrackFloor, 0);
+  if (opt_.distance >= 0) shift_ = Vec3(0, 0, opt_.distance - person_centre_.z);
+  person_centre_ += shift_;
+  far += shift_.z;
   // The wall: wall_gap behind the person's back (hip centre + 0.15 m x girth + clothing)
   // where the motion goes farthest from the sensor.
   wall_z_ = opt_.wall_gap >= 0 ? far + 0.15 * shape.girth + shape.clothing + opt_.wall_gap : 0;
@@ -324,7 +328,7 @@ Vec3 Scene::toSensor(const Vec3& room) const {
 
 Joints Scene::truth(double t) const {
   Joints j = person_.pose(t);
-  for (Vec3& p : j) p = toSensor(p + Vec3(0, -kTrackFloor, 0));
+  for (Vec3& p : j) p = toSensor(p + shift_ + Vec3(0, -kTrackFloor, 0));
   return j;
 }
 
@@ -368,7 +372,7 @@ void Scene::collect(double t, Surfaces* s, SceneFrame* out) const {
     }
   };
   Joints room = person_.pose(t);
-  for (Vec3& p : room) p += Vec3(0, -kTrackFloor, 0);
+  for (Vec3& p : room) p += shift_ + Vec3(0, -kTrackFloor, 0);
   addBody(person_, room, LABEL_PERSON);
   for (int k = 0; k < NUM_JOINTS; ++k) out->truth[k] = toSensor(room[k]);
   const bool has_bystander = opt_.bystander != "none";
@@ -745,7 +749,7 @@ bool flag(const std::string& key, const std::string& value) {
 }  // namespace
 
 const char* sceneKeys() {
-  return "body, height, girth, limbs, arms, legs, clothing, clothes_albedo, wall, furniture, furniture_x, "
+  return "body, height, girth, limbs, arms, legs, clothing, clothes_albedo, wall, distance, furniture, furniture_x, "
          "bystander, bystander_offset, bystander_body, bystander_track, crowd, crowd_motion, crowd_spacing, sensor_height, tilt, "
          "noise=kinect1|kinect1_iid, "
          "shadow, holes, baseline, projector, min_range, max_range, seed";
@@ -782,7 +786,8 @@ bool applySceneKey(const std::string& key, const std::string& value, SceneSpec* 
   } else if (key == "clothes_albedo") { b.clothes_albedo = number(key, value);
   } else if (key == "wall") {
     s.wall_gap = value == "none" ? -1.0 : number(key, value);
-    if (s.wall_gap >= 0) checkRange("wall", s.wall_gap, 0.2, 1.5);
+    if (s.wall_gap >= 0) checkRange("wall", s.wall_gap, 0.1, 1.5);
+  } else if (key == "distance") { s.distance = number(key, value);
   } else if (key == "furniture") { s.furniture = value;
   } else if (key == "furniture_x") { s.furniture_x = number(key, value);
   } else if (key == "bystander") { s.bystander = value;

@@ -5,6 +5,7 @@
 //   res=320x240 (or 640x480), fps=30, background=0 (1: back wall and a cabinet),
 //   noise=0.0015 (depth sigma in m at 1 m, grows with z^2; 0 turns it off),
 //   loop=1 (0: stop sending frames at the end of the track), start=0 (s into the track),
+//   hold=-1 (s into the track: the motion frozen at that time, a still person; -1: off),
 //   offset_us=1000000 (device clock at open), drift_ppm=0 (device clock rate error),
 //   lose_after=0 (s; > 0: the sensor is unplugged then: no more frames, a disconnect
 //   event, and the device is announced again at once (replugged), so a reader that
@@ -61,6 +62,7 @@ struct VirtualConfig {
   RenderOptions render;
   bool loop = true;
   double start = 0.0, lose_after = 0.0, drift_ppm = 0.0;
+  double hold = -1.0;           ///< >= 0: the motion frozen at this time (s)
   double offset_us = 1e6;
   std::string unplug_file;      ///< unplugged when this file exists (empty: never)
   hri_sync::SceneSpec scene;    ///< scene.used: render a Scene
@@ -114,13 +116,14 @@ VirtualConfig parseUri(const std::string& uri) {
     } else if (k == "noise") { c.render.noise = toNumber(k, v); c.sigma_given = true;
     } else if (k == "loop") { c.loop = toNumber(k, v) != 0;
     } else if (k == "start") { c.start = toNumber(k, v);
+    } else if (k == "hold") { c.hold = toNumber(k, v);
     } else if (k == "offset_us") { c.offset_us = toNumber(k, v);
     } else if (k == "drift_ppm") { c.drift_ppm = toNumber(k, v);
     } else if (k == "lose_after") { c.lose_after = toNumber(k, v);
     } else if (k == "unplug_file") { c.unplug_file = v;
     } else {
       throw std::runtime_error("virtual kinect: unknown URI key '" + k + "' (keys: res, fps, background, noise, "
-                               "loop, start, offset_us, drift_ppm, lose_after, unplug_file, " + hri_sync::sceneKeys() + ")");
+                               "loop, start, hold, offset_us, drift_ppm, lose_after, unplug_file, " + hri_sync::sceneKeys() + ")");
     }
   }
   if (c.scene.used) {
@@ -256,7 +259,7 @@ class DepthStream : public oni::driver::StreamBase {
         while (running_) std::this_thread::sleep_for(std::chrono::milliseconds(20));
         break;
       }
-      double t = cfg_.start + n * period;
+      double t = cfg_.hold >= 0 ? cfg_.hold : cfg_.start + n * period;
       if (!cfg_.loop && t > track_->duration()) {  // end of the motion: no more frames
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
         continue;

@@ -63,8 +63,11 @@ PRELOAD = ('numpy', 'yaml', 'genpy', 'genpy.rostime', 'roslib',
            'rosgraph_msgs.msg', 'hri_sync.msg',
            # rostest's own: roslaunch pulls in setuptools (0.35 CPU s)
            'roslaunch', 'rostest')
-# hri_sync's core packages: no rospy, no process state (test_layers.py).
-CORE = ('hri_sync.timing', 'hri_sync.dance_off', 'hri_sync.robot',
+# hri_sync's core packages: no rospy, no process state (test_layers.py);
+# their ROS sides (ros_*.py) are left to each copy, as rospy is.
+CORE = ('hri_sync.wire', 'hri_sync.clock', 'hri_sync.control',
+        'hri_sync.decision', 'hri_sync.client_process',
+        'hri_sync.data_process', 'hri_sync.dance_off', 'hri_sync.robot',
         'hri_sync.people', 'hri_sync.sensors')
 PR_SET_NAME = 15
 CLONE_NEWNET = 0x40000000
@@ -80,7 +83,8 @@ def preload():
             path = importlib.import_module(package).__path__
         except ImportError:
             continue
-        names += [m.name for m in pkgutil.iter_modules(path, package + '.')]
+        names += [m.name for m in pkgutil.iter_modules(path, package + '.')
+                  if not m.name.rsplit('.', 1)[1].startswith('ros_')]
     for name in names:
         try:
             importlib.import_module(name)

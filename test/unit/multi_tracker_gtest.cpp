@@ -243,10 +243,10 @@ int main(int argc, char** argv) {
 }
 
 // A still person 0.3 m before a wall, on Kinect v1 noise as measured on a real
-// recording (noise=kinect1), at 2.5 and 2.8 m (at 3.5 m, the wall at the
-// sensor's 4 m range, the segmentation is not yet stable: docs/not_done.md): every joint's frame-to-frame
-// motion p95 <= 1 cm and the expressiveness (the sum over joints of each
-// joint's mean squared speed) <= 0.1 m^2/s^2. The same frames through the
+// recording (noise=kinect1), at 2.5 and 2.8 m: every joint's frame-to-frame
+// motion p95 <= 1 cm, the expressiveness (the sum over joints of each
+// joint's mean squared speed) <= 0.1 m^2/s^2 and the torso within 0.1 m of
+// the truth in every tracked frame. The same frames through the
 // one-euro filter the tracker had before (speed from one frame to the next,
 // no dead zone) are not still at 2.8 m: the test sees a real sensor's failure.
 namespace {
@@ -254,6 +254,8 @@ namespace {
 struct Stillness {
   double step_p95 = 0;       ///< m, any joint, frame to frame
   double expressiveness = 0; ///< m^2/s^2
+  double trunk_expressiveness = 0;  ///< m^2/s^2 of head, neck, torso, shoulders and hips
+  double torso_error = 0;    ///< m, the largest
   int frames = 0;
 };
 
@@ -263,12 +265,15 @@ Stillness stillness(const Scene& scene, const TrackerParams& params, int frames)
   SceneFrame f;
   std::vector<Joints> out;
   std::vector<int> index;  // frame numbers of the tracked frames
+  double torso_error = 0;
   for (int n = 0; n < frames; ++n) {
     scene.render(n / 30.0, n + 1, cam, &f);
     const SkeletonEstimate est = tracker.update(f.depth_mm.data(), n / 30.0);
     if (est.tracked) { out.push_back(est.joints); index.push_back(n); }
+    if (est.tracked) torso_error = std::max(torso_error, (est.joints[TORSO] - f.truth[TORSO]).norm());
   }
   Stillness s;
+  s.torso_error = torso_error;
   std::vector<double> steps;
   const size_t from = 30;  // the filter's first second
   for (size_t k = from + 1; k < out.size(); ++k) {
@@ -277,11 +282,13 @@ Stillness stillness(const Scene& scene, const TrackerParams& params, int frames)
       const double d = (out[k][j] - out[k - 1][j]).norm();
       if (index[k] == index[k - 1] + 1) steps.push_back(d);
       s.expressiveness += d * d / dt;  // distance^2 / dt
+      if (j <= R_SHOULDER || j == L_HIP || j == R_HIP) s.trunk_expressiveness += d * d / dt;
     }
   }
   if (steps.empty()) return s;
   s.frames = static_cast<int>(out.size() - from);
   s.expressiveness /= (index.back() - index[from]) / 30.0;  // over T
+  s.trunk_expressiveness /= (index.back() - index[from]) / 30.0;
   std::sort(steps.begin(), steps.end());
   s.step_p95 = steps[steps.size() * 95 / 100];
   return s;
@@ -310,15 +317,33 @@ TEST(StillPerson, IsStillThroughTheTrackerOnKinectNoise) {
     const Scene scene = makeScene(stillAt(z), "wall=0.3&noise=kinect1");
     const Stillness now = stillness(scene, TrackerParams(), 150);
     const Stillness old = z == 2.8 ? stillness(scene, before, 150) : Stillness();
-    std::printf("still at %.1f m: p95 step %.4f m, expressiveness %.4f m^2/s^2 (%d frames); "
-                "before: %.4f m, %.4f m^2/s^2\n", z, now.step_p95, now.expressiveness, now.frames,
+    std::printf("still at %.1f m: p95 step %.4f m, expressiveness %.4f m^2/s^2, torso error %.3f m (%d frames); "
+                "before: %.4f m, %.4f m^2/s^2\n", z, now.step_p95, now.expressiveness, now.torso_error, now.frames,
                 old.step_p95, old.expressiveness);
     EXPECT_GT(now.frames, 90) << z;
     EXPECT_LE(now.step_p95, 0.01) << z;
     EXPECT_LE(now.expressiveness, 0.1) << z;
+    EXPECT_LE(now.torso_error, 0.1) << z;
     worst_before = std::max(worst_before, old.expressiveness);
   }
   EXPECT_GT(worst_before, 0.1);  // the test sees a tracker that is not still
+}
+
+// A still person at 3.5 m, 0.3 m before a wall at the sensor's 4 m range:
+// a Kinect v1 reads much of that wall as no return when the depth of a whole
+// frame steps back, and the room's refit every 30 frames then misses the wall;
+// the room keeps it (Room), so the person is never joined to the wall: the
+// torso stays within 0.1 m of the truth and the trunk (head, neck, torso,
+// shoulders, hips) is still. (The right hand, held forward, is found late at
+// this distance and moves once onto the truth: docs/tracker.md.)
+TEST(StillPerson, StaysApartFromAWallAtTheSensorsRange) {
+  const Scene scene = makeScene(stillAt(3.5), "wall=0.3&noise=kinect1");
+  const Stillness s = stillness(scene, TrackerParams(), 150);
+  std::printf("still at 3.5 m: trunk expressiveness %.4f m^2/s^2, torso error %.3f m (%d frames)\n",
+              s.trunk_expressiveness, s.torso_error, s.frames);
+  EXPECT_GT(s.frames, 90);
+  EXPECT_LE(s.torso_error, 0.1);
+  EXPECT_LE(s.trunk_expressiveness, 0.1);
 }
 
 // No ghosts: furniture at the edges of the view, the floor-wall seam, and an

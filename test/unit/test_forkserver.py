@@ -266,3 +266,27 @@ def test_a_copy_remembers_the_nodes_it_found(monkeypatch):
     roslib.packages.find_node('hri_sync', 'cm').append('changed')
     assert roslib.packages.find_node('hri_sync', 'cm') == ['/lib/hri_sync/cm']
     assert calls == ['cm', 'missing', 'missing', 'missing']
+
+
+def test_the_preload_is_every_core_package_and_brings_no_rospy():
+    """CORE names every subpackage but the ROS shell and the tools (a
+    package moved or added is preloaded too), and preloading them, their
+    ros_*.py sides left out, does not import rospy."""
+    import pkgutil
+
+    import hri_sync
+    from hri_sync_support import forkserver
+    packages = {'hri_sync.' + m.name
+                for m in pkgutil.iter_modules(hri_sync.__path__)
+                if m.ispkg and m.name not in ('ros', 'tools', 'msg')}
+    assert set(forkserver.CORE) == packages
+    code = ('import sys; from hri_sync_support import forkserver as f; '
+            'f.remember_nodes = lambda: None; f.preload(); '
+            'print(sorted(m for m in sys.modules if m.startswith("hri_sync.")'
+            ' and m.rsplit(".", 1)[1].startswith("ros_")))')
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [SUPPORT, os.path.join(SUPPORT, '..', 'src'),
+         os.environ.get('PYTHONPATH', '')]))
+    out = subprocess.run([ROS_PY, '-c', code], env=env, capture_output=True,
+                         text=True, check=True).stdout
+    assert out.strip() == '[]'

@@ -13,7 +13,12 @@ SRC = os.path.join(os.path.dirname(__file__), '..', '..', 'src')
 
 
 def test_host_time_is_the_system_clock():
-    assert abs(true_time() - time.time()) < 0.01
+    """Read between two system clock reads (a busy machine may preempt
+    the test between any two reads, so no fixed gap is asserted)."""
+    before = time.time()
+    t = true_time()
+    after = time.time()
+    assert before - 1e-6 <= t <= after + 1e-6
 
 
 @pytest.mark.skipif(shutil.which('faketime') is None,

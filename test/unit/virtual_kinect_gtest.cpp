@@ -472,7 +472,7 @@ TEST(Scene, BadKeysGiveClearErrors) {
     }
     return "";
   };
-  EXPECT_NE(message("wall", "3").find("wall must be in [0.2, 1.5]"), std::string::npos);
+  EXPECT_NE(message("wall", "3").find("wall must be in [0.1, 1.5]"), std::string::npos);
   EXPECT_NE(message("tilt", "abc").find("bad value 'abc' for 'tilt'"), std::string::npos);
   EXPECT_NE(message("body", "giant").find("unknown body shape 'giant'"), std::string::npos);
   EXPECT_NE(message("shadow", "yes").find("(0 or 1)"), std::string::npos);
@@ -582,7 +582,7 @@ TEST_F(VirtualKinectDriver, RendersAStillPersonBeforeAWallWithKinectNoise) {
 
 TEST_F(VirtualKinectDriver, BadSceneKeysFailToOpenWithTheReason) {
   struct Case { const char* query; const char* reason; };
-  for (const Case& c : {Case{"wall=3", "wall must be in [0.2, 1.5]"},
+  for (const Case& c : {Case{"wall=3", "wall must be in [0.1, 1.5]"},
                         Case{"bogus=1", "unknown URI key 'bogus'"},
                         Case{"body=giant", "unknown body shape 'giant'"},
                         Case{"wall=0.5&noise=0.01", "noise=SIGMA is the capsule renderer's"},

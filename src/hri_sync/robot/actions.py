@@ -1,4 +1,4 @@
-"""Configured actions at round events on the global clock (issue 19).
+"""Configured actions at round events on the global clock.
 
 No ROS and no clock of its own: ``nodes/action_client`` is the shell.
 

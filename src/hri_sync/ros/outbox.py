@@ -4,7 +4,7 @@ rospy serialises a message into a buffer it shares with the next one; a
 field it cannot serialise (a time past 2**32 s, a count past its uint32,
 a fixed array of the wrong length) raises halfway and leaves the partial
 bytes there, so the next message goes out behind them and every
-subscriber drops the connection for good (issue 11).  ``Publisher``
+subscriber drops the connection for good.  ``Publisher``
 serialises each message into a scratch buffer first and raises
 ``Unsendable`` before rospy's buffer is touched: the message is lost, the
 link is not.

@@ -549,8 +549,8 @@ SECTIONS = [
     ('Clocks: offset, drift, uncertainty',
      'hri_sync/ClockState (/<client>/clock_state)',
      lambda s: bool(s.clock_states)),
-    ('NTP round trips', 'ClockState.round_trip (an older hri_sync did not '
-     'record it)',
+    ('NTP round trips', 'ClockState.round_trip (in recordings '
+     'made since ClockState carries it)',
      lambda s: any(hasattr(r.msg, 'round_trip')
                    for v in s.clock_states.values() for r in v)),
     ('Error bound', 'per-window error bound in ClientResult/Decision '

@@ -25,7 +25,7 @@ OP_MSGDATA, OP_BAGHEADER, OP_IDXDATA, OP_CHUNK, OP_CHUNKINFO, OP_CONN = \
     2, 3, 4, 5, 6, 7
 
 
-# md5sums of the definitions before std_msgs/Header (issue 13): every
+# md5sums of the definitions before std_msgs/Header: every
 # other field as now.
 PRE_HEADER = {
     'hri_sync/ActionStart': 'fe01d6e1508656b37f44bd4744df470b',
