@@ -40,7 +40,12 @@ FORCE:
 
 build:
 	@mkdir -p $(WS)/src $(WS)/devel/lib/python3/dist-packages
-	@[ -e $(WS)/src/hri_sync ] || ln -s $(ROOT) $(WS)/src/hri_sync
+	@# The workspace sees the package through links to its files, not a
+	@# link to the folder that holds .ws (find, in rosrun, would loop).
+	@[ ! -L $(WS)/src/hri_sync ] || rm $(WS)/src/hri_sync
+	@mkdir -p $(WS)/src/hri_sync && cd $(ROOT) && for f in * .[!.]*; do \
+	  case $$f in .ws|.venv|.git) ;; *) ln -sfn $(ROOT)/$$f $(WS)/src/hri_sync/$$f;; esac; \
+	done; find $(WS)/src/hri_sync -maxdepth 1 -xtype l -delete
 	@# A job per core, off setup's jobserver (where pip holds a slot) and
 	@# without catkin_make's default load limit (-l: a load left by a
 	@# previous run would hold the build to one job).
@@ -48,10 +53,6 @@ build:
 	  env -u MAKEFLAGS -u MFLAGS catkin_make -j$$(nproc) -DPYTHON_EXECUTABLE=$(ROS_PY) -DCMAKE_BUILD_TYPE=Release \
 	  -DCATKIN_ENABLE_TESTING=ON > $(WS)/build.log 2>&1 \
 	  || { tail -40 $(WS)/build.log; exit 1; }
-	@# rosrun searches the package folder, which holds .ws: keep the devel
-	@# relays the only executable copies of the nodes (nodes/ are not +x).
-	@find $(WS)/build -type f \( -path '*atomic_configure*' -o -path '*installspace*' \) \
-	  -perm /111 -exec chmod a-x {} +
 	@echo "built: source $(WS)/devel/setup.bash"
 
 # Each stage's command (the targets below run setup first; `test` runs it
@@ -63,6 +64,11 @@ SITE = $(SOURCE) && $(ROS_PY) $(ROOT)/test/system/site_multihost.py
 # The tracker's accuracy table against its baseline (bench/tracker_regression.py).
 TRACKER_ACCURACY = $(SOURCE) && $(ROS_PY) $(ROOT)/bench/tracker_regression.py --check $(ROOT)/test/data/tracker_accuracy.json
 ROSTESTS = $(SOURCE) && $(ROS_PY) $(ROOT)/scripts/run_rostests.py $(ROOT)/test
+# What a newcomer meets: the traps found on a fresh clone, and the first
+# hour of the README and the "add a sensor" guide (test/system/).
+SYSTEM_PY = $(SOURCE) && PYTHONPATH=$(ROOT)/support:$$PYTHONPATH $(VENV)/bin/python
+TRAPS = $(SYSTEM_PY) $(ROOT)/test/system/newcomer_traps.py
+FIRST_HOUR = $(SYSTEM_PY) $(ROOT)/test/system/first_hour.py
 
 # numpy, which every rospy message module imports, starts an OpenBLAS
 # thread per core (0.13 s of CPU per process); none of the suite's ~1500
@@ -99,7 +105,8 @@ test: setup
 	  --max-jobs $${ROSTEST_MAX_JOBS:-$$((j + 2))} \
 	  --stage 'unit=$(UNIT)' --stage 'check=$(CHECK)' \
 	  --stage 'install_space=$(INSTALL_CHECK)' --stage 'site_multihost=$(SITE)' \
-	  --stage 'tracker_accuracy=$(TRACKER_ACCURACY)'
+	  --stage 'tracker_accuracy=$(TRACKER_ACCURACY)' \
+	  --stage 'newcomer_traps=$(TRAPS)' --stage 'first_hour=$(FIRST_HOUR)'
 
 # `make test` RUNS times in a row beside one busy loop per core, JSON
 # summary last (scripts/test_under_load.py; e.g. make test-load RUNS=1).

@@ -86,7 +86,7 @@ struct ClockStatus {
 /// The limits of a usable model, as Python's hri_sync.clock.model:
 /// |drift| <= kMaxDrift (MAX_DRIFT, 1 %: ten times any crystal's), local_ref
 /// and its global time in [0, kTimeLimit) (TIME_LIMIT, 2^32 s: what a ROS
-/// time can carry).
+/// time can carry; Python's rule is hri_sync.wire.times.fits_ros_time).
 constexpr double kMaxDrift = 0.01;
 constexpr double kTimeLimit = 4294967296.0;
 

@@ -57,7 +57,7 @@ from std_srvs.srv import (SetBool, SetBoolResponse, Trigger,
 
 from constant_samples import publish_constant_samples
 from hri_sync.msg import ActionEnd, ActionStart, CaptureData, Decision
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 from hri_sync.wire.protocol import Capture
 
 START_SANITY = 0.25          # s, see the docstring

@@ -21,7 +21,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from hri_sync.dance_off.joints import NUM_JOINTS
 from hri_sync.msg import Skeleton
 from hri_sync.people.adapters import azure_markers, openni_transforms
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 
 
 def pose():

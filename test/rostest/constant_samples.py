@@ -5,7 +5,7 @@ import threading
 import rospy
 
 from hri_sync.msg import Sample
-from hri_sync.ros.params import wait_for
+from hri_sync.ros.timers import wait_for
 
 
 def publish_constant_samples(values, rate=50.0, observers=(),

@@ -39,7 +39,7 @@ import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 
 from hri_sync.msg import ClientResult, Decision, Skeleton
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 from hri_sync.tools.procs import stop_group
 
 CLIENTS = ('left', 'right')

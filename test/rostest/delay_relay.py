@@ -8,7 +8,7 @@ import time
 import roslib.message
 import rospy
 
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 
 
 def main():

@@ -25,7 +25,8 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from std_msgs.msg import Header
 
 from hri_sync.msg import Decision, SyncTime
-from hri_sync.ros.params import init_checker, wait_for
+from hri_sync.ros.node import init_checker
+from hri_sync.ros.timers import wait_for
 
 SYNCED = ('left', 'dj_rob', 'music')
 CPM_NODES = {'left': 'left/cpm', 'right': 'right/cpm', 'dj_rob': 'dj_rob',

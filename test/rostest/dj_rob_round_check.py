@@ -51,7 +51,7 @@ from hri_sync.msg import (ActionStart, Beat, CaptureData, Decision, Led,
                           Sound)
 from hri_sync.robot.geometry import wrap_degrees, yaw_of
 from hri_sync.robot.kobuki import Limits
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 from hri_sync.wire.protocol import Capture
 from hri_sync.clock.truth import realtime
 

@@ -27,7 +27,7 @@ import rostest
 from std_srvs.srv import Trigger
 
 from hri_sync.msg import Decision
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 from hri_sync.tools.procs import stop_group
 
 NODES = ('control_module', 'decision_module', 'left/cpm', 'left/dpm',

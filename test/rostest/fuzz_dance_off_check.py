@@ -42,7 +42,8 @@ import rostest
 from std_srvs.srv import Trigger
 
 from hri_sync.msg import ClientResult, ClockState, Decision, DpmState
-from hri_sync.ros.params import init_checker, wait_for
+from hri_sync.ros.node import init_checker
+from hri_sync.ros.timers import wait_for
 from hri_sync.decision.rule import decide
 
 # The dance-off's; ~clients and ~participants for another ~launch.

@@ -36,7 +36,7 @@ import roslib.message
 import rospy
 
 from hri_sync.ros.inbox import Senders
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 
 EXCLUDE = ('/rosout', '/rosout_agg', '/clock', '/tf', '/tf_static')
 CLIENTS = ('left', 'right', 'dj_rob', 'music', 'skeleton', 'imu', 'audio',

@@ -16,7 +16,7 @@ import rostest
 
 from hri_sync.msg import SyncTime
 from hri_sync.ros.inbox import Inbox
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 from hri_sync.wire.validate import Context
 
 

@@ -7,7 +7,7 @@ import rospy
 from std_msgs.msg import Header
 
 from hri_sync.msg import SyncTime
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 
 
 def main():

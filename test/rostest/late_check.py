@@ -20,7 +20,8 @@ import unittest
 import rospy
 import rostest
 
-from hri_sync.ros.params import csv_list, init_checker
+from hri_sync.ros.node import init_checker
+from hri_sync.ros.params import csv_list
 from hri_sync.ros.round_log import RoundLog
 
 

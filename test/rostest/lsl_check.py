@@ -27,7 +27,8 @@ import rostest
 from std_srvs.srv import Trigger
 
 from hri_sync.msg import ClientResult, DpmState, LslSample
-from hri_sync.ros.params import init_checker, wait_for
+from hri_sync.ros.node import init_checker
+from hri_sync.ros.timers import wait_for
 from hri_sync.data_process.capture import GAP_PERIODS
 
 KIND_OF_FAULT = {'vanish': 'lost', 'stall': 'lost', 'reset': 'clock_reset'}

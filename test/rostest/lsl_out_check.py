@@ -17,7 +17,8 @@ import threading
 import time
 import unittest
 
-from hri_sync.ros.params import init_checker, wait_for  # noqa: E402
+from hri_sync.ros.node import init_checker  # noqa: E402
+from hri_sync.ros.timers import wait_for  # noqa: E402
 from hri_sync.tools import venv
 
 venv.ensure(['pylsl'], 'lsl_out_check', __file__)

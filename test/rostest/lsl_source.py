@@ -19,7 +19,7 @@ import signal
 import threading
 import time
 
-from hri_sync.ros.params import init_checker  # noqa: E402
+from hri_sync.ros.node import init_checker  # noqa: E402
 from hri_sync.tools import venv
 
 venv.ensure(['pylsl'], 'lsl_source', __file__)

@@ -23,7 +23,7 @@ import rosnode
 import rospy
 import rostest
 
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 from hri_sync.tools import procs
 
 NODES = ('/control_module', '/decision_module', '/time_server',

@@ -8,7 +8,7 @@ import unittest
 
 import rospy
 
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 import rostest
 
 

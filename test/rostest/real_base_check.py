@@ -30,7 +30,7 @@ from rosgraph_msgs.msg import Log
 from constant_samples import publish_constant_samples
 from hri_sync.msg import Decision, Led, Sound
 from hri_sync.ros.outbox import closed_at_shutdown
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 
 # kobuki_msgs/msg/Led.msg and Sound.msg (yujinrobot/kobuki_msgs): their
 # constants and field, as released (comments left out: the md5sum

@@ -22,7 +22,7 @@ from hri_sync.dance_off.frames import skeleton_point
 from hri_sync.dance_off.joints import INDEX
 from hri_sync.msg import IdsList, Skeleton
 from hri_sync.people.adapters import HUMAN_LINKS
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 
 # hri_msgs/msg/IdsList.msg (ros4hri/hri_msgs), its fields as released.
 HRI_MSGS_IDS_LIST = 'std_msgs/Header header\nstring[] ids\n'

@@ -44,7 +44,8 @@ import rostest
 from geometry_msgs.msg import Twist
 
 from hri_sync.msg import ActionStart, ClockState, SafetyStop
-from hri_sync.ros.params import init_checker, wait_for
+from hri_sync.ros.node import init_checker
+from hri_sync.ros.timers import wait_for
 from hri_sync.ros.unique import node_pid
 from hri_sync.tools.procs import descendants
 

@@ -27,7 +27,7 @@ import unittest
 import rospy
 import rostest
 
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 from hri_sync.ros.unison_watch import RobotsWatch
 from hri_sync.tools.unison import heading_spreads
 

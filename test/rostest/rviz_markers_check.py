@@ -12,7 +12,7 @@ import tf2_ros
 from visualization_msgs.msg import Marker, MarkerArray
 
 from hri_sync.msg import Decision
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 
 TORSO = 2                # joint index; SPHERE_LIST points keep joint order
 # The salsa clips' torsos travel up to 1.25 m (cmu_60_01) and 1.49 m

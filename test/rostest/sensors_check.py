@@ -25,7 +25,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import Image, Imu, JointState
 
 from hri_sync.msg import AudioChunk, CaptureData, ClientResult, Decision
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 from hri_sync.ros.replay import start_round_when_delivering
 from hri_sync.wire.protocol import Capture
 

@@ -29,7 +29,8 @@ import unittest
 import rospy
 import rostest
 
-from hri_sync.ros.params import csv_list, init_checker
+from hri_sync.ros.node import init_checker
+from hri_sync.ros.params import csv_list
 from hri_sync.ros.round_log import RoundLog
 from hri_sync.wire.protocol import Capture
 from hri_sync.clock.skew import client_timing, start_skew

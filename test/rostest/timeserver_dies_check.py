@@ -20,7 +20,8 @@ import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 from hri_sync.msg import CaptureData, RoundStatus
-from hri_sync.ros.params import init_checker, wait_for
+from hri_sync.ros.node import init_checker
+from hri_sync.ros.timers import wait_for
 from hri_sync.ros.round_log import RoundLog
 from hri_sync.ros.unique import node_pid
 from hri_sync.tools.procs import alive, descendants

@@ -17,7 +17,7 @@ import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from hri_sync.msg import ClockState, Skeleton
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 
 PKG = 'hri_sync'
 

@@ -26,7 +26,7 @@ import unittest
 import rospy
 import rostest
 from hri_sync.msg import CaptureData, ClientResult, Decision
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 
 PKG = 'hri_sync'
 # Hz: a tracker that kept fewer frames than this over the part of the

@@ -23,7 +23,7 @@ import numpy as np
 import rospy
 import rostest
 from hri_sync.msg import ClockState, Skeleton
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 from tracker_dance_off_check import TrackerDanceOffTest
 
 PKG = 'hri_sync'

@@ -12,7 +12,7 @@ import unittest
 
 import rospy
 
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 import rostest
 
 from tracker_partial_view_check import listen

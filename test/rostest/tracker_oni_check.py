@@ -27,7 +27,7 @@ import numpy as np
 import rospy
 import rostest
 from hri_sync.msg import ClockState, Skeleton
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 
 PKG = 'hri_sync'
 HANDS = (7, 8)

@@ -35,7 +35,7 @@ from nav_msgs.msg import Odometry
 
 from hri_sync.msg import (ActionStart, CaptureData, ClientResult, Decision,
                           Skeleton, SyncAck, SyncTime)
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 
 GLOBAL = {'/diagnostics', '/rosout', '/rosout_agg', '/tf', '/tf_static'}
 CLIENTS = ('left', 'right')

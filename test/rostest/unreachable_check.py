@@ -15,7 +15,8 @@ import rospy
 import rostest
 
 from hri_sync.msg import RoundStatus
-from hri_sync.ros.params import csv_list, init_checker
+from hri_sync.ros.node import init_checker
+from hri_sync.ros.params import csv_list
 from hri_sync.ros.round_log import RoundLog
 
 

@@ -327,7 +327,9 @@ def test_stray_acks_are_logged_and_ignored():
     assert logs(s.on_ack(ack('alice', round_id=0)), 'warn') == [
         "ACK from alice for round 0 ignored (round 1 open; ignored so far: "
         "{'old_round': 1})"]
-    s.on_ack(ack('mallory'))
+    assert logs(s.on_ack(ack('alicia')), 'warn') == [
+        "ACK for round 1 ignored: unknown client 'alicia': valid: alice, "
+        "bob, carol; did you mean 'alice'? (~clients)"]
     assert dict(s.current.ignored) == {'old_round': 1, 'unknown_client': 1}
     for c in CLIENTS:
         s.on_ack(ack(c))
@@ -435,6 +437,16 @@ def test_clients_wait_waits_for_a_sample_from_each_sensor():
     assert w.on_samples(10.0) == ['b']   # said once, then not waited for
     assert w.settled and w.unfed() == ['b'] and w.unready() == []
     assert w.on_samples(11.0) == []
+
+
+def test_clients_wait_names_samples_the_dpm_refuses():
+    w = ClientsWait(['a'], dpms=['a'])
+    w.on_links({'a'}, 0.0)
+    w.on_state('a', True)
+    w.on_dpm('a', 0, 'a sensor_msgs/LaserScan on a sensor_msgs/Range topic')
+    assert w.describe(['a']) == (
+        "a (its DPM refuses its sensor's samples (a sensor_msgs/LaserScan "
+        "on a sensor_msgs/Range topic))")
 
 
 def test_clients_wait_times_samples_from_when_only_they_are_waited():

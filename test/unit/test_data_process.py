@@ -205,7 +205,7 @@ def test_wake_lateness_is_measured_against_the_window_start():
 
 
 def test_a_late_or_missing_wake_up_changes_no_window():
-    """The shell's timer at the window start (params.after) has no bound
+    """The shell's timer at the window start (timers.after) has no bound
     on its delay: the window is its timestamps, the wake-up a figure."""
     def run(wake):
         d = dp()

@@ -213,3 +213,9 @@ def test_collector_refuses_bad_parameters():
         RoundCollector(P, 1.0, on_missing='skip')
     with pytest.raises(ValueError, match='no participants'):
         RoundCollector([], 1.0)
+
+
+def test_a_lone_participant_is_not_said_to_score_highest():
+    v = decide(['eeg'], {'eeg': ('ok', 1281.0)})
+    assert (v.outcome, v.winner) == (WINNER, 1)
+    assert v.reason == 'eeg is the only participant (1281): nothing to compare'

@@ -121,7 +121,7 @@ def test_next_output_never_overwrites_the_closed_bag():
 SIGTERM_IN_LOCK = '''
 import os, signal, threading, time
 import rospy
-from hri_sync.ros.params import _shutdown_in_a_thread
+from hri_sync.ros.node import _shutdown_in_a_thread
 signal.signal(signal.SIGTERM, _shutdown_in_a_thread)
 lock = threading.Lock()
 rospy.core.add_preshutdown_hook(lambda reason: lock.acquire())

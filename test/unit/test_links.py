@@ -55,7 +55,7 @@ SUBSCRIBER = textwrap.dedent('''
     import rospy
     from rospy.impl.registration import RegManager
     from std_msgs.msg import String
-    from hri_sync.ros.params import run_node
+    from hri_sync.ros.node import run_node
 
     # The end of rospy's race, made certain: the last publisher list queued
     # for the topic is registerSubscriber's answer without the publisher,

@@ -36,6 +36,18 @@ def test_fresh_heartbeat_and_fresh_sample_is_alive():
     assert live.verdict(100.5) == Verdict(True)
 
 
+def test_a_sensor_whose_samples_the_dpm_refuses_is_not_called_silent():
+    live = rule()
+    live.on_beat(Beat(100.0, '/c/input', 0, math.nan, math.nan, 41,
+                      'a sensor_msgs/LaserScan on a sensor_msgs/Range '
+                      'topic'))
+    v = live.verdict(100.1)
+    assert not v.ok and 'silent' not in v.reason
+    assert v.reason == ('sensor /c/input delivers samples the DPM refuses '
+                        '(41 so far; the last: a sensor_msgs/LaserScan on '
+                        'a sensor_msgs/Range topic)')
+
+
 def test_heartbeat_older_than_dpm_timeout_is_dpm_not_alive():
     live = Liveness(2.0, None, 0.0)
     live.on_beat(beat(100.0))

@@ -17,3 +17,11 @@ def test_every_node_script_is_short():
             if n > MAX_LINES:
                 long.append('%s: %d lines' % (os.path.basename(path), n))
     assert long == [], 'move the logic into src/hri_sync: ' + ', '.join(long)
+
+
+def test_no_node_script_carries_the_run_bit():
+    """rosrun finds the devel (or install) relay of each node; a run bit
+    in nodes/ would make a second copy and the choice ambiguous."""
+    marked = [os.path.basename(p) for p in glob.glob(os.path.join(NODES, '*'))
+              if os.stat(p).st_mode & 0o111]
+    assert marked == [], 'chmod a-x ' + ' '.join(marked)

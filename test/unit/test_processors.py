@@ -51,20 +51,31 @@ def test_load_processor_by_class_path():
 
 
 @pytest.mark.parametrize('path, message', [
-    ('CountMean', "must be a class path like "
-                  "'hri_sync.data_process.processors.CountMean', got 'CountMean'"),
+    ('CountMean', "unknown processor 'CountMean': valid: .*"
+     "hri_sync.sensors.generic.HeaderCount.*; did you mean "
+     "'hri_sync.data_process.processors.CountMean'"),
+    ('hri_sync.sensor.imu.ImuActivity', "did you mean "
+     "'hri_sync.sensors.imu.ImuActivity'"),
     ('hri_sync.no_such_module.Thing',
-     r"~processor 'hri_sync.no_such_module.Thing' cannot be loaded"),
-    ('hri_sync.data_process.processors.NoSuchClass',
-     r"~processor 'hri_sync.data_process.processors.NoSuchClass' cannot be loaded"),
+     r"unknown processor 'hri_sync.no_such_module.Thing': valid: "),
+    ('hri_sync.data_process.processors.CountMaen',
+     r"unknown processor in hri_sync.data_process.processors 'CountMaen': "
+     r"valid: CountMean, DeviceStampedCountMean; did you mean 'CountMean'"),
     ('hri_sync.data_process.processors.Frame',
-     r"~processor 'hri_sync.data_process.processors.Frame' is not a hri_sync "
-     r"Processor"),
-    ('math.pi', r"~processor 'math.pi' is not a hri_sync Processor"),
+     r"processor in hri_sync.data_process.processors 'Frame': valid: "),
+    ('math.pi', r"unknown processor in math 'pi': valid: \(none\)$"),
 ])
-def test_load_processor_errors_name_the_path(path, message):
+def test_load_processor_errors_list_the_valid_names(path, message):
     with pytest.raises(ValueError, match=message):
         load_processor(path)
+
+
+def test_a_misspelt_key_names_the_valid_keys_and_the_nearest():
+    with pytest.raises(ValueError, match=r"~processor_params: unknown key of "
+                       r"HeaderCount 'msg_typ': valid: msg_type; did you "
+                       r"mean 'msg_type'\?$"):
+        load_processor('hri_sync.sensors.generic.HeaderCount',
+                       {'msg_typ': 'sensor_msgs/LaserScan'})
 
 
 def test_processor_without_params_refuses_params():
@@ -103,9 +114,9 @@ def test_load_a_plugin_with_params(plugin):
 
 
 def test_plugin_params_that_do_not_fit(plugin):
-    with pytest.raises(ValueError, match=r"~processor_params do not fit "
-                       r"my_plugin.Scaled: .*unexpected keyword argument "
-                       r"'gian'"):
+    with pytest.raises(ValueError, match=r"~processor_params: unknown key "
+                       r"of Scaled 'gian': valid: gain; did you mean "
+                       r"'gain'"):
         load_processor(plugin, {'gian': 2.5})
 
 

@@ -365,9 +365,17 @@ def test_capture_before_any_sync_is_ignored():
 
 
 def test_capture_for_other_clients_is_ignored_as_not_a_participant():
-    s = acked('carol')
+    s = ClientSchedule('carol', max_uncertainty=0.005)
     assert s.on_capture(capture(), 100.0, CLOCK) is None
     assert dict(s.ignored) == {'not_a_participant': 1}
+
+
+def test_a_round_without_a_client_that_acked_it_is_told_apart():
+    """The client ACKed, the round went on without it: the server does
+    not list it (the CPM warns, naming the listed clients)."""
+    s = acked('carol')
+    assert s.on_capture(capture(), 100.0, CLOCK) is None
+    assert dict(s.ignored) == {'acked_not_a_participant': 1}
 
 
 @pytest.mark.parametrize('fields', [

@@ -239,6 +239,7 @@ def test_voice_share_and_level():
     stamps = [50.0 + k / rate for k in range(0, rate, n)]
     r = run(AudioLevel(), msgs, stamps, 50.0, 51.0)
     assert r.value == pytest.approx(0.3)
+    assert r.diagnostics['unit'] == 'voiced share (0-1)'   # not '1'
     level = 10 * math.log10(0.3 * 16384 ** 2 / 2 / 32768 ** 2)
     assert r.diagnostics['level_dbfs'] == pytest.approx(level, abs=0.05)
     r = run(AudioLevel(measure='level'), msgs, stamps, 50.0, 51.0)

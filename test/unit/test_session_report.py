@@ -353,3 +353,23 @@ def test_results_past_the_deadline_are_not_held_against_the_decision():
     assert s['rounds'][1]['recomputed']['late_results_s'] == \
         pytest.approx({'right': 0.8})
     assert not s['rounds'][1]['recomputed']['reproduced']
+
+
+def test_a_session_that_is_not_a_dance_off_reads_without_false_failures():
+    """A generic sensor's session: its captured frames are named, not
+    called missing, and its decisions are not recomputed rather than
+    '0/2 reproduced'."""
+    from hri_sync.tools.analysis import missing_sections, reproduced_text
+    from hri_sync.tools.session import Session
+    s = Session('scan.bag', {'/scan/captured': 'sensor_msgs/LaserScan',
+                             '/decision': 'hri_sync/Decision'})
+    reasons = {m['section']: m['reason'] for m in missing_sections(s)}
+    fig5 = [r for k, r in reasons.items() if k.startswith('Figure 5')][0]
+    assert fig5 == ('not a dance-off: its captured frames are not skeletons '
+                    '(/scan/captured (sensor_msgs/LaserScan))')
+    assert not any('issue' in r or 'no the' in r for r in reasons.values())
+    t = {'decided': 2, 'reproduced': 0, 'recomputed': 0}
+    assert reproduced_text(t) == ('decisions not recomputed (no captured '
+                                  'skeleton frames)')
+    assert reproduced_text(dict(t, reproduced=1, recomputed=2)) == \
+        '1/2 decisions reproduced'

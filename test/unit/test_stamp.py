@@ -1,10 +1,10 @@
-"""hri_sync.ros.params.stamp: never a time it did not validate."""
+"""hri_sync.ros.stamps.stamp: never a time it did not validate."""
 import math
 
 import pytest
 import rospy
 
-from hri_sync.ros.params import StampError, header, stamp
+from hri_sync.ros.stamps import StampError, header, stamp
 
 
 def test_valid_time():

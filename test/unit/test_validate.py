@@ -50,7 +50,8 @@ def good(msg_type):
             diagnostics=[{'key': 'terms', 'value': '1199'}]),
         'hri_sync/DpmState': dict(
             header=dict(header, stamp=NOW - 2.0), client_id='left',
-            input='/left/skeleton', samples=40, sample_age=0.04, rate=20.0),
+            input='/left/skeleton', samples=40, sample_age=0.04, rate=20.0,
+            refused=0, refused_reason=''),
         'hri_sync/Decision': dict(
             header=hdr(NOW), round=5, outcome='winner', winner=2,
             clients=['left', 'right'], scores=[1.5, 3.2],

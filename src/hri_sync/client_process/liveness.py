@@ -28,6 +28,8 @@ class Beat:
     samples: int        # samples received since the DPM started
     sample_age: float   # s from the last sample to the beat (NaN: none)
     rate: float         # observed sample rate, Hz (NaN: unknown)
+    refused: int = 0    # samples the DPM refused (not of its type, ...)
+    refused_reason: str = ''    # why it refused the last one
 
 
 @dataclass
@@ -87,6 +89,11 @@ class Liveness:
                            % (silence, self.dpm_timeout))
         if self.sensor_timeout is None:
             return Verdict(True)
+        if beat.samples == 0 and beat.refused:
+            return Verdict(False, 'sensor %s delivers samples the DPM '
+                           'refuses (%d so far; the last: %s)'
+                           % (beat.input, beat.refused,
+                              beat.refused_reason or 'no reason given'))
         if beat.samples == 0 or not math.isfinite(beat.sample_age):
             return Verdict(False, 'sensor %s silent: the DPM has received '
                            'no sample from it' % beat.input)

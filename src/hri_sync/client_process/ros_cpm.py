@@ -10,10 +10,12 @@ from hri_sync.ros.diagnostics import round_diagnostics
 from hri_sync.ros.inbox import Inbox
 from hri_sync.ros.names import client_topic, protocol_topic
 from hri_sync.ros.outbox import Publisher
-from hri_sync.ros.params import (ParamError, header, param, positive, stamp,
-                                 wait_for)
+from hri_sync.ros.params import ParamError, param, positive
+from hri_sync.ros.stamps import header, stamp
+from hri_sync.ros.timers import wait_for
 from hri_sync.clock.ros_synced_clock import SyncedClock
 from hri_sync.client_process.health import client_tally
+from hri_sync.wire.config import unknown
 from hri_sync.client_process.liveness import Beat, Liveness
 from hri_sync.client_process.schedule import ClientSchedule, Late
 from hri_sync.wire.protocol import Capture
@@ -101,7 +103,8 @@ class ClientProcess:
 
         def on_state(msg):
             live.on_beat(Beat(time.time(), msg.input, msg.samples,
-                              msg.sample_age, msg.rate))
+                              msg.sample_age, msg.rate, msg.refused,
+                              msg.refused_reason))
         self.inbox.subscribe(
             client_topic(self.client_id, 'dpm_state'), DpmState, on_state,
             'dpm',
@@ -152,6 +155,12 @@ class ClientProcess:
                                          self.clock.now(), self.clock)
         if order is None:
             why = ', '.join(self.schedule.ignored - before)
+            if why == 'acked_not_a_participant':
+                rospy.logwarn_once(
+                    '%s: round %d went on without this client, which ACKed '
+                    'it: the server has no such client (its ~clients), or '
+                    'the ACK came late: %s', self.client_id, msg.round,
+                    unknown('client', self.client_id, msg.clients))
             log = (rospy.loginfo if why == 'not_a_participant'
                    else rospy.logwarn)
             log('%s: capture_data of round %d ignored (%s); ignored so far: '

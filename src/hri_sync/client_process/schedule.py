@@ -135,7 +135,9 @@ class ClientSchedule:
         ``clock`` converts global to local time (``to_local``).
         """
         if self.client_id not in capture.clients:
-            self.ignored['not_a_participant'] += 1
+            self.ignored['acked_not_a_participant'
+                         if capture.round == self.acked_round
+                         else 'not_a_participant'] += 1
             return None
         if self.acked_round is None or capture.round != self.acked_round:
             self.ignored['unacked_round'] += 1

@@ -9,11 +9,11 @@ import math
 from dataclasses import dataclass
 from typing import Callable, Dict, Iterable, List
 
-from hri_sync.wire.times import GlobalTime, LocalTime, Seconds
+from hri_sync.wire.times import (GlobalTime, LocalTime, Seconds,
+                                 fits_ros_time)
 from hri_sync.wire.vocabulary import DRIFT_BOUND
 
 MAX_DRIFT = 0.01       # |d offset / d local| of any usable model (1 %)
-TIME_LIMIT = 2.0 ** 32  # s: the last time a ROS message can carry
 
 
 @dataclass(frozen=True)
@@ -122,7 +122,7 @@ class ClockModel:
         for name, t in (('local_ref', self.local_ref),
                         ('global time at local_ref',
                          self.local_ref + self.offset)):
-            if not 0 <= t < TIME_LIMIT:
+            if not fits_ros_time(t, zero=True):
                 raise ValueError('clock model %s=%r s is outside [0, 2**32)'
                                  % (name, t))
         if self.uncertainty < 0:

@@ -8,7 +8,8 @@ import rospy
 from hri_sync.msg import ClockState
 from hri_sync.clock.ros_clock_state import msg_from_model
 from hri_sync.ros.names import client_topic
-from hri_sync.ros.params import param, positive, wait_for
+from hri_sync.ros.params import param, positive
+from hri_sync.ros.timers import wait_for
 from hri_sync.clock import ntp
 from hri_sync.clock.model import DRIFT_BOUND
 from hri_sync.clock.sync import ClockSync, SyncError

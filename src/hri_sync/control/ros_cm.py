@@ -21,8 +21,9 @@ from hri_sync.ros.inbox import Inbox
 from hri_sync.ros.master_watch import keep_param, master_call
 from hri_sync.ros.names import client_topic
 from hri_sync.ros.outbox import Publisher
-from hri_sync.ros.params import (ParamError, csv_list, header, param, positive,
-                                 wait_for)
+from hri_sync.ros.params import ParamError, csv_list, param, positive
+from hri_sync.ros.stamps import header
+from hri_sync.ros.timers import wait_for
 from hri_sync.ros.recorder_link import RecorderLink
 from hri_sync.clock.ros_clock_state import model_from_msg
 from hri_sync.ros.diagnostics import round_diagnostics
@@ -201,7 +202,7 @@ class ControlModule:
 
         def on_dpm(msg, client):
             with lock:
-                wait.on_dpm(client, msg.samples)
+                wait.on_dpm(client, msg.samples, msg.refused_reason)
 
         def on_state(msg, client):
             try:

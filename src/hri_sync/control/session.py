@@ -24,6 +24,7 @@ from typing import Any, TYPE_CHECKING
 from hri_sync.control.round import ControlRound
 from hri_sync.wire.protocol import Abort, Ack, ProtocolError
 from hri_sync.wire.vocabulary import RoundState
+from hri_sync.wire.config import unknown
 
 if TYPE_CHECKING:
     from hri_sync.wire.protocol import Capture, StrAftPolicy
@@ -187,6 +188,11 @@ class ControlSession:
         if rnd is None:
             return [Log('warn', 'ACK from %s for round %d before any round: '
                         'ignored' % (msg.client_id, msg.round))]
+        if msg.client_id not in rnd.clients:
+            rnd.on_ack(ack)
+            return [Log('warn', 'ACK for round %d ignored: %s (~clients)'
+                        % (msg.round, unknown('client', msg.client_id,
+                                              rnd.clients)))]
         if not rnd.on_ack(ack):
             return [Log('warn', 'ACK from %s for round %d ignored (round %d '
                         'open; ignored so far: %s)'
@@ -337,6 +343,7 @@ class ClientsWait:
         self.dpms = set(dpms) & set(self.clients)
         self.heard: set[str] = set()  # clients whose DPM beat was heard
         self.fed: set[str] = set()  # ... and reported samples
+        self.refused: dict[str, str] = {}  # client -> why its DPM refused
         self.linked: set[str] = set()  # clients whose CPM is connected
         self.link_timeout = link_timeout
         self.sample_timeout = sample_timeout
@@ -361,12 +368,16 @@ class ClientsWait:
             self.failed[client] += 1
             self.reason[client] = reason or 'no reason given'
 
-    def on_dpm(self, client: str, samples: int) -> None:
+    def on_dpm(self, client: str, samples: int,
+               refused_reason: str = '') -> None:
         """A heartbeat of ``client``'s DPM, which has received
-        ``samples`` samples from its sensor."""
+        ``samples`` samples from its sensor (and refused the last one it
+        refused for ``refused_reason``)."""
         self.heard.add(client)
         if samples > 0:
             self.fed.add(client)
+        if refused_reason:
+            self.refused[client] = refused_reason
 
     @property
     def settled(self) -> bool:
@@ -455,6 +466,9 @@ class ClientsWait:
                 if self._dpm_waited(c, False):
                     return 'no dpm_state from its DPM yet'
                 if self._dpm_waited(c, self.require_samples):
+                    if c in self.refused:
+                        return ('its DPM refuses its sensor\'s samples (%s)'
+                                % self.refused[c])
                     return 'its DPM has received no sample from its sensor'
                 return 'ready'
             return self.reason.get(c) or 'no clock_state yet'

@@ -20,7 +20,8 @@ from hri_sync.ros.inbox import Inbox
 from hri_sync.ros.names import protocol_topic
 from hri_sync.ros.bags import read_skeletons
 from hri_sync.ros.outbox import Publisher
-from hri_sync.ros.params import ParamError, param, positive, stamp
+from hri_sync.ros.params import ParamError, param, positive
+from hri_sync.ros.stamps import stamp
 from hri_sync.wire.protocol import Capture
 from hri_sync.wire.validate import Context
 from hri_sync.dance_off.skeleton_source import (Perturbation, SkeletonSource,

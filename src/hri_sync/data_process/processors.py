@@ -11,9 +11,12 @@ window at once (``verify_decisions`` recomputes recorded rounds with it).
 from __future__ import annotations
 
 import importlib
+import inspect
 import math
 from dataclasses import dataclass, field
 from typing import Any
+
+from hri_sync.wire.config import unknown, unknown_keys
 
 
 @dataclass
@@ -192,26 +195,63 @@ class DeviceStampedCountMean(CountMean):
         return msg.header.stamp.to_sec()
 
 
+# The stock processors (docs/sensors.md), offered for a misspelt path.
+STOCK = (
+    'hri_sync.data_process.processors.CountMean',
+    'hri_sync.data_process.processors.DeviceStampedCountMean',
+    'hri_sync.dance_off.expressiveness.SkeletonExpressiveness',
+    'hri_sync.sensors.audio.AudioLevel',
+    'hri_sync.sensors.generic.HeaderCount',
+    'hri_sync.sensors.image.ImageMotion',
+    'hri_sync.sensors.imu.ImuActivity',
+    'hri_sync.sensors.joint_state.JointSpeed',
+    'hri_sync.sensors.lsl.LslChannels',
+)
+
+
+def processor_class(path: str) -> type:
+    """The Processor subclass at class path ``path``.
+
+    Raises ValueError listing the valid names, with the nearest match,
+    when the path cannot be imported or is not a Processor.
+    """
+    module_name, _, class_name = path.rpartition('.')
+    try:
+        module = importlib.import_module(module_name) if module_name \
+            else None
+    except ImportError:
+        module = None
+    if module is None:
+        raise ValueError('~processor: ' + unknown(
+            'processor', path, STOCK, lambda v: v.rpartition('.')[2]))
+    cls = getattr(module, class_name, None)
+    if not (isinstance(cls, type) and issubclass(cls, Processor)):
+        names = [n for n, c in vars(module).items()
+                 if isinstance(c, type) and issubclass(c, Processor)
+                 and c is not Processor and c.__module__ == module.__name__]
+        raise ValueError('~processor: ' + unknown(
+            'processor in %s' % module_name, class_name, names))
+    return cls
+
+
 def load_processor(
         path: str,
         params: dict[str, Any] | None = None) -> Processor:
-    """Instantiate the Processor subclass at class path ``path``.
+    """Instantiate the Processor subclass at class path ``path`` with
+    ``params``.
 
-    Raises ValueError naming the path when it cannot be imported or is not
-    a Processor.
+    Raises ValueError listing the valid names (or keys), with the nearest
+    match, for a path that is not a Processor or a key it does not take.
     """
-    module_name, _, class_name = path.rpartition('.')
-    if not module_name:
-        raise ValueError('~processor must be a class path like '
-                         "'hri_sync.data_process.processors.CountMean', got %r"
-                         % path)
+    cls = processor_class(path)
+    params = dict(params or {})
+    sig = inspect.signature(cls)
+    if not any(p.kind == p.VAR_KEYWORD for p in sig.parameters.values()):
+        keys = list(sig.parameters)
+        bad = unknown_keys('key of %s' % cls.__name__, params, keys)
+        if bad:
+            raise ValueError('~processor_params: ' + bad)
     try:
-        cls = getattr(importlib.import_module(module_name), class_name)
-    except (ImportError, AttributeError) as e:
-        raise ValueError('~processor %r cannot be loaded: %s' % (path, e))
-    if not (isinstance(cls, type) and issubclass(cls, Processor)):
-        raise ValueError('~processor %r is not a hri_sync Processor' % path)
-    try:
-        return cls(**(params or {}))
+        return cls(**params)
     except TypeError as e:
         raise ValueError('~processor_params do not fit %s: %s' % (path, e))

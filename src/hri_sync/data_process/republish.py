@@ -10,18 +10,19 @@ so a recorder gets no burst but the window's last ``delay`` s, and memory
 holds ``delay`` s of samples whatever the window's length.  The clock is
 injected (``clock()``: local time, s).
 """
-import math
 import struct
 import threading
 from collections import deque
 from typing import Any, Callable, Deque, List, Optional, Tuple
+
+from hri_sync.wire.times import fits_ros_time
 
 STAMP = struct.Struct('<II')     # a ROS time: secs, nsecs
 
 
 def a_time(t: float) -> Optional[float]:
     """``t`` if a ROS time can carry it, else None (no time)."""
-    return t if math.isfinite(t) and 0 < t < 2 ** 32 else None
+    return t if fits_ros_time(t) else None
 
 
 def with_stamp(raw: bytes, secs: int, nsecs: int) -> bytes:

@@ -7,16 +7,17 @@ import threading
 import time
 
 import genpy
-import roslib.message
 import rospy
 from diagnostic_msgs.msg import KeyValue
 
 from hri_sync.msg import CaptureCommand, ClientResult, ClockState, DpmState
-from hri_sync.ros.params import (ParamError, after, header, param, positive,
-                                 secs, stamp)
+from hri_sync.ros.params import ParamError, param, positive
+from hri_sync.ros.stamps import header, secs, stamp
+from hri_sync.ros.timers import after
 from hri_sync.clock.ros_clock_state import model_from_msg
 from hri_sync.ros.diagnostics import ProcessDiagnostics
 from hri_sync.ros.inbox import Inbox
+from hri_sync.ros.msg_types import message_class
 from hri_sync.ros.names import protocol_topic
 from hri_sync.ros.outbox import Publisher
 from hri_sync.data_process.ros_republisher import Republisher
@@ -61,15 +62,16 @@ class DataProcessModule:
                                  '> 0 s'))
         except ValueError as e:
             raise ParamError(str(e))
-        msg_class = roslib.message.get_message_class(probe.msg_type)
-        if msg_class is None:
-            raise ParamError('~processor reads %r, an unknown message type'
-                             % probe.msg_type)
+        try:
+            msg_class = message_class(probe.msg_type)
+        except ValueError as e:
+            raise ParamError('~processor reads %s: %s' % (probe.msg_type, e))
         if isinstance(probe, HeaderStamped) and not msg_class._has_header:
             raise ParamError('~processor reads %s, which has no '
                              'std_msgs/Header' % probe.msg_type)
         self.lock = threading.Lock()
         self.unstamped = 0
+        self.refused, self.refused_reason = 0, ''  # samples refused
         # ~republish: false turns the captured topic off (benchmarks).
         self.republisher = Republisher(rospy.Publisher(
             'captured', msg_class, queue_size=100000), param(
@@ -142,6 +144,8 @@ class DataProcessModule:
         except (genpy.DeserializationError, struct.error, ValueError) as e:
             with self.lock:
                 self.core.refuse('unreadable')
+                self.refused += 1
+                self.refused_reason = str(e)
             rospy.logwarn_throttle(5, '%s: unreadable sample refused: %s',
                                    self.client_id, e)
             return
@@ -157,10 +161,12 @@ class DataProcessModule:
             now = time.time()
             with self.lock:
                 samples, age, rate = self.meter.state(now)
+                refused, why = self.refused, self.refused_reason
             self.state_pub.publish(DpmState(
                 header=header(now), client_id=self.client_id,
                 input=self.input_topic, samples=min(samples, 2 ** 32 - 1),
-                sample_age=age, rate=rate))
+                sample_age=age, rate=rate, refused=min(refused, 2 ** 32 - 1),
+                refused_reason=why))
             time.sleep(self.heartbeat_period)
 
     def on_command(self, cmd):
@@ -245,11 +251,11 @@ class DataProcessModule:
         log = rospy.logerr if r.status == ClientResult.ERROR else \
             rospy.loginfo
         log('%s: round %d %s: %d frames (%d rejected, %d dropped, %s not '
-            'stamped, %s late), coverage %.2f, value %.6g (noise floor '
+            'stamped, %s late), coverage %.2f, value %.6g%s (noise floor '
             '%.4g), timing uncertainty %.3f ms (%s)', self.client_id,
             r.round, r.status, r.frames, r.frames_rejected, r.frames_dropped,
             d.get('unstamped', 0), d.get('late_samples', 0), r.coverage,
-            r.value, r.noise_floor, r.timing_uncertainty * 1e3,
+            r.value, ' ' + d['unit'] if d.get('unit') else '', r.noise_floor, r.timing_uncertainty * 1e3,
             d.get('error') or 'complete by %s' % d.get('completed_by'))
         if people:
             rospy.loginfo('%s: round %d %s (%s)', self.client_id, r.round,

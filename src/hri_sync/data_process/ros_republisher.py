@@ -9,7 +9,7 @@ import time
 import rospy
 
 from hri_sync.ros.outbox import closed_at_shutdown
-from hri_sync.ros.params import stamp
+from hri_sync.ros.stamps import stamp
 from hri_sync.data_process.republish import (CaptureQueue, Serialized,
                                              with_stamp)
 

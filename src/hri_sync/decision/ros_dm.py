@@ -14,8 +14,8 @@ from hri_sync.clock.ros_clock_state import model_from_msg
 from hri_sync.ros.diagnostics import DecisionDiagnostics
 from hri_sync.ros.inbox import Inbox
 from hri_sync.ros.outbox import Publisher
-from hri_sync.ros.params import (ParamError, csv_list, header, param, positive,
-                                 stamp)
+from hri_sync.ros.params import ParamError, csv_list, param, positive
+from hri_sync.ros.stamps import header, stamp
 from hri_sync.decision.rule import (ABORTED, DEFAULT_NOISE_FACTOR, ON_MISSING,
                                     RULES, RoundCollector)
 from hri_sync.wire.protocol import Capture

@@ -109,9 +109,18 @@ def decide(participants: list[str], results: dict[str, tuple],
     if len(ranked) > 1 and best - ranked[1][0] <= tie_margin:
         return verdict(TIE, 0, 'best two scores %.4g and %.4g are within '
                        'tie_margin %.4g' % (best, ranked[1][0], tie_margin))
-    return verdict(WINNER, best_i + 1, '%s scored highest (%.4g)%s'
-                   % (participants[best_i], best,
-                      ': ' + '; '.join(said) if said else ''))
+    return verdict(WINNER, best_i + 1,
+                   _winner_reason(participants, best_i, best, said))
+
+
+def _winner_reason(participants: list[str], best_i: int, best: float,
+                   said: list[str]) -> str:
+    """Why participant ``best_i`` wins (alone: nothing compared)."""
+    if len(participants) == 1:
+        return '%s is the only participant (%.4g): nothing to compare%s' % (
+            participants[0], best, '; ' + '; '.join(said) if said else '')
+    return '%s scored highest (%.4g)%s' % (
+        participants[best_i], best, ': ' + '; '.join(said) if said else '')
 
 
 def _noise_rule(participants: list[str], ranked: list[tuple[float, int]],

@@ -16,7 +16,8 @@ from hri_sync.people.adapters import (AzureKinectMarkers, OpenniTf,
                                       Rep155Tf)
 from hri_sync.people.joint_maps import CONVENTIONS
 from hri_sync.ros.diagnostics import NodeDiagnostics
-from hri_sync.ros.params import ParamError, StampError, param, stamp
+from hri_sync.ros.params import ParamError, param
+from hri_sync.ros.stamps import StampError, stamp
 
 FORMATS = ('openni_tf', 'azure_kinect', 'rep155_tf')
 DEFAULT_FRAME = {'openni_tf': 'openni_depth_frame',

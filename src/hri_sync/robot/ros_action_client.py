@@ -17,7 +17,8 @@ from hri_sync.client_process.ros_cpm import ClientProcess
 from hri_sync.ros.inbox import Inbox
 from hri_sync.ros.names import protocol_topic
 from hri_sync.ros.outbox import Publisher
-from hri_sync.ros.params import ParamError, header, param, stamp
+from hri_sync.ros.params import ParamError, param
+from hri_sync.ros.stamps import header, stamp
 from hri_sync.clock.truth import realtime, true_time, wait_until
 from hri_sync.wire.validate import Context
 from hri_sync.wire.vocabulary import Action

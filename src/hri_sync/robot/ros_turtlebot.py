@@ -26,8 +26,9 @@ from hri_sync.client_process.ros_cpm import ClientProcess
 from hri_sync.ros.inbox import Inbox
 from hri_sync.ros.names import protocol_topic
 from hri_sync.ros.outbox import Publisher, closed_at_shutdown
-from hri_sync.ros.params import (ParamError, header, param, positive, stamp,
-                                 wait_for)
+from hri_sync.ros.params import ParamError, param, positive
+from hri_sync.ros.stamps import header, stamp
+from hri_sync.ros.timers import wait_for
 from hri_sync.clock.truth import realtime, true_time, wait_until
 from hri_sync.wire.validate import Context
 from hri_sync.wire.vocabulary import MAX_UNCERTAINTY

@@ -36,7 +36,8 @@ from rospy.impl.validators import ParameterInvalid
 
 from hri_sync.robot.actions import ActionFailed, Begun, Ending
 from hri_sync.ros.outbox import Publisher, Unsendable, check_sendable
-from hri_sync.ros.params import stamp, wait_for
+from hri_sync.ros.stamps import stamp
+from hri_sync.ros.timers import wait_for
 from hri_sync.wire.vocabulary import Action
 
 

@@ -9,7 +9,8 @@ import pylsl
 import rospy
 
 from hri_sync.msg import LslSample
-from hri_sync.ros.params import ParamError, header, param, positive
+from hri_sync.ros.params import ParamError, param, positive
+from hri_sync.ros.stamps import header
 from hri_sync.sensors.lsl import (ClockBreak, CorrectionFit,
                                   LslStamper)
 from hri_sync.tools import lsl_io

@@ -422,6 +422,9 @@ def _verdict(row):
     d, rec = row['decision'], row['recomputed']
     who = ' participant %d (%s)' % (d['winner'], d['winner_client']) \
         if d['winner'] else ''
+    if d['winner'] and len(row.get('participants') or ()) == 1:
+        who = ' (%s, the only participant: nothing compared)' % (
+            d['winner_client'])
     parts = ['%s%s' % (d['outcome'], who)]
     ok = True
     if rec['reproduced'] is None:
@@ -501,11 +504,21 @@ def totals(rounds):
     return {'rounds': len(rounds), 'decided': len(decided),
             'cut_off': [r['round'] for r in rounds if r['cut_off']],
             'reproduced': len(reproduced),
+            'recomputed': sum(1 for r in decided
+                              if r['recomputed']['reproduced'] is not None),
             'robot_checked': len(robot), 'robot_ok': len(robot_ok),
             'ok': all(r['ok'] for r in rounds),
             'outcomes': _count(r['decision']['outcome'] for r in decided),
             'start_skew_ms': percentiles(skews, (50, 99)),
             'error_bound_ms': percentiles(bounds, (50, 99))}
+
+
+def reproduced_text(t):
+    """'N/M decisions reproduced' of ``totals`` ``t``, or why none was
+    recomputed (no skeleton frames: not a dance-off)."""
+    if t['decided'] and not t['recomputed']:
+        return 'decisions not recomputed (no captured skeleton frames)'
+    return '%d/%d decisions reproduced' % (t['reproduced'], t['recomputed'])
 
 
 def _f(v):
@@ -530,7 +543,8 @@ SECTIONS = [
     ('Decisions and verdicts', 'hri_sync/Decision on /decision',
      lambda s: s.has('hri_sync/Decision')),
     ('Figure 5, score build-up, recomputed decisions, start skew',
-     'the captured frames (/<client>/captured)',
+     'captured skeleton frames (/<client>/captured), as a dance-off '
+     'records',
      lambda s: bool(s.captured)),
     ('Clocks: offset, drift, uncertainty',
      'hri_sync/ClockState (/<client>/clock_state)',
@@ -560,10 +574,15 @@ def missing_sections(session):
     """[{'section', 'reason'}] of the report's sections the recording
     cannot fill, and why."""
     out = []
+    other = sorted('%s (%s)' % (t, k) for t, k in session.topics.items()
+                   if t.endswith('/captured') and k != 'hri_sync/Skeleton')
     for section, needs, present in SECTIONS:
         if not present(session):
-            out.append({'section': section,
-                        'reason': 'the recording has no %s' % needs})
+            reason = 'the recording has no %s' % needs
+            if section.startswith('Figure 5') and other:
+                reason = ('not a dance-off: its captured frames are not '
+                          'skeletons (%s)' % ', '.join(other))
+            out.append({'section': section, 'reason': reason})
     return out
 
 

@@ -9,6 +9,8 @@ import base64
 import html
 import math
 
+from hri_sync.tools.analysis import reproduced_text
+
 CSS = """
 body { font-family: sans-serif; margin: 1.5em; color: #222; max-width: 1300px }
 h1 { font-size: 1.5em } h2 { font-size: 1.25em; border-bottom: 1px solid #999 }
@@ -211,12 +213,12 @@ def _session(s, images):
     out = ['<h2 id="%s">%s</h2>' % (_e(s['anchor']), _e(s['bag']))]
     t = s['totals']
     out.append('<p class="verdict">%s</p>' % _mark(t['ok'], (
-        '%d rounds, %d decided (%s), %d decisions reproduced, robot correct '
+        '%d rounds, %d decided (%s), %s, robot correct '
         'in %d of %d checked; start skew p50 %s / p99 %s ms; error bound '
         'p99 %s ms%s' % (
             t['rounds'], t['decided'], ', '.join(
                 '%s %d' % kv for kv in sorted(t['outcomes'].items())),
-            t['reproduced'], t['robot_ok'], t['robot_checked'],
+            reproduced_text(t), t['robot_ok'], t['robot_checked'],
             _plain(t['start_skew_ms']['p50']),
             _plain(t['start_skew_ms']['p99']),
             _plain(t['error_bound_ms']['p99']),

@@ -19,12 +19,12 @@ def _num(values):
     return [math.nan if v is None else v for v in values]
 
 
-def _figure(rows, cols, width, height, hspace=0.12, wspace=0.3,
+def _figure(rows, cols, width, height, hspace=0.12, wspace=0.3, left=0.8,
             **kw):
-    """A figure with fixed margins (0.8 in left, 0.55 in below): no
+    """A figure with fixed margins (``left`` in left, 0.55 in below): no
     layout pass, which would cost a third of the drawing time."""
     fig, axes = plt.subplots(rows, cols, figsize=(width, height), **kw)
-    fig.subplots_adjust(left=0.8 / width, right=1 - 0.15 / width,
+    fig.subplots_adjust(left=left / width, right=1 - 0.15 / width,
                         bottom=0.55 / height, top=1 - 0.5 / height,
                         hspace=hspace, wspace=wspace)
     return fig, axes
@@ -47,7 +47,8 @@ def _windows(ax, rounds, t0):
 def clocks(series, rounds, t0):
     """Each client's clock model over the session: offset change since
     its first measurement, drift, uncertainty and NTP round trip."""
-    fig, axes = _figure(2, 2, 12, 5.5, wspace=0.2, sharex=True)
+    # Room for a y label beside tick labels like -0.00125.
+    fig, axes = _figure(2, 2, 12, 5.5, wspace=0.32, left=1.1, sharex=True)
     panels = [('offset_ms', 'offset change since first [ms]', True),
               ('drift_ppm', 'drift [ppm]', False),
               ('uncertainty_ms', 'offset uncertainty [ms]', False),

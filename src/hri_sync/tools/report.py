@@ -122,10 +122,10 @@ def one_line(report):
 
     def p99(d):
         return 'n/a' if d['p99'] is None else '%.3f ms' % d['p99']
-    return ('%d rounds (%d decided%s): %d/%d decisions reproduced, robot '
+    return ('%d rounds (%d decided%s): %s, robot '
             'correct in %d/%d, start skew p99 %s, error bound p99 %s'
             % (t['rounds'], t['decided'],
                ', cut off: %s' % t['cut_off'] if t['cut_off'] else '',
-               t['reproduced'], t['decided'], t['robot_ok'],
+               analysis.reproduced_text(t), t['robot_ok'],
                t['robot_checked'], p99(analysis.clean(t['start_skew_ms'])),
                p99(analysis.clean(t['error_bound_ms']))))

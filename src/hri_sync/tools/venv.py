@@ -36,7 +36,11 @@ def ensure(modules, prog, script):
     try:
         import rospkg
         share = rospkg.RosPack().get_path('hri_sync')
-        candidates += [os.path.join(share, '.venv'),
+        # A workspace's package folder links its files to the source
+        # folder, which holds .venv.
+        real = os.path.dirname(os.path.realpath(
+            os.path.join(share, 'package.xml')))
+        candidates += [os.path.join(real, '.venv'),
                        os.path.join(share, 'venv')]
     except Exception:   # no ROS environment: the other candidates remain
         pass

@@ -29,10 +29,10 @@ import re
 from dataclasses import dataclass, field
 from typing import Any, Callable, Collection, Optional
 
+from hri_sync.wire.times import TIME_LIMIT, fits_ros_time
 from hri_sync.wire.vocabulary import (NUM_JOINTS, Action, ActionEnd, Outcome,
                                       ResultStatus, RoundState)
 
-TIME_LIMIT = 2.0 ** 32      # rospy times hold uint32 seconds
 NAME_RE = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
 
 
@@ -128,9 +128,9 @@ def time_value(t: float | str, what: str, optional: bool = False) -> float:
     if t <= 0:
         raise Rejected('time_not_positive', '%s=%r is not a positive time'
                        % (what, t), what)
-    if t >= TIME_LIMIT:
+    if not fits_ros_time(t):
         raise Rejected('time_unrepresentable', '%s=%r s is beyond the last '
-                       'ROS time (2**32 s)' % (what, t), what)
+                       'ROS time (%d s)' % (what, t, TIME_LIMIT), what)
     return t
 
 
@@ -513,7 +513,8 @@ def decision(*, header: Any, round: Any, outcome: Any, winner: Any,
 
 
 def dpm_state(*, header: Any, client_id: Any, input: Any, samples: Any,
-              sample_age: Any, rate: Any, ctx: Context) -> None:
+              sample_age: Any, rate: Any, refused: Any,
+              refused_reason: Any, ctx: Context) -> None:
     """<id>/dpm_state: a DPM's heartbeat for its CPM (same host).
 
     ``header.stamp`` is the host's local clock, near ``ctx.local_now``;
@@ -526,6 +527,8 @@ def dpm_state(*, header: Any, client_id: Any, input: Any, samples: Any,
     client_name(client_id, 'client_id', ctx)
     text(input, 'input', ctx)
     count(samples, 'samples', 2 ** 32 - 1)
+    count(refused, 'refused', 2 ** 32 - 1)
+    text(refused_reason, 'refused_reason', ctx)
     number(sample_age, 'sample_age', 0.0, lim.past + lim.future, nan=True)
     number(rate, 'rate', 0.0, 1e6, nan=True)
     if samples and math.isnan(sample_age):
