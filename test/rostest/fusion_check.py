@@ -16,7 +16,8 @@ import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 
 from hri_sync.msg import Skeleton
-from hri_sync.ros.params import init_checker, wait_for
+from hri_sync.ros.node import init_checker
+from hri_sync.ros.timers import wait_for
 
 
 class FusionFault(unittest.TestCase):

@@ -20,7 +20,7 @@ from geometry_msgs.msg import Point
 from hri_sync.dance_off.motion import load_motion
 from hri_sync.fusion.frames import SensorPose, parse_pose
 from hri_sync.msg import ClockState, Skeleton
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__))))

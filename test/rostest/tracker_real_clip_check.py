@@ -19,7 +19,7 @@ import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 from hri_sync.msg import ClientResult, Decision, Skeleton
-from hri_sync.ros.params import init_checker
+from hri_sync.ros.node import init_checker
 
 PKG = 'hri_sync'
 LEGS = (9, 10, 11, 12, 13, 14)  # hips, knees, feet (hri_sync.dance_off.joints order)

@@ -171,6 +171,21 @@ def test_unknown_future_duplicate_are_ignored_and_counted():
     assert closed.verdict.scores == [1.0, 0.5]
 
 
+def test_an_order_with_another_window_reopens_a_closed_round_once():
+    """A forged capture order decided at its deadline does not take the
+    round from the CM's own order with another window."""
+    c = collector(timeout=0.5)
+    assert c.open(3, 500.0)                  # forged
+    assert c.due(501.0)[0].why == 'deadline'
+    assert not c.open(3, 500.0)              # the same again: duplicate
+    assert c.open(3, 1000.0)                 # the CM's own
+    assert not c.open(3, 2000.0)             # open with another window
+    assert c.ignored == {'duplicate_round': 1, 'conflicting_round': 2}
+    c.add(3, 'left', 'ok', 2.0)
+    closed, _ = c.add(3, 'right', 'ok', 1.0)
+    assert closed.verdict.scores == [2.0, 1.0] and closed.window_end == 1000.0
+
+
 def test_worst_bound_counts_only_usable_results():
     c = collector()
     c.open(1, 1000.0)

@@ -208,17 +208,32 @@ class RoundCollector:
         # unknown, e.g. an older client; negative or infinite: invalid)
         self.noise_unknown: Counter[str] = Counter()
         self.closed: dict[int, str] = {}  # round -> why, last ``remember``
+        self.closed_ends: dict[int, float] = {}  # their window ends
         self.remember = remember
         self.ignored: Counter[str] = Counter()
 
     def open(self, round_id: int, window_end: float) -> bool:
         """A capture order for ``round_id`` whose window ends at global
-        ``window_end``.  False (and counted) when already known."""
-        if round_id in self.open_rounds or round_id in self.closed:
-            self.ignored['duplicate_round'] += 1
-            return False
+        ``window_end``.  False (and counted) when already known.
+
+        The CM orders a round once: an order for a round already closed
+        with another window means the earlier one was not the CM's (a
+        forged order under its caller id, decided at its deadline), so
+        the round opens again ('conflicting_round'); one for a round open
+        with another window is ignored, as the DPM does.
+        """
         if not math.isfinite(window_end):
             self.ignored['bad_window'] += 1
+            return False
+        known = (self.open_rounds[round_id][0] if round_id in self.open_rounds
+                 else self.closed_ends.get(round_id))
+        if known is not None and math.isfinite(known) and known != window_end:
+            self.ignored['conflicting_round'] += 1
+            if round_id in self.open_rounds:
+                return False
+            del self.closed[round_id], self.closed_ends[round_id]
+        elif round_id in self.open_rounds or round_id in self.closed:
+            self.ignored['duplicate_round'] += 1
             return False
         self.open_rounds[round_id] = (window_end, {})
         return True
@@ -272,19 +287,21 @@ class RoundCollector:
         if round_id in self.closed:
             return None
         end = self.open_rounds.pop(round_id, (math.nan, {}))[0]
-        self._remember(round_id, 'aborted')
+        self._remember(round_id, 'aborted', end)
         nans = [math.nan] * len(self.participants)
         return Closed(round_id, Verdict(ABORTED, 0, nans, reason, nans),
                       end, 'aborted', math.nan)
 
-    def _remember(self, round_id: int, why: str) -> None:
+    def _remember(self, round_id: int, why: str, end: float) -> None:
         self.closed[round_id] = why
+        self.closed_ends[round_id] = end
         while len(self.closed) > self.remember:
-            del self.closed[min(self.closed)]
+            oldest = min(self.closed)
+            del self.closed[oldest], self.closed_ends[oldest]
 
     def _close(self, round_id: int, why: str) -> Closed:
         end, results = self.open_rounds.pop(round_id)
-        self._remember(round_id, why)
+        self._remember(round_id, why, end)
         verdict = decide(self.participants,
                          {c: (r[0], r[1], r[3]) for c, r in results.items()},
                          *self.rule[:3], rule=self.rule[3],
