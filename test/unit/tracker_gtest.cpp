@@ -259,7 +259,9 @@ TEST(Stages, LabellingAndBodyModelOnRealMotion) {
     BodyPose pose = placeJoints(s.trunk, paths, tips, a, s.model, memory.lateral, nullptr);
     body_error += meanError(pose.joints, s.truth);
     for (float c : pose.confidence) EXPECT_TRUE(c >= 0.f && c <= 1.f);
-    if (a[LB_HEAD] < 0) EXPECT_LT(pose.confidence[HEAD], 0.5f) << "an unseen head is only inferred";
+    if (a[LB_HEAD] < 0) {
+      EXPECT_LT(pose.confidence[HEAD], 0.5f) << "an unseen head is only inferred";
+    }
   }
   std::printf("labelling: head %d/%d, feet on their own side %d/%d; body model mean error %.3f m\n", head,
               frames, feet, feet_total, body_error / frames);
