@@ -207,8 +207,8 @@ class RoundCollector:
         # results whose noise floor was not a finite number >= 0 (NaN:
         # unknown, e.g. an older client; negative or infinite: invalid)
         self.noise_unknown: Counter[str] = Counter()
-        self.closed: dict[int, str] = {}  # round -> why, last ``remember``
-        self.closed_ends: dict[int, float] = {}  # their window ends
+        # round -> its window end (NaN: unknown), the last ``remember``
+        self.closed: dict[int, float] = {}
         self.remember = remember
         self.ignored: Counter[str] = Counter()
 
@@ -226,12 +226,12 @@ class RoundCollector:
             self.ignored['bad_window'] += 1
             return False
         known = (self.open_rounds[round_id][0] if round_id in self.open_rounds
-                 else self.closed_ends.get(round_id))
+                 else self.closed.get(round_id))
         if known is not None and math.isfinite(known) and known != window_end:
             self.ignored['conflicting_round'] += 1
             if round_id in self.open_rounds:
                 return False
-            del self.closed[round_id], self.closed_ends[round_id]
+            del self.closed[round_id]
         elif round_id in self.open_rounds or round_id in self.closed:
             self.ignored['duplicate_round'] += 1
             return False
@@ -287,21 +287,19 @@ class RoundCollector:
         if round_id in self.closed:
             return None
         end = self.open_rounds.pop(round_id, (math.nan, {}))[0]
-        self._remember(round_id, 'aborted', end)
+        self._remember(round_id, end)
         nans = [math.nan] * len(self.participants)
         return Closed(round_id, Verdict(ABORTED, 0, nans, reason, nans),
                       end, 'aborted', math.nan)
 
-    def _remember(self, round_id: int, why: str, end: float) -> None:
-        self.closed[round_id] = why
-        self.closed_ends[round_id] = end
+    def _remember(self, round_id: int, end: float) -> None:
+        self.closed[round_id] = end
         while len(self.closed) > self.remember:
-            oldest = min(self.closed)
-            del self.closed[oldest], self.closed_ends[oldest]
+            del self.closed[min(self.closed)]
 
     def _close(self, round_id: int, why: str) -> Closed:
         end, results = self.open_rounds.pop(round_id)
-        self._remember(round_id, why, end)
+        self._remember(round_id, end)
         verdict = decide(self.participants,
                          {c: (r[0], r[1], r[3]) for c, r in results.items()},
                          *self.rule[:3], rule=self.rule[3],
