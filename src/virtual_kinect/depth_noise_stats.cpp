@@ -351,6 +351,15 @@ Residuals wallResiduals(const Clip& clip, const Pixels& p, const Steady& st) {
   return out;
 }
 
+// {"median": ..., "p95": ...} of the values.
+void printSpread(const std::vector<double>& v) {
+  std::printf("{\"median\": ");
+  printNumber(quantile(v, 0.5));
+  std::printf(", \"p95\": ");
+  printNumber(quantile(v, 0.95));
+  std::printf("}");
+}
+
 void printList(const double* v) {
   std::printf("[");
   for (int k = 1; k <= 10; ++k) { printNumber(v[k]); std::printf(k < 10 ? ", " : "]"); }
@@ -367,15 +376,11 @@ void printReport(const Options& o, bool by_label, const Pixels& p, const Steady&
     std::printf("  \"%s\": {\"pixels\": %zu, \"steady_pixels\": %zu, \"median_depth_m\": ", names[c], g.n_cls[c],
                 s.std_mm[c].size());
     printNumber(quantile(s.zmed[c], 0.5));
-    std::printf(", \"temporal_std_mm\": {\"median\": ");
-    printNumber(quantile(s.std_mm[c], 0.5));
-    std::printf(", \"p95\": ");
-    printNumber(quantile(s.std_mm[c], 0.95));
-    std::printf("}, \"temporal_std_disp\": {\"median\": ");
-    printNumber(quantile(s.std_disp[c], 0.5));
-    std::printf(", \"p95\": ");
-    printNumber(quantile(s.std_disp[c], 0.95));
-    std::printf("}, \"depth_step_vs_model\": ");
+    std::printf(", \"temporal_std_mm\": ");
+    printSpread(s.std_mm[c]);
+    std::printf(", \"temporal_std_disp\": ");
+    printSpread(s.std_disp[c]);
+    std::printf(", \"depth_step_vs_model\": ");
     printNumber(quantile(s.step_ratio[c], 0.5));
     std::printf(", \"flicker_share\": ");
     printNumber(g.n_cls[c] ? static_cast<double>(g.flicker_cls[c]) / g.n_cls[c] : std::nan(""));
