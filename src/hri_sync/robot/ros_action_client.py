@@ -19,6 +19,7 @@ from hri_sync.ros.names import protocol_topic
 from hri_sync.ros.outbox import Publisher
 from hri_sync.ros.params import ParamError, param
 from hri_sync.ros.stamps import header, stamp
+from hri_sync.ros.timers import start_timing
 from hri_sync.clock.truth import realtime, true_time, wait_until
 from hri_sync.wire.validate import Context
 from hri_sync.wire.vocabulary import Action
@@ -51,17 +52,8 @@ class ActionClient:
                                         'a list of actions'), tolerance)
         except ConfigError as e:
             raise ParamError('~actions: %s' % e)
-        self.start_spin = param('start_spin', 0.01, float,
-                                lambda x: 0 <= x < 1,
-                                's spent spinning on the clock before a '
-                                'start, within [0, 1)')
-        self.rt_priority = param('realtime_priority', 10, int,
-                                 lambda p: 0 <= p <= 99, '0 (off) .. 99')
-        with realtime(self.rt_priority) as rt:
-            if self.rt_priority and not rt.ok:
-                rospy.logwarn('%s: real-time scheduling refused (%s): on a '
-                              'busy machine actions may start late',
-                              self.client_id, rt.error)
+        self.start_spin, self.rt_priority = start_timing(
+            self.client_id, 'actions may start late')
         try:
             self.executors = {s.name: executor(
                 s, lambda: self.cpm.clock.now(), log) for s in specs}

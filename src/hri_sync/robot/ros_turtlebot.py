@@ -28,7 +28,7 @@ from hri_sync.ros.names import protocol_topic
 from hri_sync.ros.outbox import Publisher, closed_at_shutdown
 from hri_sync.ros.params import ParamError, param, positive
 from hri_sync.ros.stamps import header, stamp
-from hri_sync.ros.timers import wait_for
+from hri_sync.ros.timers import start_timing, wait_for
 from hri_sync.clock.truth import realtime, true_time, wait_until
 from hri_sync.wire.validate import Context
 from hri_sync.wire.vocabulary import MAX_UNCERTAINTY
@@ -95,18 +95,9 @@ class TurtlebotGesture:
         config = read_config()
         odom_timeout = param('odom_timeout', 5.0, float, positive, '> 0 s')
         odom_max_age = param('odom_max_age', 1.0, float, positive, '> 0 s')
-        self.start_spin = param('start_spin', 0.01, float,
-                                lambda x: 0 <= x < 1,
-                                's spent spinning on the clock before a '
-                                'start, within [0, 1)')
-        self.rt_priority = param('realtime_priority', 10, int,
-                                 lambda p: 0 <= p <= 99, '0 (off) .. 99')
-        with realtime(self.rt_priority) as rt:
-            if self.rt_priority and not rt.ok:
-                rospy.logwarn('%s: real-time scheduling refused (%s): on a '
-                              'busy machine moves may start late; grant '
-                              'rtprio or set ~realtime_priority 0',
-                              self.client_id, rt.error)
+        self.start_spin, self.rt_priority = start_timing(
+            self.client_id, 'moves may start late; grant rtprio or set '
+                            '~realtime_priority 0')
         self.rob = DjRob(config, lambda: self.cpm.clock.now(),
                          time.monotonic, lambda level, text: LOG[level](text),
                          self.client_id, odom_max_age)

@@ -4,6 +4,9 @@ import time
 
 import rospy
 
+from hri_sync.clock.truth import realtime
+from hri_sync.ros.params import param
+
 
 def wait_for(predicate, timeout, poll=0.005):
     """Poll ``predicate`` until true or ``timeout`` s; returns its value.
@@ -33,3 +36,21 @@ def after(delay, callback, *args):
         if not rospy.is_shutdown():
             callback(*args)
     threading.Thread(target=run, daemon=True).start()
+
+
+def start_timing(client_id, late):
+    """``(~start_spin, ~realtime_priority)`` of a node that starts things
+    at global times (``clock.truth.wait_until`` spins that long on the
+    clock before a start, under that real-time priority); a warning
+    'real-time scheduling refused ...: on a busy machine ' + ``late`` when
+    the priority cannot be had."""
+    spin = param('start_spin', 0.01, float, lambda x: 0 <= x < 1,
+                 's spent spinning on the clock before a start, within '
+                 '[0, 1)')
+    priority = param('realtime_priority', 10, int, lambda p: 0 <= p <= 99,
+                     '0 (off) .. 99')
+    with realtime(priority) as rt:
+        if priority and not rt.ok:
+            rospy.logwarn('%s: real-time scheduling refused (%s): on a '
+                          'busy machine %s', client_id, rt.error, late)
+    return spin, priority
