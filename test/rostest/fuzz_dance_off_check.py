@@ -4,7 +4,13 @@
 Starts ``dance_off.launch rounds:=0`` (rounds on the CM's ~start_round
 service) on this test's master, with its screen output in a file, and:
 
-1. runs a clean round, which must be decided (the setup works);
+1. runs a clean round, which must be decided (the setup works), then
+   another while each participant's CPM's caller id sends its DPM
+   ~forged capture commands for round 2**32 - 1 (a skeleton DPM once
+   started capturing such a round): that round must be decided as the
+   DPMs' results give, each DPM must publish no result of round
+   2**32 - 1 and count every forged command on /diagnostics
+   (``<id>/dpm: input``, ``/<id>/capture_command unscheduled_round``);
 2. runs a round while test/rostest/fuzz_publisher.py publishes ~count seeded
    random-field messages on every topic the nodes subscribe to, under
    its own caller id or, with ~impersonate, under each topic's rightful
@@ -39,9 +45,12 @@ import unittest
 import rosnode
 import rospy
 import rostest
+from diagnostic_msgs.msg import DiagnosticArray
+from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
-from hri_sync.msg import ClientResult, ClockState, Decision, DpmState
+from hri_sync.msg import (CaptureCommand, ClientResult, ClockState, Decision,
+                          DpmState)
 from hri_sync.ros.node import init_checker
 from hri_sync.ros.timers import wait_for
 from hri_sync.decision.rule import decide
@@ -49,6 +58,7 @@ from hri_sync.decision.rule import decide
 # The dance-off's; ~clients and ~participants for another ~launch.
 CLIENTS = ('left', 'right', 'dj_rob', 'music')
 PARTICIPANTS = ('left', 'right')
+FORGED_ROUND = 2 ** 32 - 1
 FRAME = re.compile(r'File "[^"]*/(?:nodes|lib/hri_sync)/(\w+)"|'
                    r'File "[^"]*/src/hri_sync/([\w/]+)\.py"')
 
@@ -108,6 +118,7 @@ class FuzzDanceOff(unittest.TestCase):
         self.lock = threading.Lock()
         self.results, self.decisions, self.synced = [], [], set()
         self.fed = set()
+        self.inputs = {}        # '<id>/dpm' -> its last input status values
         rospy.Subscriber('/client_result', ClientResult, self.keep,
                          self.results)
         rospy.Subscriber('/decision', Decision, self.keep, self.decisions)
@@ -159,6 +170,13 @@ class FuzzDanceOff(unittest.TestCase):
     def on_state(self, msg, client):
         if msg.samples > 0 and callerid(msg) == '/%s/dpm' % client:
             self.fed.add(client)
+
+    def on_diagnostics(self, msg):
+        with self.lock:
+            for s in msg.status:
+                node, _, task = s.name.partition(': ')
+                if task == 'input' and node.endswith('/dpm'):
+                    self.inputs[node] = {kv.key: kv.value for kv in s.values}
 
     def start_round(self):
         """Call ~start_round in a thread; returns (thread, reply list)."""
@@ -219,6 +237,7 @@ class FuzzDanceOff(unittest.TestCase):
         decision, _ = self.clean_round('first clean')
         self.assertNotEqual(decision.outcome, Decision.ABORTED,
                             decision.reason)
+        self.assertEqual(self.forged_round(), [])
         before = self.nodes()
         rospy.loginfo('nodes before fuzzing: %s; logs in %s', sorted(before),
                       self.log_dir)
@@ -243,6 +262,57 @@ class FuzzDanceOff(unittest.TestCase):
         if ours:
             failures.append('%d tracebacks logged' % ours)
         self.assertEqual(failures, [])
+
+    def forged_round(self):
+        """A clean round while each participant's DPM gets ~forged capture
+        commands of round 2**32 - 1 under its CPM's caller id; returns
+        what failed."""
+        n = rospy.get_param('~forged', 3)
+        # Only for this round: the fuzzer would fuzz a topic it subscribes.
+        diagnostics = rospy.Subscriber('/diagnostics', DiagnosticArray,
+                                       self.on_diagnostics, queue_size=100)
+        pubs = {c: rospy.Publisher(
+            '/%s/capture_command' % c, CaptureCommand, queue_size=10,
+            headers={'callerid': '/%s/cpm' % c}) for c in self.participants}
+        self.assertTrue(wait_for(lambda: all(
+            p.get_num_connections() for p in pubs.values()), 30.0),
+            'the DPMs never subscribed the forged capture_command')
+
+        def forge():
+            time.sleep(0.5)                 # the round under way
+            for k in range(n):
+                start = time.time() + 0.5   # global, within the DPM's bounds
+                for p in pubs.values():
+                    p.publish(CaptureCommand(
+                        header=Header(stamp=rospy.Time.from_sec(time.time())),
+                        round=FORGED_ROUND, start=rospy.Time.from_sec(start),
+                        end=rospy.Time.from_sec(start + 1.0 + k)))
+                time.sleep(0.5)
+        threading.Thread(target=forge, daemon=True).start()
+        t0 = time.time()
+        decision, results = self.clean_round('forged commands')
+        failures = self.check_decision(decision, results)
+        key = '/%s/capture_command unscheduled_round'
+
+        def counted():
+            with self.lock:
+                return {c: self.inputs.get('%s/dpm' % c, {}).get(key % c)
+                        for c in self.participants}
+        # Rejected ~order_wait (5 s) after each arrives, then on the next
+        # /diagnostics (1 s).
+        wait_for(lambda: all(v == str(n) for v in counted().values()), 30.0)
+        diagnostics.unregister()
+        rospy.loginfo('forged commands counted: %s', counted())
+        failures += ['%s/dpm counted %s of %d forged commands as %s'
+                     % (c, v, n, key % c) for c, v in counted().items()
+                     if v != str(n)]
+        with self.lock:
+            forged = sorted({c for t, c, m in self.results
+                             if t >= t0 and m.round == FORGED_ROUND})
+        if forged:
+            failures.append('results of round %d from %s'
+                            % (FORGED_ROUND, forged))
+        return failures
 
     def fuzz_pass(self, impersonate, before):
         """Fuzz a round (as its senders, with ``impersonate``), then check

@@ -25,6 +25,7 @@ from hri_sync.data_process.mapping import (ArrivalStamps, DeviceClockMapper,
 from hri_sync.data_process.noise_floor import (DEFAULT_CHUNK, DEFAULT_SPAN,
                                                QuietBaseline, combine)
 from hri_sync.data_process.processors import Processor
+from hri_sync.wire.rounds import RoundWindows
 from hri_sync.wire.times import DeviceTime, GlobalTime, LocalTime
 from hri_sync.wire.validate import Rejected
 from hri_sync.wire.vocabulary import (COMPLETION_MARGIN, DRIFT_BOUND,
@@ -163,6 +164,7 @@ class DataProcess:
         self.clock: ClockModel | None = None
         self.history = SampleBuffer(history)
         self.windows: dict[int, CaptureWindow] = {}
+        self.rounds = RoundWindows()      # every window each round had
         # (round, start, end) published
         self.closed: deque[tuple[int, float, float]] = deque(maxlen=16)
         self.counts: Counter[str] = Counter()
@@ -379,24 +381,19 @@ class DataProcess:
         the samples of the history already in the window, and an error
         result when the window cannot be captured.
 
-        A repeated command is ignored ('duplicate_command'); one for a
-        round whose window is open with other times too, while one for
-        a round already closed with other times is captured (the CPM
-        orders once per round: an earlier order of that round was not
-        its own, e.g. a forged one); both count 'conflicting_command'.
+        A second command of a round follows ``wire.rounds``: the same
+        window is ignored ('duplicate_command'); another one is ignored
+        while the round's window is open and captured once it is closed
+        (the CPM orders once per round: the earlier one was not its
+        own), both counted as 'conflicting_command'.
         """
         step = Step()
-        if (round_id, start, end) in self.closed or (
-                round_id in self.windows
-                and (self.windows[round_id].start,
-                     self.windows[round_id].end) == (start, end)):
-            self.counts['duplicate_command'] += 1
+        repeat, take = self.rounds.take(round_id, (start, end),
+                                        round_id in self.windows)
+        if repeat:
+            self.counts[repeat + '_command'] += 1
+        if not take:
             return step
-        if round_id in self.windows or any(
-                r == round_id for r, _, _ in self.closed):
-            self.counts['conflicting_command'] += 1
-            if round_id in self.windows:
-                return step
         why = None
         if self.clock is None:
             why = 'no clock_state from the CPM'

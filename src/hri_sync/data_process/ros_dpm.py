@@ -10,13 +10,14 @@ import genpy
 import rospy
 from diagnostic_msgs.msg import KeyValue
 
-from hri_sync.msg import CaptureCommand, ClientResult, ClockState, DpmState
+from hri_sync.msg import (CaptureCommand, CaptureData, ClientResult,
+                          ClockState, DpmState)
 from hri_sync.ros.params import ParamError, param, positive
 from hri_sync.ros.stamps import header, secs, stamp
 from hri_sync.ros.timers import after
 from hri_sync.clock.ros_clock_state import model_from_msg
 from hri_sync.ros.diagnostics import ProcessDiagnostics
-from hri_sync.ros.inbox import Inbox
+from hri_sync.ros.inbox import Inbox, Throttle
 from hri_sync.ros.msg_types import message_class
 from hri_sync.ros.names import protocol_topic
 from hri_sync.ros.outbox import Publisher
@@ -27,8 +28,10 @@ from hri_sync.wire.vocabulary import (COMPLETION_MARGIN, DRIFT_BOUND,
                                       MIN_COVERAGE)
 from hri_sync.data_process.dpm import STAMP_SOURCES, DataProcess
 from hri_sync.client_process.liveness import SampleMeter
+from hri_sync.data_process.orders import CommandGate
 from hri_sync.data_process.processors import load_processor
 from hri_sync.data_process.republish import a_time
+from hri_sync.wire.protocol import Capture
 from hri_sync.wire.validate import Context
 
 
@@ -40,28 +43,8 @@ class DataProcessModule:
         path = param('processor', 'hri_sync.data_process.processors.CountMean',
                      str)
         params = param('processor_params', {}, dict)
-        try:
-            probe = load_processor(path, params)
-            self.core = DataProcess(
-                lambda: load_processor(path, params),
-                stamp_source=param('stamp_source', 'auto', str,
-                                   lambda s: s in STAMP_SOURCES,
-                                   ' or '.join(STAMP_SOURCES)),
-                min_coverage=param('min_coverage', MIN_COVERAGE, float,
-                                   lambda x: 0 <= x <= 1, 'within 0..1'),
-                history=param('buffer', 2.0, float, positive, '> 0 s'),
-                margin=param('completion_margin', COMPLETION_MARGIN, float,
-                             lambda x: x >= 0, '>= 0 s'),
-                drift_bound=param('drift_bound', DRIFT_BOUND, float,
-                                  lambda x: 0 <= x < 1, '>= 0 s/s'),
-                min_rate=param('min_rate', 0.0, float, lambda x: x >= 0,
-                               '>= 0 Hz'),
-                noise_chunk=param('noise_chunk', 1.0, float, positive,
-                                  '> 0 s'),
-                noise_span=param('noise_span', 600.0, float, positive,
-                                 '> 0 s'))
-        except ValueError as e:
-            raise ParamError(str(e))
+        probe = self.make_core(path, params)
+        self.throttle = Throttle(5.0)
         try:
             msg_class = message_class(probe.msg_type)
         except ValueError as e:
@@ -92,13 +75,19 @@ class DataProcessModule:
         command_topic = rospy.resolve_name('capture_command')
         self.diagnostics = ProcessDiagnostics(
             self.client_id, clock_topic, input_topic, command_topic,
-            lambda: dict(self.core.counts), self.inbox.summary)
+            lambda: dict(self.core.counts + self.gate.counts),
+            self.inbox.summary)
         self.inbox.subscribe(clock_topic, ClockState, self.on_clock,
                              'cpm', client=self.client_id,
                              context=self.context)
         self.inbox.subscribe(command_topic, CaptureCommand,
                              self.on_command, 'cpm', client=self.client_id,
                              context=self.context, queue_size=10)
+        # The CM's orders, which confirm the CPM's commands (a flood of
+        # forged ones must not push a real one out of the queue).
+        self.inbox.subscribe(protocol_topic('capture_data'), CaptureData,
+                             self.on_order, 'cm', context=self.context,
+                             queue_size=1000)
         self.msg_class = msg_class
         self.meter = SampleMeter()
         self.input_topic = input_topic
@@ -110,6 +99,36 @@ class DataProcessModule:
                          self.on_sample, queue_size=1000, tcp_nodelay=True)
         threading.Thread(target=self.poll, daemon=True).start()
         threading.Thread(target=self.heartbeat, daemon=True).start()
+
+    def make_core(self, path, params):
+        """The DataProcess and the CommandGate from ~params; returns the
+        processor's probe."""
+        try:
+            probe = load_processor(path, params)
+            self.core = DataProcess(
+                lambda: load_processor(path, params),
+                stamp_source=param('stamp_source', 'auto', str,
+                                   lambda s: s in STAMP_SOURCES,
+                                   ' or '.join(STAMP_SOURCES)),
+                min_coverage=param('min_coverage', MIN_COVERAGE, float,
+                                   lambda x: 0 <= x <= 1, 'within 0..1'),
+                history=param('buffer', 2.0, float, positive, '> 0 s'),
+                margin=param('completion_margin', COMPLETION_MARGIN, float,
+                             lambda x: x >= 0, '>= 0 s'),
+                drift_bound=param('drift_bound', DRIFT_BOUND, float,
+                                  lambda x: 0 <= x < 1, '>= 0 s/s'),
+                min_rate=param('min_rate', 0.0, float, lambda x: x >= 0,
+                               '>= 0 Hz'),
+                noise_chunk=param('noise_chunk', 1.0, float, positive,
+                                  '> 0 s'),
+                noise_span=param('noise_span', 600.0, float, positive,
+                                 '> 0 s'))
+            # Commands only for rounds the CM ordered this client into.
+            self.gate = CommandGate(self.client_id, param(
+                'order_wait', 5.0, float, positive, '> 0 s'))
+        except ValueError as e:
+            raise ParamError(str(e))
+        return probe
 
     def context(self):
         """What an incoming message is judged against: this client's
@@ -169,18 +188,45 @@ class DataProcessModule:
                 refused_reason=why))
             time.sleep(self.heartbeat_period)
 
-    def on_command(self, cmd):
-        start, end = secs(cmd.start), secs(cmd.end)
+    def on_order(self, msg):
+        order = Capture.from_msg(msg)
         with self.lock:
-            step = self.core.open(cmd.round, start, end)
+            confirmed = self.gate.order(msg.round, order.start, order.end,
+                                        order.clients, time.time())
+        for cmd in confirmed:
+            self.open(cmd)
+
+    def on_command(self, msg):
+        with self.lock:
+            confirmed = self.gate.command(msg.round, secs(msg.start),
+                                          secs(msg.end), time.time())
+        for cmd in confirmed:
+            self.open(cmd)
+
+    def open(self, cmd):
+        """A command the CM's order confirmed: its window opens."""
+        with self.lock:
+            step = self.core.open(cmd.round, cmd.start, cmd.end)
             clock = self.core.clock
             opened = cmd.round in self.core.windows
             if opened and self.republisher:
-                self.republisher.hold(start, end)
+                self.republisher.hold(cmd.start, cmd.end)
         self.handle(step)
         if opened:
-            after(clock.to_local(start) - time.time(), self.on_start,
+            after(clock.to_local(cmd.start) - time.time(), self.on_start,
                   cmd.round)
+
+    def log_rejected(self, rejections):
+        """Log capture commands the gate rejected (throttled by reason)."""
+        for r in rejections:
+            if self.throttle.due(r.reason):
+                rospy.logwarn(
+                    '%s: capture_command of round %d for [%.6f, %.6f) '
+                    'rejected (%s): %s within ~order_wait %.1f s of it, so '
+                    'it is not its CPM\'s (a forged one?); %d rejected so '
+                    'far for this reason', self.client_id, r.command.round,
+                    r.command.start, r.command.end, r.reason, r.why,
+                    self.gate.wait, self.gate.counts[r.reason])
 
     def on_start(self, round_id):
         local = time.time()
@@ -197,8 +243,10 @@ class DataProcessModule:
             with self.lock:
                 results = self.core.poll(time.time())
                 wake = self.core.next_poll()
+                rejected = self.gate.expire(time.time())
             for r in results:
                 self.publish(r)
+            self.log_rejected(rejected)
             time.sleep(0.1 if wake is None else
                        min(0.1, max(0.005, wake - time.time())))
 

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from hri_sync.data_process.noise_floor import valid_floor
+from hri_sync.wire.rounds import RoundWindows
 from hri_sync.wire.vocabulary import ON_MISSING, Outcome, ResultStatus
 
 WINNER, NO_WINNER, TIE, ABORTED = Outcome.ALL
@@ -207,34 +208,33 @@ class RoundCollector:
         # results whose noise floor was not a finite number >= 0 (NaN:
         # unknown, e.g. an older client; negative or infinite: invalid)
         self.noise_unknown: Counter[str] = Counter()
-        # round -> its window end (NaN: unknown), the last ``remember``
-        self.closed: dict[int, float] = {}
+        # the rounds closed, the last ``remember``
+        self.closed: set[int] = set()
         self.remember = remember
+        self.rounds = RoundWindows(remember)  # every window each round had
         self.ignored: Counter[str] = Counter()
 
     def open(self, round_id: int, window_end: float) -> bool:
         """A capture order for ``round_id`` whose window ends at global
         ``window_end``.  False (and counted) when already known.
 
-        The CM orders a round once: an order for a round already closed
-        with another window means the earlier one was not the CM's (a
-        forged order under its caller id, decided at its deadline), so
-        the round opens again ('conflicting_round'); one for a round open
-        with another window is ignored, as the DPM does.
+        A second order of a round follows ``wire.rounds``, as the DPM's
+        commands do: the same window end is ignored ('duplicate_round');
+        another one is ignored while the round is open and opens it again
+        once it is closed (the CM orders a round once: the earlier order
+        was a forged one under its caller id, decided at its deadline),
+        both counted as 'conflicting_round'.
         """
         if not math.isfinite(window_end):
             self.ignored['bad_window'] += 1
             return False
-        known = (self.open_rounds[round_id][0] if round_id in self.open_rounds
-                 else self.closed.get(round_id))
-        if known is not None and math.isfinite(known) and known != window_end:
-            self.ignored['conflicting_round'] += 1
-            if round_id in self.open_rounds:
-                return False
-            del self.closed[round_id]
-        elif round_id in self.open_rounds or round_id in self.closed:
-            self.ignored['duplicate_round'] += 1
+        repeat, take = self.rounds.take(round_id, (window_end,),
+                                        round_id in self.open_rounds)
+        if repeat:
+            self.ignored[repeat + '_round'] += 1
+        if not take:
             return False
+        self.closed.discard(round_id)
         self.open_rounds[round_id] = (window_end, {})
         return True
 
@@ -286,20 +286,22 @@ class RoundCollector:
         was closed already."""
         if round_id in self.closed:
             return None
+        if round_id not in self.open_rounds:     # aborted before its order
+            self.rounds.note(round_id, (math.nan,))
         end = self.open_rounds.pop(round_id, (math.nan, {}))[0]
-        self._remember(round_id, end)
+        self._remember(round_id)
         nans = [math.nan] * len(self.participants)
         return Closed(round_id, Verdict(ABORTED, 0, nans, reason, nans),
                       end, 'aborted', math.nan)
 
-    def _remember(self, round_id: int, end: float) -> None:
-        self.closed[round_id] = end
+    def _remember(self, round_id: int) -> None:
+        self.closed.add(round_id)
         while len(self.closed) > self.remember:
-            del self.closed[min(self.closed)]
+            self.closed.remove(min(self.closed))
 
     def _close(self, round_id: int, why: str) -> Closed:
         end, results = self.open_rounds.pop(round_id)
-        self._remember(round_id, end)
+        self._remember(round_id)
         verdict = decide(self.participants,
                          {c: (r[0], r[1], r[3]) for c, r in results.items()},
                          *self.rule[:3], rule=self.rule[3],

@@ -33,12 +33,15 @@ from hri_sync.ros.params import param, positive
 from hri_sync.clock import host_clock
 from hri_sync.clock.health import clock_health, clock_state_health
 from hri_sync.data_process.health import result_tally
+from hri_sync.data_process.orders import UNSCHEDULED
 from hri_sync.decision.health import DecisionTally
 from hri_sync.wire.health import ERROR, RateMeter, RejectionWatch
 
 POLL = 0.05  # s between two looks at a pending update
 STALE_STATE = 20.0  # s: a ClockState older than this is overdue (a CPM
 #                     republishes it after every sync, 5 s apart by default)
+# A DPM's counts of capture commands not taken (the rest: samples).
+COMMAND_REASONS = ('duplicate_command', 'conflicting_command') + UNSCHEDULED
 
 
 class NodeDiagnostics:
@@ -199,9 +202,9 @@ class ProcessDiagnostics:
     ``input_topic``: call ``on_sample``), ``results`` (its ClientResults
     by status: ``results.record``) and ``input`` (``counts()``, the
     DataProcess's {reason: n}: samples refused, and capture commands
-    ignored; samples held while a device clock map settles are not
-    refused), with the other ``sources`` of rejections (an inbox's
-    ``summary``)."""
+    ignored or rejected, ``COMMAND_REASONS``; samples held while a device
+    clock map settles are not refused), with the other ``sources`` of
+    rejections (an inbox's ``summary``)."""
 
     def __init__(self, client_id, clock_topic, input_topic, command_topic,
                  counts, *sources):
@@ -214,8 +217,7 @@ class ProcessDiagnostics:
             time.monotonic()))
         diagnostics.add_tally('results', self.results)
         diagnostics.rejections(lambda: {
-            '%s %s' % (command_topic if why in ('duplicate_command',
-                                                'conflicting_command')
+            '%s %s' % (command_topic if why in COMMAND_REASONS
                        else input_topic, why): n
             for why, n in counts().items() if why != 'settling'}, *sources)
 
@@ -232,7 +234,7 @@ class DecisionDiagnostics:
     taken), with the other ``sources`` of rejections (an inbox's
     ``summary``)."""
 
-    CAPTURE_REASONS = ('duplicate_round', 'bad_window')
+    CAPTURE_REASONS = ('duplicate_round', 'conflicting_round', 'bad_window')
 
     def __init__(self, participants, clock_topic, counts, *sources):
         self.clock = ClockStateWatch(clock_topic)
