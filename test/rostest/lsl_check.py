@@ -15,7 +15,11 @@ that round's result is not ok and says why in ``lsl_stream`` (``lost:
 ...``, ``clock_reset: ...``), no sample stamped wrongly got in, and the
 next round's result says the stream is still lost or broken.  With
 ``~recover_round``: that round starts once the inlet reported the stream
-back (RECOVERED) and a sample followed, and must be ok.
+back (RECOVERED) and a sample followed, and must be ok.  With ``~burst``
+(the source pushes in bursts, stamped when pushed, nothing lost): every
+round must be ok with no dropped sample, and the inlet's /diagnostics
+(``<client>/lsl_inlet: lsl``) must count the bursts, no real gap and
+its mapping's fit.
 """
 import math
 import threading
@@ -24,6 +28,7 @@ import unittest
 
 import rospy
 import rostest
+from diagnostic_msgs.msg import DiagnosticArray
 from std_srvs.srv import Trigger
 
 from hri_sync.msg import ClientResult, DpmState, LslSample
@@ -91,6 +96,17 @@ class LslCheck(unittest.TestCase):
         self.recovered = self.back = False
         rospy.Subscriber('/%s/lsl' % self.client, LslSample, self.on_lsl,
                          queue_size=1000)
+        self.burst = float(rospy.get_param('~burst', 0.0))
+        self.inlet = {}     # the inlet's last lsl status: values, level
+        rospy.Subscriber('/diagnostics', DiagnosticArray,
+                         self.on_diagnostics, queue_size=100)
+
+    def on_diagnostics(self, msg):
+        for s in msg.status:
+            if s.name == '%s/lsl_inlet: lsl' % self.client and s.values:
+                with self.lock:
+                    self.inlet = dict({kv.key: kv.value for kv in s.values},
+                                      level=s.level, message=s.message)
 
     def on_captured(self, msg):
         with self.lock:
@@ -166,10 +182,13 @@ class LslCheck(unittest.TestCase):
         for n in range(1, self.rounds + 1):
             r = self.results[n]
             d, data = self.check_round(r)
+            if self.burst:
+                self.assertEqual((r.status, r.frames_dropped),
+                                 (ClientResult.OK, 0), d)
             if not self.fault or n < self.fault_round or \
                     n == self.recover_round:
-                if r.status == ClientResult.PARTIAL and \
-                        source_stalled(data, self.rate):
+                if r.status == ClientResult.PARTIAL and not self.burst \
+                        and source_stalled(data, self.rate):
                     rospy.logwarn('lsl_check: round %d partial: the source '
                                   'was starved (a gap in its send times, '
                                   'no sample lost)', n)
@@ -188,6 +207,23 @@ class LslCheck(unittest.TestCase):
                                    'fault are lost too')
             else:
                 self.assertEqual(r.status, ClientResult.NO_DATA, d)
+
+
+    def test_inlet_diagnostics(self):
+        """The inlet's lsl status: samples, bursts, real gaps (none with
+        ~burst) and the mapping's fit."""
+        self.assertTrue(wait_for(lambda: self.inlet.get(
+            'fit_estimates', '0') != '0', 60.0, 0.1),
+            'no lsl status with a fit from the inlet: %s' % self.inlet)
+        time.sleep(3.0)       # a few bursts, the next status
+        with self.lock:
+            v = dict(self.inlet)
+        rospy.loginfo('lsl_check: the inlet on /diagnostics: %s', v)
+        self.assertGreater(int(v['samples_received']), 0)
+        self.assertGreater(float(v['fit_bound_ms']), 0.0)
+        if self.burst:
+            self.assertGreater(int(v['bursts']), 0, v)
+            self.assertEqual((v['real_gaps'], v['level']), ('0', 0), v)
 
 
 if __name__ == '__main__':

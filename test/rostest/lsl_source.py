@@ -12,7 +12,10 @@ process at once (SIGKILL, as a crashed or unplugged source); ``stall``
 stops pushing for 3 s, its connection open (a hung source); ``reset``
 shifts every later stamp by ``~reset_shift`` s (a device clock that was
 reset).  ``~rate`` 0: an irregular marker stream (a marker every
-``~marker_period`` s, its text 'TRUTH INDEX READ').
+``~marker_period`` s, its text 'TRUTH INDEX READ').  ``~burst`` > 0: the
+samples due are pushed together every ``~burst`` s (a device that
+delivers in chunks), each stamped when pushed, as LSL does by default:
+bunched stamps, nothing lost.
 """
 import os
 import signal
@@ -39,6 +42,7 @@ class Source:
         self.shift = 0.0
         self.reset_shift = float(rospy.get_param('~reset_shift', -2.0))
         self.fault_at = None
+        self.burst = float(rospy.get_param('~burst', 0.0))
         strings = self.rate == 0
         info = pylsl.StreamInfo(
             rospy.get_param('~name', 'hri_test'),
@@ -65,6 +69,9 @@ class Source:
         k = 0
         nxt = time.monotonic()
         while not rospy.is_shutdown():
+            if self.burst:
+                k = self.push_burst(k)
+                continue
             before = true_time()
             stamp = pylsl.local_clock() + self.shift
             after = true_time()
@@ -89,6 +96,22 @@ class Source:
             k += 1
             nxt += self.period
             time.sleep(max(0.0, nxt - time.monotonic()))
+
+
+    def push_burst(self, k):
+        """Push the samples due since the last burst, each stamped when
+        pushed (LSL's default), after ``~burst`` s; returns the count."""
+        if not k:
+            self.t0 = time.monotonic()
+        time.sleep(self.burst)
+        due = int((time.monotonic() - self.t0) / self.period)
+        for n in range(k, due):
+            before = true_time()
+            stamp = pylsl.local_clock()
+            after = true_time()
+            self.outlet.push_sample([(before + after) / 2, float(n),
+                                     after - before], stamp)
+        return max(k, due)
 
 
 if __name__ == '__main__':

@@ -200,6 +200,11 @@ class CaptureWindow:
             result, error = self._run.result(), ''
         except Exception as e:  # a processor bug must not kill the client
             result, error = None, repr(e)
+        if result is not None and math.isfinite(result.coverage):
+            # The processor knows its stream's sample clock (bunched
+            # stamps of a stream delivered in bursts lost nothing).
+            stats = dict(stats, coverage=result.coverage,
+                         dropped=result.frames_dropped or 0)
         status = window_status(result.frames_used if result else 0,
                                stats['coverage'], min_coverage,
                                failed=result is None)

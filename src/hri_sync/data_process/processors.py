@@ -14,7 +14,7 @@ import importlib
 import inspect
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Optional
 
 from hri_sync.wire.config import unknown, unknown_keys
 
@@ -39,6 +39,11 @@ class ProcessResult:
     # value's unit): what the sensor's noise alone would give. NaN:
     # unknown (the processor cannot tell).
     noise_floor: float = math.nan
+    # The window's coverage and dropped samples as the processor knows
+    # them from its stream's own sample clock (an LSL stream's nominal
+    # rate); NaN / None: the DPM's own, from the stamps' spacing.
+    coverage: float = math.nan
+    frames_dropped: Optional[int] = None
 
 
 class Processor:

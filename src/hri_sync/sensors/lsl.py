@@ -16,6 +16,7 @@ import numpy as np
 
 from hri_sync.sensors.base import HeaderStamped, finite
 from hri_sync.data_process.processors import ProcessResult
+from hri_sync.wire.health import OK, WARN, Health, text
 from hri_sync.wire.validate import Rejected
 
 # hri_sync/LslSample kinds (the message's constants).
@@ -192,6 +193,138 @@ class LslStamper:
         return local + wall_minus_lsl, self.fit.bound(now_lsl)
 
 
+class StreamGaps:
+    """What a regular LSL stream delivered: samples, bursts and real gaps.
+
+    ``deliver(stamps, pulled)``: the LSL stamps of the samples one pull
+    brought, at local LSL time ``pulled`` (in stream order).
+
+    A **burst** is a delivery of two or more samples after a silence of
+    more than ``burst_periods`` nominal periods (at least ``min_silence``
+    s): the stream stalled, then caught up.  A burst loses nothing, but an
+    outlet that stamps its samples when it pushes them (LSL's default)
+    bunches their stamps, so their spacing says nothing of a loss.
+
+    A **real gap** is judged on the stream's sample clock instead: its
+    j-th sample is due at ``base + j / rate``, and no sample is stamped
+    before it was taken, so ``stamp - j / rate`` lies on ``base`` or
+    above it: less than a period above for the last sample of a push
+    (taken within a period before it), more only for the samples an
+    outlet that fell behind still catches up with.  Once every sample of
+    ``horizon`` s of stamps lies ``1 - slack`` periods or more above
+    ``base``, floor(rise x rate + ``slack``) samples were lost there
+    (``gaps`` once, ``lost`` by that many; the rise is the lowest of its
+    last half horizon).  ``base`` is the lowest value
+    of each ``horizon``: it follows a device a little slower or faster
+    than its nominal rate.  Not seen: a single lost sample of a stream
+    whose stamps jitter by more than ``slack`` periods; seen as a gap: an
+    outlet stamping when it pushes whose push latency grows by a period
+    for good.  An irregular stream (rate 0) has neither.
+    """
+
+    def __init__(self, rate, horizon=2.0, burst_periods=3.0,
+                 min_silence=0.02, slack=0.1):
+        self.period = 1.0 / rate if rate > 0 else math.nan
+        self.horizon = horizon
+        self.slack = slack
+        self.silence = max(burst_periods * self.period, min_silence) \
+            if rate > 0 else math.inf
+        self.samples = self.bursts = self.largest_burst = 0
+        self.gaps = self.lost = 0
+        self._index = 0             # received samples plus those lost
+        self._base = None           # the sample clock: stamp - index * P
+        self._block = None          # (first stamp, lowest x) of a horizon
+        self._rise = None           # [(stamp, lowest x)] above it, by bin
+        self._delivered = None      # local LSL time of the last delivery
+
+    def deliver(self, stamps, pulled):
+        """One pull's samples (their LSL stamps) at local time ``pulled``."""
+        if not len(stamps):
+            return
+        self.samples += len(stamps)
+        if len(stamps) >= 2 and self._delivered is not None and \
+                pulled - self._delivered > self.silence:
+            self.bursts += 1
+            self.largest_burst = max(self.largest_burst, len(stamps))
+        self._delivered = pulled
+        if math.isfinite(self.period):
+            for stamp in stamps:
+                self._on_clock(stamp, stamp - self._index * self.period)
+                self._index += 1
+
+    def restart(self):
+        """The stream's stamps broke (a clock reset): a new sample clock."""
+        self._index = 0
+        self._base = self._block = self._rise = None
+
+    def _on_clock(self, stamp, x):
+        """Sample at ``stamp`` lying ``x - base`` s above the clock."""
+        if self._base is None or \
+                x < self._base + (1 - self.slack) * self.period:
+            self._rise = None
+            if self._base is None or x < self._base:
+                self._base = x
+            first, low = self._block or (stamp, x)
+            self._block = (first, min(low, x))
+            if stamp - first >= self.horizon:
+                self._base, self._block = self._block[1], (stamp, x)
+            return
+        # The lowest x of each quarter horizon since the rise began.
+        bins = self._rise = self._rise or [(stamp, x)]
+        if stamp - bins[-1][0] >= self.horizon / 4:
+            bins.append((stamp, x))
+        bins[-1] = (bins[-1][0], min(bins[-1][1], x))
+        if stamp - bins[0][0] >= self.horizon:
+            # The level it settled at: the last half horizon's (the first
+            # samples of a rise may be a push's, less than a gap above).
+            level = min(low for t, low in bins
+                        if t >= stamp - self.horizon / 2)
+            lost = max(1, math.floor((level - self._base) / self.period
+                                     + self.slack))
+            self.gaps += 1
+            self.lost += lost
+            self._index += lost
+            self._base = level - lost * self.period
+            self._rise, self._block = None, (stamp, self._base)
+
+
+def inlet_health(stream, gaps, fit, now_lsl, counts):
+    """The LSL inlet's ``lsl`` status: ``stream`` (its description, ''
+    while not resolved), its ``StreamGaps``, its ``CorrectionFit`` (the
+    stream-level mapping quality: the fit's scatter and bound now, at
+    local LSL time ``now_lsl``) and the inlet's ``counts``
+    (dropped_clock, lost).  WARN with real gaps, dropped samples or a
+    lost stream; bursts alone are OK."""
+    scatter = fit.scatter() * 1e3 if fit.ready else math.nan
+    bound = fit.bound(now_lsl) * 1e3 if fit.ready else math.inf
+    values = (
+        ('stream', stream or 'none'),
+        ('samples_received', str(gaps.samples)),
+        ('real_gaps', str(gaps.gaps)),
+        ('samples_lost_in_gaps', str(gaps.lost)),
+        ('bursts', str(gaps.bursts)),
+        ('largest_burst', str(gaps.largest_burst)),
+        ('dropped_clock', str(counts.get('dropped_clock', 0))),
+        ('lost_count', str(counts.get('lost', 0))),
+        ('fit_estimates', str(len(fit.used()) if fit.ready else 0)),
+        ('fit_scatter_ms', text(scatter, '%.4f')),
+        ('fit_bound_ms', text(bound, '%.4f')),
+        ('fit_drift_ppm', text(fit.slope * 1e6 if fit.ready else math.nan,
+                               '%.1f')))
+    if not stream:
+        return Health(WARN, 'no LSL stream resolved yet', values)
+    bad = ['%d real gaps (%d samples lost)' % (gaps.gaps, gaps.lost)
+           if gaps.gaps else '',
+           '%d samples dropped (clock breaks)' % counts['dropped_clock']
+           if counts.get('dropped_clock') else '',
+           'stream lost %d times' % counts['lost']
+           if counts.get('lost') else '']
+    bad = [b for b in bad if b]
+    message = '%d samples, %d bursts, mapping bound %.3f ms' % (
+        gaps.samples, gaps.bursts, bound)
+    return Health(WARN if bad else OK, '; '.join(bad + [message]), values)
+
+
 class LslChannels(HeaderStamped):
     """The generic processor of an LSL stream (``hri_sync/LslSample``
     from ``nodes/lsl_inlet``): counts the window's samples and gives each
@@ -209,6 +342,18 @@ class LslChannels(HeaderStamped):
     reported its stream lost or its clock broken in the window (each
     event in ``lsl_events``).  Stamps are on the host clock
     (``host_stamped``), each with its mapping's error bound.
+
+    A regular stream's window is judged on its nominal rate (each
+    sample's ``nominal_rate``), not on its stamps' spacing: an outlet
+    that stamps its samples when it pushes them bunches the stamps of a
+    burst.  ``expected`` = floor(window length x rate) samples; the
+    coverage is received / expected (at most 1) and the dropped samples
+    the smaller of what the gaps between stamps hold (``round(gap x
+    rate) - 1`` each) and the deficit less the largest bunch of stamps
+    (closer than half a period) the window holds: a burst that catches up
+    misses nothing, and the samples a burst carries past the window's end
+    (at most about a bunch) were not lost.  A real loss in a stream
+    stamped in bunches is so counted short by up to a bunch.
     """
 
     msg_type = 'hri_sync/LslSample'
@@ -243,6 +388,10 @@ class LslChannels(HeaderStamped):
         self._numeric = 0
         self._markers = []
         self._events = []
+        self._rate = 0.0          # the stream's nominal rate (Hz)
+        self._last = None         # the last sample's stamp
+        self._gap_drops = 0       # what the stamps' gaps hold
+        self._bunch = self._largest_bunch = 0   # stamps closer than P / 2
 
     def add(self, frame):
         msg = frame.msg
@@ -253,6 +402,15 @@ class LslChannels(HeaderStamped):
                 EVENTS[msg.kind], frame.stamp - self._start, msg.reason))
             return
         self._n += 1
+        if msg.nominal_rate > 0:
+            self._rate = msg.nominal_rate
+            gap = math.inf if self._last is None else \
+                (frame.stamp - self._last) * self._rate
+            if math.isfinite(gap):
+                self._gap_drops += max(0, round(gap) - 1)
+            self._bunch = self._bunch + 1 if gap < 0.5 else 1
+            self._largest_bunch = max(self._largest_bunch, self._bunch)
+            self._last = frame.stamp
         if msg.channels:
             v = np.asarray(msg.channels, float)
             if self._sums is None or len(self._sums) != len(v):
@@ -286,6 +444,21 @@ class LslChannels(HeaderStamped):
                 d['lsl_stream'] = bad[-1]
         if self.measure == 'activity':
             d['unit'] = 'channel units (RMS)'
+        coverage, dropped = self._sample_clock(d)
         return ProcessResult(
             value=activity if self.measure == 'activity' else float(self._n),
-            frames_used=self._n, diagnostics=d)
+            frames_used=self._n, diagnostics=d, coverage=coverage,
+            frames_dropped=dropped)
+
+    def _sample_clock(self, d):
+        """(coverage, dropped) on the nominal rate (NaN, None: an
+        irregular stream, judged by the DPM on its stamps)."""
+        expected = math.floor(self._duration * self._rate + 1e-6)
+        if expected <= 0:
+            return math.nan, None
+        d['nominal_rate'] = self._rate
+        d['expected_samples'] = expected
+        held = self._largest_bunch if self._largest_bunch > 1 else 0
+        d['largest_bunch'] = held
+        return (min(1.0, self._n / expected),
+                min(max(0, expected - self._n - held), self._gap_drops))

@@ -3,16 +3,18 @@
 The executable is ``nodes/lsl_inlet``.
 """
 import math
+import threading
 import time
 
 import pylsl
 import rospy
 
 from hri_sync.msg import LslSample
+from hri_sync.ros.diagnostics import NodeDiagnostics
 from hri_sync.ros.params import ParamError, param, positive
 from hri_sync.ros.stamps import header
-from hri_sync.sensors.lsl import (ClockBreak, CorrectionFit,
-                                  LslStamper)
+from hri_sync.sensors.lsl import (ClockBreak, CorrectionFit, LslStamper,
+                                  StreamGaps, inlet_health)
 from hri_sync.tools import lsl_io
 
 
@@ -39,6 +41,23 @@ class LslInlet:
         self.lost = 'not resolved yet'
         self.last_event = self.last_tick = self.last_sample = 0.0
         self.last_correction = -math.inf
+        self.gap_horizon = param('gap_horizon', 2.0, float, positive, '> 0 s')
+        self.gaps = None        # StreamGaps, from the first connect on
+        # The pulling thread updates what /diagnostics reads.
+        self.lock = threading.Lock()
+        NodeDiagnostics(param('client_id', rospy.get_namespace().strip(
+            '/') or 'lsl', str)).add('lsl', self.health)
+
+    def health(self):
+        """The ``lsl`` status: the stream's deliveries, real gaps and
+        mapping quality (``inlet_health``)."""
+        with self.lock:
+            if self.stamper is None:
+                return inlet_health('', StreamGaps(0.0), CorrectionFit(),
+                                    0.0, self.counts)
+            return inlet_health(lsl_io.describe(self.info), self.gaps,
+                                self.stamper.fit, pylsl.local_clock(),
+                                self.counts)
 
     def event(self, kind, reason, now=None):
         """Publish an event (LOST, CLOCK_RESET, RECOVERED, TICK)."""
@@ -73,8 +92,12 @@ class LslInlet:
             rospy.logwarn('lsl_inlet: %s: could not open: %s',
                           lsl_io.describe(info), e)
             return False
-        self.inlet, self.info = inlet, info
-        self.stamper = LslStamper(fit)
+        with self.lock:
+            self.inlet, self.info = inlet, info
+            self.stamper = LslStamper(fit)
+            if self.gaps is None:
+                self.gaps = StreamGaps(info.nominal_srate(),
+                                       self.gap_horizon)
         self.last_sample = time.time()
         self.last_correction = time.time()
         rospy.loginfo('lsl_inlet: reading %s, offset %.6f s (rtt %.3f ms)',
@@ -87,17 +110,21 @@ class LslInlet:
             return
         self.last_correction = time.time()
         correction, remote, rtt = lsl_io.time_correction_ex(self.inlet, 1.0)
-        self.stamper.fit.add(remote + correction, correction, rtt)
+        with self.lock:
+            self.stamper.fit.add(remote + correction, correction, rtt)
 
     def publish_chunk(self, samples, stamps):
         """Stamp and publish pulled samples; a clock break drops them."""
         now_lsl = pylsl.local_clock()
         offset = lsl_io.wall_minus_lsl()
         strings = self.info.channel_format() == pylsl.cf_string
+        stamped = []
         for values, lsl_stamp in zip(samples, stamps):
             was = self.stamper.broken
             try:
-                host, bound = self.stamper.stamp(lsl_stamp, now_lsl, offset)
+                with self.lock:
+                    host, bound = self.stamper.stamp(lsl_stamp, now_lsl,
+                                                     offset)
             except ClockBreak as e:
                 self.counts['dropped_clock'] += 1
                 if not was:
@@ -105,16 +132,28 @@ class LslInlet:
                                'dropped until they map again' % e)
                 continue
             if was:
+                self.deliver(stamped, now_lsl, restart=True)
+                stamped = []
                 self.event(LslSample.RECOVERED, 'samples map again after '
                            '%d dropped (%s)' % (self.counts['dropped_clock'],
                                                 was))
+            stamped.append(lsl_stamp)
             self.counts['samples'] += 1
             self.pub.publish(LslSample(
                 header=header(host), kind=LslSample.DATA,
                 stream=self.info.name(), lsl_stamp=lsl_stamp,
-                stamp_error=bound,
+                stamp_error=bound, nominal_rate=self.info.nominal_srate(),
                 channels=[] if strings else [float(v) for v in values],
                 markers=[str(v) for v in values] if strings else []))
+        self.deliver(stamped, now_lsl)
+
+    def deliver(self, stamps, now_lsl, restart=False):
+        """The stamped samples of one pull to the StreamGaps; ``restart``:
+        then a new sample clock (the stream's stamps broke)."""
+        with self.lock:
+            self.gaps.deliver(stamps, now_lsl)
+            if restart:
+                self.gaps.restart()
 
     def step(self):
         """One pull (or, while lost, one resolve attempt)."""
