@@ -89,7 +89,9 @@ struct KinectNoise {
   double projector_x = 1.0;      ///< +1: projector on the sensor's +x side, -1: -x side
   bool holes = true;             ///< dropouts on dark, far or grazing surfaces
   double min_range = 0.8;        ///< default mode 0.8 m (near mode 0.4-0.5 m)
-  double max_range = 4.0;        ///< the specified working range; beyond reads 0
+  /// Beyond max_range reads 0. The specified working range ends at 4 m, but the
+  /// sensor reads farther, more noisily (its error was measured to 5 m).
+  double max_range = 5.0;
 
   /// The depth (m) a Kinect v1 reports for a true depth z, before random error.
   double quantize(double z) const;

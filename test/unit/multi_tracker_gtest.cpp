@@ -312,6 +312,7 @@ TEST(StillPerson, IsStillThroughTheTrackerOnKinectNoise) {
   before.filter.beta = 2.0;
   before.filter.dead_zone = 0.0;
   before.filter.block_s = 0.0;
+  before.steady_depth = false;
   double worst_before = 0;
   for (double z : {2.5, 2.8}) {
     const Scene scene = makeScene(stillAt(z), "wall=0.3&noise=kinect1");
