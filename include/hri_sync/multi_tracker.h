@@ -22,6 +22,7 @@ struct MultiParams {
   double new_user_top = 1.0;  ///< m: a new user beside a tracked one reaches this high
   int new_user_cells = 150;   ///< grid cells a new user beside a tracked one covers at least
   double same_person = 0.45;  ///< m across the floor: closer to a user is a piece of them
+  bool steady_depth = true;   ///< take each frame's depth offset, measured on the room, out (steadyDepth)
 };
 
 /// One user in one frame.
@@ -71,6 +72,13 @@ class MultiTracker {
   double acrossFloor(const Vec3& a, const Vec3& b) const;
   /// Per user, the small parts that join it (isFragmentOf; the nearest user's).
   std::vector<std::vector<int>> fragments(const std::vector<Blob>& parts, const std::vector<int>& taken_by) const;
+  /// Whether p lies on the room's floor or a wall (within planeMargin).
+  bool onRoom(const Vec3& p) const;
+  /// Takes the frame's depth offset out of g (docs/tracker.md, "A sensor's
+  /// frame offsets"): a Kinect v1 shifts the inverse depth of a whole frame
+  /// now and then; the shift is measured on the room's floor and walls
+  /// against each of their cells' slow mean (background_).
+  void steadyDepth(PointGrid* g, double t);
 
   Camera cam_;
   TrackerParams params_;
@@ -78,6 +86,8 @@ class MultiTracker {
   Room room_;
   std::vector<User> users_;
   uint32_t next_id_ = 1;
+  std::vector<float> background_;  ///< per grid cell: the room's slow mean inverse depth (1/m; 0: none)
+  double background_t_ = 0;        ///< the frame time background_ was last updated at
 };
 
 }  // namespace hri_sync

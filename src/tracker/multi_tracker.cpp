@@ -6,6 +6,12 @@
 
 namespace hri_sync {
 
+namespace {
+constexpr double kMaxShift = 0.01;          // 1/m: at most ~3.5 Kinect v1 disparity steps
+constexpr double kBackgroundTau = 10.0;     // s: the time constant of the room's slow mean
+constexpr size_t kMinRoomCells = 100;       // room cells with a mean needed to measure a shift
+}  // namespace
+
 MultiTracker::MultiTracker(const Camera& cam, TrackerParams params, MultiParams multi)
     : cam_(cam), params_(params), multi_(multi) {
   if (multi_.max_users < 1 || multi_.max_users > 4) throw std::invalid_argument("max_users must be 1-4");
@@ -22,6 +28,42 @@ void MultiTracker::reset() {
   room_.reset();
   users_.clear();
   next_id_ = 1;
+  background_.clear();
+}
+
+bool MultiTracker::onRoom(const Vec3& p) const {
+  const double m = planeMargin(p.z);
+  if (room_.floor().found && std::fabs(room_.floor().height(p)) < m) return true;
+  for (const Plane& w : room_.walls()) {
+    if (std::fabs(w.height(p)) < m) return true;
+  }
+  return false;
+}
+
+void MultiTracker::steadyDepth(PointGrid* g, double t) {
+  const size_t n = g->points.size();
+  if (background_.size() != n || t < background_t_) background_.assign(n, 0.0f);
+  std::vector<uint8_t> room(n, 0);
+  std::vector<double> shift;
+  for (size_t i = 0; i < n; ++i) {
+    if (!g->ok(i) || !onRoom(g->points[i])) continue;
+    room[i] = 1;
+    if (background_[i] > 0) shift.push_back(1.0 / g->points[i].z - background_[i]);
+  }
+  double k = 0;  // this frame's inverse-depth offset against the room's slow mean
+  if (shift.size() >= kMinRoomCells) {
+    std::nth_element(shift.begin(), shift.begin() + shift.size() / 2, shift.end());
+    k = std::clamp(shift[shift.size() / 2], -kMaxShift, kMaxShift);
+  }
+  const double a = 1.0 - std::exp(-std::clamp(t - background_t_, 0.0, 1.0) / kBackgroundTau);
+  background_t_ = t;
+  for (size_t i = 0; i < n; ++i) {
+    if (!g->ok(i)) continue;
+    const double inv = 1.0 / g->points[i].z;
+    if (room[i]) background_[i] = background_[i] > 0 ? static_cast<float>(background_[i] + a * (inv - background_[i]))
+                                                     : static_cast<float>(inv);
+    if (k != 0 && inv - k > 0) g->points[i] = g->points[i] * (inv / (inv - k));
+  }
 }
 
 std::vector<int> MultiTracker::associate(const std::vector<Blob>& parts, const std::vector<int>& people,
@@ -120,7 +162,8 @@ std::vector<std::vector<int>> MultiTracker::fragments(const std::vector<Blob>& p
 
 MultiEstimate MultiTracker::update(const uint16_t* depth_mm, double t) {
   MultiEstimate out;
-  const PointGrid g = makeGrid(depth_mm, cam_, params_.grid_step);
+  PointGrid g = makeGrid(depth_mm, cam_, params_.grid_step);
+  if (multi_.steady_depth) steadyDepth(&g, t);
   room_.update(g);
   users_.erase(std::remove_if(users_.begin(), users_.end(), [&](const User& u) {
                  return !u.seen && (t - u.last_seen > multi_.lost_timeout || t < u.last_seen);
