@@ -20,8 +20,8 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr double kSteadyBand = 3 * 2.85e-3;
 constexpr size_t kSteadyCells = 200;
 constexpr double kSteadyRate = 0.1;
-constexpr double kSteadyMeanRate = 1.0 / 300;  // the shifts' mean over about 10 s
-constexpr int kSearchFitsPerFrame = 2;  // pose fits of the bone-length search per frame
+constexpr double kSteadyMeanRate = 1.0 / 900;  // the shifts' mean over about 30 s
+constexpr int kSearchFitsPerFrame = 4;  // pose fits of the bone-length search per frame
 constexpr int kRefitEvery = 3;          // frames between two kept for the second search
 constexpr size_t kRefitFrames = 8;      // frames the second search fits
 constexpr double kModelStepPerFrame = 0.003;  // a length's largest relative change per frame
@@ -976,7 +976,11 @@ void DepthTracker::calibrate(const PointGrid& g, const Segmentation& seg, const 
 
 void DepthTracker::fit(const PointGrid& g, const Segmentation& seg, Joints* j,
                        std::array<float, NUM_JOINTS>* conf) {
-  PoseFitter fitter(cam_, g, seg, floor_, model_);
+  // Soles go to the floor once the first length search is over: with the
+  // rough first lengths the pull would drag the trunk down instead.
+  PoseFitParams fp;
+  fp.ground = refined_ || !search_;
+  PoseFitter fitter(cam_, g, seg, floor_, model_, fp);
   PoseFit best = fitter.fit(*j);
   if (have_fit_) {
     PoseFit cont = fitter.fit(prev_fit_);

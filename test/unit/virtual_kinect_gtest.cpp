@@ -580,6 +580,42 @@ TEST_F(VirtualKinectDriver, RendersAStillPersonBeforeAWallWithKinectNoise) {
   }
 }
 
+// hold=0 on the whole dance shows its first pose as a still .track of that pose
+// shows it: distance and wall place the pose held, not the dance's mean and
+// farthest position (which put this pose's hips at 4.17 m, beyond the 4 m range:
+// nothing person-sized in view).
+TEST_F(VirtualKinectDriver, HeldPoseIsPlacedAsAStillTrack) {
+  const std::string query = "distance=3.5&wall=0.3&noise=kinect1";
+  openni::Device dev;
+  ASSERT_EQ(dev.open(("virtual://" + kMotion + "?hold=0&" + query).c_str()), openni::STATUS_OK)
+      << openni::OpenNI::getExtendedError();
+  openni::VideoStream depth;
+  ASSERT_EQ(depth.create(dev, openni::SENSOR_DEPTH), openni::STATUS_OK);
+  ASSERT_EQ(depth.start(), openni::STATUS_OK);
+  openni::VideoFrameRef frame;
+  ASSERT_EQ(depth.readFrame(&frame), openni::STATUS_OK);
+  const int index = frame.getFrameIndex();
+  std::vector<uint16_t> got(static_cast<const uint16_t*>(frame.getData()),
+                            static_cast<const uint16_t*>(frame.getData()) + 320 * 240);
+  depth.stop();
+  depth.destroy();
+  dev.close();
+
+  SceneSpec spec = parseSceneQuery(query);
+  Scene scene(stillTrack(), spec.body, spec.scene, spec.noise, nullptr, spec.seed);
+  Camera cam;
+  SceneFrame want;
+  scene.render(0.0, index, cam, &want);
+  ASSERT_EQ(got, want.depth_mm);
+  std::vector<double> person;
+  for (size_t i = 0; i < got.size(); ++i) {
+    if (want.label[i] == LABEL_PERSON && got[i]) person.push_back(got[i] / 1000.0);
+  }
+  ASSERT_GT(person.size(), 800u);
+  std::sort(person.begin(), person.end());
+  EXPECT_NEAR(person[person.size() / 2], 3.5, 0.2);
+}
+
 TEST_F(VirtualKinectDriver, BadSceneKeysFailToOpenWithTheReason) {
   struct Case { const char* query; const char* reason; };
   for (const Case& c : {Case{"wall=3", "wall must be in [0.1, 1.5]"},

@@ -540,18 +540,21 @@ def dpm_state(*, header: Any, client_id: Any, input: Any, samples: Any,
 
 def skeleton(*, header: Any, client_id: Any, user_id: Any, device_stamp: Any,
              positions: Any, orientations: Any, confidence: Any,
-             ctx: Context) -> None:
+             frame_index: Any, frames_skipped: Any, ctx: Context) -> None:
     """/<id>/skeleton (and /<id>/captured): one tracked user's joints.
 
     ``header.stamp`` is global time, ``device_stamp`` the sensor's own
     clock (only representable: a device clock may start anywhere).  NaN
     positions (a joint not tracked) pass with ``nan_joints``; infinite or
-    far ones do not.  Confidence is within [0, 1].
+    far ones do not.  Confidence is within [0, 1].  ``frame_index`` and
+    ``frames_skipped`` are counts (0: unknown).
     """
     lim = ctx.limits
     time_near(header_stamp(header), 'header.stamp', ctx)
     client_name(client_id, 'client_id', ctx)
     count(user_id, 'user_id', 2 ** 32 - 1)
+    count(frame_index, 'frame_index', 2 ** 32 - 1)
+    count(frames_skipped, 'frames_skipped', 2 ** 32 - 1)
     time_value(device_stamp, 'device_stamp')
     for i, p in enumerate(array(positions, 'positions', NUM_JOINTS)):
         vector(p, 'positions[%d]' % i, lim.max_coordinate,
