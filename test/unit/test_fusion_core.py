@@ -97,6 +97,50 @@ def test_association_one_view_person_two_close_people_stable_ids():
     assert len(assoc.persons) == 2
 
 
+def test_association_a_new_user_placed_too_low_joins_its_person():
+    # A view's tracker has just found someone half hidden: its skeleton
+    # stands where the person stands but 0.6 m too low. It is the same
+    # person (people are told apart along the floor), not a second one;
+    # someone 0.6 m away along the floor is.
+    assoc = Associator()
+    assoc.assign(0.0, {('a', 1): body(0, 0)})
+    low = body(0.1, 0)
+    low[:, 2] -= 0.6
+    ids = assoc.assign(1 / 30, {('a', 1): body(0, 0), ('b', 5): low,
+                                ('c', 2): body(0, 0.6)})
+    assert ids[('b', 5)] == ids[('a', 1)] != ids[('c', 2)]
+    assert len(assoc.persons) == 2
+
+
+def test_association_a_user_its_tracker_gives_to_someone_else_moves():
+    # Two people 0.7 m apart, seen by views a and b. View b's tracker loses
+    # its user 3 (on the first person) and finds it again on the second:
+    # the key leaves the first person (whose body the other view holds)
+    # for the second at once, and neither person gets the other's joints.
+    assoc = Associator()
+    first = assoc.assign(0.0, {('a', 1): body(0, 0), ('a', 2): body(0, 0.7),
+                               ('b', 3): body(0.05, 0)})
+    for key, pid in first.items():
+        assoc.update(pid, body(0, 0.7 * (key == ('a', 2))), 0.0)
+    ids = assoc.assign(1 / 30, {('a', 1): body(0, 0),
+                                ('a', 2): body(0, 0.7),
+                                ('b', 3): body(0.05, 0.72)})
+    assert ids[('b', 3)] == first[('a', 2)] != first[('b', 3)]
+    assert assoc.switches == 1 and assoc.jumps == 0
+
+
+def test_association_gates_grow_while_a_person_is_unseen():
+    # A person one view sees walks on (1.5 m/s) through a 0.5 s gap in
+    # that view's tracking: the key that comes back 0.8 m on is theirs.
+    assoc = Associator()
+    pid = assoc.assign(0.0, {('a', 1): body(0, 0)})[('a', 1)]
+    assoc.update(pid, body(0, 0), 0.0)
+    assert assoc.assign(0.5, {('a', 1): body(0.8, 0)}) == {('a', 1): pid}
+    assoc.update(pid, body(0.8, 0), 0.5)
+    assert assoc.assign(0.55, {('a', 1): body(1.7, 0)}) == {}
+    assert assoc.jumps == 1
+
+
 def test_association_merges_duplicates_and_forgets():
     assoc = Associator(merge_after=0.2, forget_after=0.5)
     ids = {}
