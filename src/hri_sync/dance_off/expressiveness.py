@@ -289,8 +289,11 @@ class SkeletonExpressiveness(Processor):
     z, yaw, pitch] of the sensor in world) the zone is [x_min, x_max,
     y_min, y_max] in the world frame. T is the window (end - start),
     stamps are the frames' global stamps. A message without 15 positions
-    and 15 confidences is rejected as malformed. Incremental: ``add``
-    updates the running sum, ``result`` reads it.
+    and 15 confidences is rejected as malformed. A fused body's frames
+    name their views (Skeleton ``sources``, nodes/fusion): the result then
+    names the views of its scored frames (diagnostics ``sources``) and how
+    many scored frames each gave (``source_frames``, ``view:count ...``).
+    Incremental: ``add`` updates the running sum, ``result`` reads it.
     """
 
     msg_type = 'hri_sync/Skeleton'
@@ -338,6 +341,7 @@ class SkeletonExpressiveness(Processor):
         self._people = ParticipantSelector(self.zone, self.lost_after,
                                            start, end)
         self._malformed = 0
+        self._sources: dict[str, int] = {}
 
     def add(self, frame: Frame) -> None:
         try:
@@ -353,6 +357,8 @@ class SkeletonExpressiveness(Processor):
             return
         if self._people.offer(frame.stamp, user, pos) == PARTICIPANT:
             self._run.add(frame.stamp, pos, conf)
+            for view in getattr(frame.msg, 'sources', ()):
+                self._sources[view] = self._sources.get(view, 0) + 1
 
     def result(self) -> ProcessResult:
         res = self._run.score(self._duration)
@@ -369,6 +375,10 @@ class SkeletonExpressiveness(Processor):
             'T': res.duration}
         diagnostics.update(self.zone_params())
         diagnostics.update(people)
+        if self._sources:
+            diagnostics['sources'] = ' '.join(sorted(self._sources))
+            diagnostics['source_frames'] = ' '.join(
+                '%s:%d' % v for v in sorted(self._sources.items()))
         return ProcessResult(
             value=res.value, frames_used=res.frames_used,
             frames_rejected=(res.frames_rejected + self._malformed
