@@ -31,6 +31,12 @@ scored against the truth instead (hri_sync_support.fusion_people):
 ``duplicate_instants``, ``missing_people``, ``fused_mean_m`` per person,
 ``view_alone`` (each view's tracker scored alike); docs/fusion.md.
 
+``--pose-error VIEW:DX,DY,DEG``: the fusion is told VIEW's pose moved DX,
+DY m and turned DEG degrees (a pose wrong from the start; the renders are
+the true poses'); ``pose_error`` says how far its skeletons were off, when
+they were first fused with another view's, which views were reported and
+the fitted pose's error.
+
     bench/fusion_accuracy.py --motion data/motion/cmu_60_01_salsa.track \
         --views 3
     bench/fusion_accuracy.py \
@@ -61,7 +67,8 @@ sys.path.insert(0, os.path.join(ROOT, 'support'))
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS  # noqa: E402
 from hri_sync.dance_off.motion import Motion, load_motion  # noqa: E402
 from hri_sync.fusion.align import Sample, Track  # noqa: E402
-from hri_sync.fusion.frames import facing  # noqa: E402
+from hri_sync.fusion.associate import body_distance  # noqa: E402
+from hri_sync.fusion.frames import SensorPose, facing  # noqa: E402
 from hri_sync.fusion.pipeline import Fusion, FusionParams  # noqa: E402
 from hri_sync.fusion.profile import Profile, fit_profile  # noqa: E402
 from hri_sync_support.fusion_people import (  # noqa: E402
@@ -189,7 +196,7 @@ def timed(views, rng):
 def run_fusion(msgs, poses, aligned, profile):
     """Frames of the fusion fed ``msgs`` in arrival order, polled after
     each and every TICK s; stamps are arrival times when not ``aligned``.
-    Also {stamp used: true capture} for the latency."""
+    Also {stamp used: true capture} for the latency, and the Fusion."""
     sim = {'now': 0.0, 'wall': time.thread_time()}
     fusion = Fusion(poses, FusionParams(),
                     lambda: sim['now'] + time.thread_time() - sim['wall'],
@@ -210,7 +217,7 @@ def run_fusion(msgs, poses, aligned, profile):
         fusion.add(m['view'], m['user'], stamp, m['positions'],
                    m['confidence'], m['uncertainty'])
         frames += fusion.poll()
-    return frames, captured
+    return frames, captured, fusion
 
 
 def truth_at(views, poses, t):
@@ -306,6 +313,43 @@ def figures(frames, captured, truth, best_track):
     }
 
 
+def declared_poses(error, names, poses):
+    """The poses the fusion is given: the views' own, but for ``error``
+    (VIEW:DX,DY,DEG)."""
+    declared = dict(zip(names, poses))
+    if error:
+        view, _, moved = error.partition(':')
+        dx, dy, deg = (float(v) for v in moved.split(','))
+        p = declared[view]
+        declared[view] = SensorPose(p.x + dx, p.y + dy, p.z,
+                                    p.yaw + math.radians(deg), p.pitch)
+    return declared
+
+
+def pose_figures(view, frames, fusion, true, declared, truth):
+    """How the fusion met a view's wrong pose: its skeletons' offset
+    (median, along the floor), when they were first fused with another
+    view's (s from the first fused instant), the fitted pose's error."""
+    people = [f for f in frames if f.people]
+    offsets = [body_distance(declared[view].to_world(true.from_world(
+        truth([f.stamp])[0])), truth([f.stamp])[0]) for f in people[::30]]
+    joined = [f.stamp for f in people for p in f.people
+              if view in p.body.views and len(p.body.views) > 1]
+    fitted = fusion.fitted.get(view)
+    return {
+        'view': view, 'offset_m': round(float(np.median(offsets)), 3),
+        'joined_after_s': round(joined[0] - people[0].stamp, 2)
+        if joined else None,
+        'reported': sorted(v for v, h in fusion.health.items()
+                           if h.wrong_pose),
+        'fitted_error_m': round(math.hypot(fitted[0].x - true.x,
+                                           fitted[0].y - true.y), 3)
+        if fitted else None,
+        'fitted_error_deg': round(math.degrees(abs(math.remainder(
+            fitted[0].yaw - true.yaw, 2 * math.pi))), 2) if fitted else None,
+    }
+
+
 def targets(out):
     """Each target of the fusion and whether this run meets it."""
     best = min(out['single_view_mean_m'].values())
@@ -334,6 +378,10 @@ def arguments():
     ap.add_argument('--people', type=int, default=1, choices=(1, 2, 3),
                     help='2, 3: the dancer and walkers crossing, tracked '
                     'as several users; ids, switches, duplicates, missing')
+    ap.add_argument('--pose-error', metavar='VIEW:DX,DY,DEG',
+                    help='tell the fusion that VIEW stands DX, DY m away '
+                    'and turned DEG degrees (its renders unchanged): a '
+                    'pose wrong from the start')
     ap.add_argument('--jobs', '-j', type=int, default=2, choices=(1, 2),
                     help='views rendered at once')
     ap.add_argument('--fit-profile', action='store_true',
@@ -445,8 +493,8 @@ def people_main(args, names, profile):
                      'duplicate_people',
                      'fused_ids')}
     for aligned in (True, False):
-        frames, _ = run_fusion(msgs, dict(zip(names, poses)), aligned,
-                               profile)
+        frames, _, _ = run_fusion(msgs, dict(zip(names, poses)), aligned,
+                                  profile)
         result = score([(f.stamp, [(p.person, p.body.positions)
                                    for p in f.people]) for f in frames],
                        truth, seen)
@@ -487,13 +535,19 @@ def main():
            'slowest_pipeline_p95_ms': round(max(np.percentile(
                [m['arrival'] - m['capture'] for m in msgs
                 if m['view'] == name], 95) for name in names) * 1e3, 1)}
+    declared = declared_poses(args.pose_error, names, poses)
     for aligned in (True, False):
-        frames, captured = run_fusion(msgs, dict(zip(names, poses)),
-                                      aligned, profile)
+        frames, captured, fusion = run_fusion(msgs, declared, aligned,
+                                              profile)
         result = figures(frames, captured, truth, best_view_track(
             msgs, best, poses, aligned, profile))
         if aligned:
             out.update(result)
+            if args.pose_error:
+                out['pose_error'] = pose_figures(
+                    args.pose_error.split(':')[0], frames, fusion,
+                    poses[names.index(args.pose_error.split(':')[0])],
+                    declared, truth)
         else:
             out['no_time_alignment'] = result
     out['targets'] = targets(out)

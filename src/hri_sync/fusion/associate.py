@@ -16,7 +16,12 @@ far away, when it is a new key again. A new key joins the nearest person
 within ``gate`` that no other key of the same view holds (so two people
 close together stay two), or starts a new person (so a person seen by one
 view only is still a person). Both gates grow by ``max_speed`` times the
-time since the person was last seen. Two persons whose bodies overlap
+time since the person was last seen. A person that one view gives while
+that view has never shared a person with another view, within
+``hold_near`` of a person two other views agree on, is held back
+(``held``) for ``hold`` s at most: the view's pose may be wrong
+(hri_sync.fusion.pipeline fits it; its users then join that person), or
+else (``release``, or a second view joins them) they are someone else. Two persons whose bodies overlap
 (``merge_gate``) for ``merge_after`` s while no view sees both are one: the
 younger id joins the older. A person seen by no view for ``forget_after``
 s is dropped; ids are never reused.
@@ -24,8 +29,9 @@ s is dropped; ids are never reused.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
-from typing import Dict, Hashable, Optional, Tuple
+from typing import Dict, Hashable, Optional, Set, Tuple
 
 import numpy as np
 
@@ -49,6 +55,14 @@ def body_distance(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.median(d)) if d.size else np.inf
 
 
+def views_of(ids: Dict[Key, int]) -> Dict[int, Set[str]]:
+    """The views of each person of an instant's keys."""
+    out: Dict[int, Set[str]] = {}
+    for (view, _), pid in ids.items():
+        out.setdefault(pid, set()).add(view)
+    return out
+
+
 @dataclass
 class Person:
     """A fused person: last body, last time seen, when first seen."""
@@ -57,6 +71,7 @@ class Person:
     seen: float
     born: float
     overlap: Dict[int, float] = field(default_factory=dict)
+    held_since: Optional[float] = None  # -inf: let go
 
 
 class Associator:
@@ -65,7 +80,11 @@ class Associator:
     def __init__(self, gate: float = 0.5, keep_gate: float = 0.75,
                  merge_gate: float = 0.25, merge_after: float = 0.5,
                  forget_after: float = 1.0, release_after: float = 2.0,
-                 max_speed: float = 2.0) -> None:
+                 max_speed: float = 2.0, hold: float = 3.0,
+                 hold_near: float = 2.0) -> None:
+        self.hold = hold
+        self.hold_near = hold_near
+        self.confirmed: Set[str] = set()   # views that shared a person
         self.gate = gate
         self.keep_gate = keep_gate
         self.max_speed = max_speed
@@ -110,7 +129,39 @@ class Associator:
                 self.switches += 1
                 self.far_since.pop(key, None)
             self.owner[key] = pid
-        return self._merge(t, bodies, out)
+        out = self._merge(t, bodies, out)
+        self._hold(t, out)
+        return out
+
+    def held(self, pid: int, t: float) -> bool:
+        """Whether person ``pid`` is held back at ``t``."""
+        since = self.persons[pid].held_since
+        return since is not None and t - since < self.hold
+
+    def release(self, view: str) -> None:
+        """The persons held back for ``view`` are people: no longer held."""
+        for key, pid in self.owner.items():
+            if key[0] == view and pid in self.persons:
+                self.persons[pid].held_since = -math.inf
+
+    def _hold(self, t: float, out: Dict[Key, int]) -> None:
+        """Hold back the persons that one view alone gives while it has
+        never shared a person with the others, near a person two other
+        views agree on; let go of those a second view joins."""
+        views = views_of(out)
+        self.confirmed |= {v for vs in views.values() if len(vs) > 1
+                           for v in vs}
+        for pid, vs in views.items():
+            person = self.persons[pid]
+            if len(vs) > 1:             # two views agree: someone
+                person.held_since = -math.inf
+            if person.held_since is not None or len(vs) > 1 \
+                    or vs & self.confirmed:
+                continue
+            if any(len(other) > 1 and not other & vs and body_distance(
+                    person.positions, self.persons[q].positions)
+                    <= self.hold_near for q, other in views.items()):
+                person.held_since = t
 
     def _near(self, t: float, body: np.ndarray, pid: int, gate: float
               ) -> Optional[float]:
@@ -166,9 +217,7 @@ class Associator:
     def _merge(self, t: float, bodies: Dict[Key, np.ndarray],
                out: Dict[Key, int]) -> Dict[Key, int]:
         """Join persons that overlap long enough with no view in common."""
-        views: Dict[int, set] = {}
-        for key, pid in out.items():
-            views.setdefault(pid, set()).add(key[0])
+        views = views_of(out)
         ids = sorted(views)
         for i, a in enumerate(ids):
             for b in ids[i + 1:]:
