@@ -20,6 +20,9 @@ rendered truth. Prints one JSON object:
 - ``duplicate_people``: person ids beyond the one dancer;
   ``missing_frames``: instants without a person once tracking started;
 - ``bound_coverage``: share of fused joints within their 95 % bound;
+- ``view_oracle_mean_m`` / ``view_oracle_hidden_mean_m``: at each fused
+  instant and joint the view nearest the truth (which no fusion can
+  know): a ceiling for any weighting of the views;
 - ``no_time_alignment``: the same fusion fed each view's arrival time as
   its stamp (a plain subscriber), same figures;
 - ``targets``: each target and whether it is met.
@@ -260,19 +263,21 @@ def single_view_errors(views, poses, profile, truth):
 
 def fitted_profile(views, poses, truth):
     """The tracker profile measured on these views: the delay that fits
-    best (10 ms steps), then offsets and sigmas (delay_spread: the
-    delay)."""
+    best (10 ms steps), then offsets, sigmas and the confidence power
+    (delay_spread: the delay)."""
     t = np.arange(math.ceil(FPS), int(len(views[0][0]) - FPS)) / FPS
-    est, ok = [], np.ones(len(t), bool)
-    for i, (tracked, e, _, _) in enumerate(views):
+    est, conf, ok = [], [], np.ones(len(t), bool)
+    for i, (tracked, e, _, c) in enumerate(views):
         caught = capture_times(i, len(tracked))
         est.append(Motion(caught, poses[i].to_world(e)).positions_at(t))
+        conf.append(c[np.clip(np.searchsorted(caught, t), 0, len(c) - 1)])
         ok &= np.interp(t, caught, tracked.astype(float)) >= 1.0
     est = np.array(est)[:, ok]
     scan = {d: np.linalg.norm(est - truth(t[ok] - d), axis=-1).mean()
             for d in np.arange(0.0, 0.101, 0.01)}
     delay = float(min(scan, key=scan.get))
-    return fit_profile(est, truth(t[ok] - delay), delay, delay)
+    return fit_profile(est, truth(t[ok] - delay), delay, delay,
+                       np.array(conf)[:, ok])
 
 
 def figures(frames, captured, truth, best_track):
@@ -348,6 +353,30 @@ def pose_figures(view, frames, fusion, true, declared, truth):
         'fitted_error_deg': round(math.degrees(abs(math.remainder(
             fitted[0].yaw - true.yaw, 2 * math.pi))), 2) if fitted else None,
     }
+
+
+def oracle(frames, truth, tracks, best):
+    """The view nearest the truth at each fused instant and joint (mean
+    error, and on the best view's hidden joints)."""
+    near, hidden = [], []
+    for f in frames:
+        if not f.people:
+            continue
+        seen = {n: tr.at(f.stamp, 0.04) for n, tr in tracks.items()}
+        errs = np.array([np.linalg.norm(a.positions - truth([f.stamp])[0],
+                                        axis=1) for a in seen.values()
+                         if a is not None])
+        if not len(errs):
+            continue
+        low = np.nanmin(np.where(np.isfinite(errs), errs, np.inf), axis=0)
+        ok = np.isfinite(low)
+        near.extend(low[ok])
+        if seen[best] is not None:
+            hid = (seen[best].confidence < HIDDEN) & ok \
+                & np.isfinite(seen[best].positions).all(axis=1)
+            hidden.extend(low[hid])
+    return {'view_oracle_mean_m': round(float(np.mean(near)), 4),
+            'view_oracle_hidden_mean_m': round(float(np.mean(hidden)), 4)}
 
 
 def targets(out):
@@ -543,6 +572,8 @@ def main():
             msgs, best, poses, aligned, profile))
         if aligned:
             out.update(result)
+            out.update(oracle(frames, truth, {n: best_view_track(
+                msgs, n, poses, aligned, profile) for n in names}, best))
             if args.pose_error:
                 out['pose_error'] = pose_figures(
                     args.pose_error.split(':')[0], frames, fusion,

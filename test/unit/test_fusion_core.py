@@ -10,6 +10,7 @@ from hri_sync.fusion.associate import Associator
 from hri_sync.fusion.calibration import Residuals, refine_pose, shared_points
 from hri_sync.fusion.frames import SensorPose, facing, parse_pose
 from hri_sync.fusion.fuse import FuseParams, Observation, fuse
+from hri_sync.fusion.profile import Profile, confidence_power
 
 RNG = np.random.default_rng(36)
 
@@ -197,6 +198,40 @@ def test_fuse_drops_an_outlier_of_three_and_missing_joints():
                           - body()[INDEX['torso']]) < 0.03
     assert np.isnan(f.positions[INDEX['head']]).all()
     assert f.confidence[INDEX['head']] == 0
+
+
+def test_fuse_weighs_a_view_by_its_agreement_with_the_others():
+    # Three views, one 0.25 m off (under the 0.3 m outlier cut): weighted
+    # by agreement, the fused joint follows the two that agree; two views
+    # alone, each as far from the middle, stay as they were weighted.
+    truth = body()
+    views = [obs(v, truth.copy()) for v in 'abc']
+    views[2].positions = truth + [0.25, 0, 0]
+    plain = fuse(views, FuseParams(agreement=0))
+    agreed = fuse(views, FuseParams())
+    assert plain.positions[0, 0] == pytest.approx(0.25 / 3)
+    assert agreed.positions[0, 0] < plain.positions[0, 0] / 2
+    two = [obs('a', truth), obs('b', truth + [0.2, 0, 0])]
+    assert fuse(two, FuseParams()).positions[0, 0] == pytest.approx(0.1)
+
+
+def test_profile_error_grows_with_falling_confidence_as_measured():
+    # Errors whose size grows as confidence ** -0.5 within each joint:
+    # the power is found; the profile keeps it (YAML and back) and the
+    # fusion weighs by it (at confidence 0.25 a view's error is twice, not
+    # four times, that at 1: a fourth of the weight, not a sixteenth).
+    rng = np.random.default_rng(4)
+    conf = rng.choice([0.25, 0.5, 1.0], size=(3, 400, NUM_JOINTS))
+    scale = np.linspace(0.03, 0.12, NUM_JOINTS)     # joints differ
+    own = rng.normal(size=(3, 400, NUM_JOINTS, 3)) \
+        * (scale * conf ** -0.5)[..., None]
+    assert confidence_power(own, conf) == pytest.approx(0.5, abs=0.05)
+    profile = Profile(sigma=0.05, confidence_power=0.5)
+    assert Profile.from_dict(profile.to_dict()).confidence_power == 0.5
+    sure, unsure = obs('a', body(), conf=1.0), obs('b', body(0.1), conf=0.25)
+    sure.power = unsure.power = 0.5
+    f = fuse([sure, unsure], FuseParams(agreement=0))
+    assert f.positions[0, 0] == pytest.approx(0.1 / 5)
 
 
 def test_residuals_blame_the_view_that_disagrees():

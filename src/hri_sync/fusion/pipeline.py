@@ -179,8 +179,8 @@ class Fusion:
             profile = self.profiles[view]
             out[key] = (Observation(view, a.positions, a.confidence,
                                     a.speed, a.uncertainty, weight,
-                                    profile.sigma, profile.sigma_common),
-                        a.newest)
+                                    profile.sigma, profile.sigma_common,
+                                    profile.confidence_power), a.newest)
         return out
 
     def _fuse_at(self, t: float) -> Frame:
