@@ -17,7 +17,7 @@
 // Scene keys (docs/tracker.md, "Virtual Kinect scenes"): body=average|short_broad|tall_slim|
 //   loose_clothes|dark_clothes|model, height, girth, limbs, arms, legs, clothing, clothes_albedo,
 //   wall=GAP_M|none, furniture=none|table|chair, furniture_x, bystander=none|walk|stand,
-//   bystander_offset, bystander_body, bystander_track=PATH, crowd=0..3, crowd_motion=stand|walk,
+//   bystander_offset, bystander_body, bystander_track=PATH, crowd=0..3, crowd_motion=stand|walk|track,
 //   crowd_spacing, sensor_height, tilt (deg),
 //   noise=kinect1, shadow, holes, baseline, projector=+x|-x, min_range, max_range, seed.
 //   Any of them renders the scene (hri_sync::Scene) instead of the capsule body;

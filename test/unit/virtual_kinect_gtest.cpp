@@ -462,6 +462,51 @@ TEST(Scene, CrowdStandsInARowOrWalksAcross) {
   EXPECT_THROW(Scene(stillTrack(), BodyShape::preset("average"), o, KinectNoise()), std::invalid_argument);
 }
 
+// crowd_tracks: each crowd member on its own track, placed as the person is
+// (several sensors' views of one room): its truth follows its track, its
+// pixels are rendered; a count that does not match is refused.
+TEST(Scene, CrowdOnTheirOwnTracks) {
+  Joints j = motion().frames()[0];
+  std::vector<std::string> paths;
+  for (const Vec3& d : {Vec3(1.0, 0, 0.5), Vec3(1.6, 0, -0.9)}) {
+    Joints moved = j;
+    for (Vec3& p : moved) p = p + d;
+    paths.push_back("/tmp/virtual_kinect_gtest_crowd_" + std::to_string(getpid()) + "_" +
+                    std::to_string(paths.size()) + ".track");
+    FILE* f = std::fopen(paths.back().c_str(), "w");
+    for (double t : {0.0, 10.0}) {
+      std::fprintf(f, "%.1f", t);
+      for (const Vec3& p : moved) std::fprintf(f, " %.4f %.4f %.4f", p.x, p.y, p.z);
+      std::fprintf(f, "\n");
+    }
+    std::fclose(f);
+  }
+  SceneSpec spec = parseSceneQuery("crowd_tracks=" + paths[0] + "," + paths[1]);
+  EXPECT_EQ(spec.scene.crowd, 2);
+  EXPECT_EQ(spec.scene.crowd_motion, "track");
+  EXPECT_FALSE(spec.scene.needsWalk());
+  Scene room(stillTrack(), BodyShape::preset("average"), spec.scene, KinectNoise());
+  SceneFrame f = renderOnce(room);
+  ASSERT_EQ(f.crowd_truth.size(), 2u);
+  EXPECT_NEAR(f.crowd_truth[0][TORSO].x - f.truth[TORSO].x, 1.0, 0.05);
+  EXPECT_NEAR(f.crowd_truth[0][TORSO].z - f.truth[TORSO].z, 0.5, 0.05);
+  EXPECT_NEAR(f.crowd_truth[1][TORSO].x - f.truth[TORSO].x, 1.6, 0.05);
+  EXPECT_NEAR(f.crowd_truth[1][TORSO].z - f.truth[TORSO].z, -0.9, 0.05);
+  EXPECT_GT(std::count(f.label.begin(), f.label.end(), LABEL_BYSTANDER), 2 * 500);
+  SceneOptions o = spec.scene;
+  o.crowd = 1;
+  EXPECT_THROW(Scene(stillTrack(), BodyShape::preset("average"), o, KinectNoise()), std::invalid_argument);
+  o = SceneOptions();
+  o.crowd = 1;
+  o.crowd_motion = "track";
+  EXPECT_THROW(Scene(stillTrack(), BodyShape::preset("average"), o, KinectNoise()), std::invalid_argument);
+  EXPECT_THROW(parseSceneQuery("crowd_tracks=a,b,c,d"), std::invalid_argument);
+  EXPECT_THROW(Scene(stillTrack(), BodyShape::preset("average"), parseSceneQuery("crowd_tracks=/nonexistent.track").scene,
+                     KinectNoise()),
+               std::runtime_error);
+  for (const std::string& p : paths) std::remove(p.c_str());
+}
+
 TEST(Scene, BadKeysGiveClearErrors) {
   SceneSpec spec;
   auto message = [&](const char* k, const char* v) -> std::string {

@@ -293,8 +293,11 @@ class SkeletonExpressiveness(Processor):
     and 15 confidences is rejected as malformed. A tracker's frames are
     counted apart (``SensorFrames``: expected, published, skipped by a
     tracker that fell behind, unpublished) from its skeletons'
-    ``frame_index`` and ``frames_skipped``. Incremental: ``add``
-    updates the running sum, ``result`` reads it.
+    ``frame_index`` and ``frames_skipped``. A fused body's frames name
+    their views (Skeleton ``sources``, nodes/fusion): the result then names
+    the views of its scored frames (diagnostics ``sources``) and how many
+    scored frames each gave (``source_frames``, ``view:count ...``).
+    Incremental: ``add`` updates the running sum, ``result`` reads it.
     """
 
     msg_type = 'hri_sync/Skeleton'
@@ -343,6 +346,7 @@ class SkeletonExpressiveness(Processor):
                                            start, end)
         self._malformed = 0
         self._sensor = SensorFrames()
+        self._sources: dict[str, int] = {}
 
     def add(self, frame: Frame) -> None:
         msg = frame.msg
@@ -363,6 +367,8 @@ class SkeletonExpressiveness(Processor):
         self._sensor.add(device, index, skipped)
         if self._people.offer(frame.stamp, user, pos) == PARTICIPANT:
             self._run.add(frame.stamp, pos, conf)
+            for view in getattr(frame.msg, 'sources', ()):
+                self._sources[view] = self._sources.get(view, 0) + 1
 
     def result(self) -> ProcessResult:
         res = self._run.score(self._duration)
@@ -380,6 +386,10 @@ class SkeletonExpressiveness(Processor):
         diagnostics.update(self.zone_params())
         diagnostics.update(people)
         diagnostics.update(self._sensor.summary(self._duration))
+        if self._sources:
+            diagnostics['sources'] = ' '.join(sorted(self._sources))
+            diagnostics['source_frames'] = ' '.join(
+                '%s:%d' % v for v in sorted(self._sources.items()))
         return ProcessResult(
             value=res.value, frames_used=res.frames_used,
             frames_rejected=(res.frames_rejected + self._malformed

@@ -44,8 +44,8 @@ PRE_HEADER = {
 
 # md5sums of definitions today's only extend with fields at the end
 # (ActionStart's kind, event, status, ...; ClientResult's noise_floor,
-# Decision's noise_floors; Skeleton's frame_index, frames_skipped): read
-# as they are, without the appended fields.
+# Decision's noise_floors; Skeleton's frame_index, frames_skipped and
+# sources): read as they are, without the appended fields.
 APPENDED = {
     'hri_sync/ActionStart': 'afa9bd87c199ede36d50d1488f2c8ff8',
     'hri_sync/ClientResult': '4be20d7e3c87c82059393adb83f3435f',
