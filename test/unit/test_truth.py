@@ -7,7 +7,8 @@ import time
 
 import pytest
 
-from hri_sync.clock.truth import true_time, realtime, wait_until
+from hri_sync.clock.truth import (KEPT_INTERVAL, KeptGil, pause, realtime,
+                                  true_time, turn, wait_until)
 
 SRC = os.path.join(os.path.dirname(__file__), '..', '..', 'src')
 
@@ -65,3 +66,87 @@ def test_realtime_is_restored_or_refused_with_a_reason():
     assert os.sched_getscheduler(0) == before
     with realtime(0) as off:
         assert not off.ok and off.error == 'not requested'
+
+
+class FakeTime:
+    """A clock that only the waits advance; it logs each wait with the
+    time left to the target when it began."""
+
+    def __init__(self, target, step=0.0004):
+        self.t, self.target, self.step, self.log = 0.0, target, step, []
+        self.interval = 0.005
+        self.kept = KeptGil((lambda: self.interval, self.set_interval))
+
+    def set_interval(self, value):
+        self.log.append(('interval', value))
+        self.interval = value
+
+    def now(self):
+        return self.t
+
+    def waiter(self, kind, fixed=None):
+        def wait(seconds=None):
+            self.log.append((kind, self.target - self.t))
+            # A real wait takes some time, however short its argument.
+            self.t += fixed if fixed is not None else max(seconds, 1e-6)
+        return wait
+
+    def wait(self, keep=True, **kw):
+        return wait_until(self.now, self.target,
+                          kept=self.kept if keep else None,
+                          sleep=self.waiter('sleep'),
+                          pause=self.waiter('pause'),
+                          turn=self.waiter('turn', self.step), **kw)
+
+
+def test_wait_until_keeps_the_gil_from_hold_before_the_target():
+    clock = FakeTime(target=1.0)
+    late = clock.wait(spin=0.002, hold=0.022)
+    assert late == pytest.approx(clock.t - 1.0) and 0 <= late < 0.0004
+    kinds = [k for k, _ in clock.log]
+    # Sleeps (GIL released) up to 22 ms before; then the GIL is kept
+    # (switch interval raised once), paused to 2 ms before, then turns.
+    first_kept = kinds.index('interval')
+    assert set(kinds[:first_kept]) == {'sleep'}
+    assert clock.log[first_kept] == ('interval', KEPT_INTERVAL)
+    assert kinds.count('interval') == 1
+    assert all(left > 0.022 - 1e-9 for k, left in clock.log if k == 'sleep')
+    assert all(0.002 < left <= 0.022 + 1e-9
+               for k, left in clock.log if k == 'pause')
+    assert 'pause' in kinds
+    assert all(left <= 0.002 + 1e-9 for k, left in clock.log if k == 'turn')
+    assert kinds[-1] == 'turn'
+    # Kept until the caller releases it; then the interval is back.
+    assert clock.interval == KEPT_INTERVAL
+    clock.kept.release()
+    assert clock.interval == 0.005
+    clock.kept.release()
+    assert clock.log[-1] == ('interval', 0.005)
+
+
+def test_wait_until_without_kept_leaves_the_switch_interval():
+    clock = FakeTime(target=0.5)
+    clock.wait(keep=False, spin=0.003, hold=0.03)
+    kinds = {k for k, _ in clock.log}
+    assert kinds == {'sleep', 'pause', 'turn'} and clock.interval == 0.005
+
+
+def test_wait_until_stops_before_keeping_the_gil():
+    clock = FakeTime(target=5.0)
+    assert clock.wait(spin=0.002, hold=0.03, stop=lambda: True) is None
+    assert clock.log == [] and clock.interval == 0.005
+
+
+def test_kept_gil_restores_at_the_end_of_the_block():
+    before = sys.getswitchinterval()
+    with KeptGil() as kept:
+        kept.keep()
+        assert sys.getswitchinterval() == max(before, KEPT_INTERVAL)
+    assert sys.getswitchinterval() == before
+
+
+def test_pause_and_turn_return():
+    before = time.monotonic()
+    pause(0.002)
+    turn()
+    assert time.monotonic() >= before + 0.002

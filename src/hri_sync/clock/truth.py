@@ -8,6 +8,15 @@ for the start so that a busy machine does not delay it.  ``true_time``
 reads CLOCK_REALTIME by a raw system call, which libfaketime does not
 intercept: the ground truth a test compares a faked process's actions
 with.
+
+The GIL and real-time threads: a real-time thread that needs the GIL
+while a normal thread of its process holds it waits until that thread
+runs, and real-time threads spinning on every core (robots starting at
+one instant) keep it from running: the start comes late by the others'
+spins (milliseconds).  ``wait_until(hold=...)`` therefore takes the GIL
+``hold`` s before the target, while the cores are still free, and keeps
+it to the target (``KeptGil``, ``pause``, ``turn`` and ``true_time`` never
+release it).
 """
 
 from __future__ import annotations
@@ -16,8 +25,9 @@ import ctypes
 import ctypes.util
 import os
 import platform
+import sys
 import time
-from typing import Callable
+from typing import Callable, Optional
 
 # SYS_clock_gettime by architecture (asm/unistd.h).
 _SYS_CLOCK_GETTIME = {'x86_64': 228, 'aarch64': 113, 'i686': 265,
@@ -29,8 +39,12 @@ class _Timespec(ctypes.Structure):
     _fields_ = [('tv_sec', ctypes.c_long), ('tv_nsec', ctypes.c_long)]
 
 
-_libc = ctypes.CDLL(ctypes.util.find_library('c') or 'libc.so.6',
-                    use_errno=True)
+# PyDLL: its calls keep the GIL (they are all short or meant to hold it).
+_libc = ctypes.PyDLL(ctypes.util.find_library('c') or 'libc.so.6',
+                     use_errno=True)
+# The switch interval while a start keeps the GIL: long enough that no
+# other thread of the process asks for the GIL before the start.
+KEPT_INTERVAL = 1.0
 _syscall_nr = _SYS_CLOCK_GETTIME.get(platform.machine())
 
 
@@ -77,24 +91,77 @@ class realtime:
             os.sched_setscheduler(0, policy, param)
 
 
+def pause(seconds: float) -> None:
+    """Sleep ``seconds`` without releasing the GIL (nanosleep)."""
+    whole = int(seconds)
+    ts = _Timespec(whole, int((seconds - whole) * 1e9))
+    _libc.nanosleep(ctypes.byref(ts), None)
+
+
+def turn() -> None:
+    """Yield the CPU to threads of the same real-time priority without
+    releasing the GIL (``os.sched_yield`` releases it)."""
+    _libc.sched_yield()
+
+
+class KeptGil:
+    """While ``keep()`` is in force (until ``release()`` or the end of
+    the ``with`` block), the other threads of the process do not ask the
+    GIL's holder to hand it over: the switch interval is
+    ``KEPT_INTERVAL``.  ``interval``: (get, set) of the switch interval,
+    injected in tests."""
+
+    def __init__(self, interval: tuple = (sys.getswitchinterval,
+                                          sys.setswitchinterval)) -> None:
+        self._get, self._set = interval
+        self._saved: Optional[float] = None
+
+    def keep(self) -> None:
+        if self._saved is None:
+            self._saved = self._get()
+            self._set(max(self._saved, KEPT_INTERVAL))
+
+    def release(self) -> None:
+        if self._saved is not None:
+            self._set(self._saved)
+            self._saved = None
+
+    def __enter__(self) -> 'KeptGil':
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
+
+
 def wait_until(now: Callable, target: float, spin: float = 0.003,
-               stop: Callable = lambda: False) -> float | None:
+               stop: Callable = lambda: False, hold: float = 0.0,
+               kept: Optional[KeptGil] = None, sleep: Callable = time.sleep,
+               pause: Callable = pause, turn: Callable = turn
+               ) -> float | None:
     """Block until ``now() >= target`` (both in the same clock, s).
 
-    Sleeps until ``spin`` s before the target, then spins, yielding the
-    CPU at each turn (``os.sched_yield``): several real-time threads
-    spinning for the same instant (robots in unison) then take turns on
-    the cores instead of the first ones holding them past the target.
-    Returns how late it returned (s, >= 0), or None if ``stop()`` became
-    true first.
+    Sleeps (``sleep``, which releases the GIL) until ``max(hold, spin)``
+    s before the target; from ``hold`` s before it keeps the GIL
+    (``kept.keep()``, then ``pause`` until ``spin`` s before); then spins,
+    yielding the CPU at each turn (``turn``): several real-time threads
+    spinning for the same instant (robots in unison) take turns on the
+    cores instead of the first ones holding them past the target.  The
+    caller releases ``kept`` once its start is done.  Returns how late it
+    returned (s, >= 0), or None if ``stop()`` became true first.
     """
+    ahead = max(hold, spin)
     while True:
         remaining = target - now()
         if remaining <= 0:
             return max(0.0, -remaining)
         if stop():
             return None
+        if remaining > ahead:
+            sleep(min(remaining - ahead, 0.1))
+            continue
+        if kept is not None:
+            kept.keep()
         if remaining > spin:
-            time.sleep(min(remaining - spin, 0.1))
+            pause(min(remaining - spin, 0.1))
         else:
-            os.sched_yield()
+            turn()

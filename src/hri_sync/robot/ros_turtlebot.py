@@ -29,10 +29,13 @@ from hri_sync.ros.outbox import Publisher, closed_at_shutdown
 from hri_sync.ros.params import ParamError, param, positive
 from hri_sync.ros.stamps import header, stamp
 from hri_sync.ros.timers import start_timing, wait_for
-from hri_sync.clock.truth import realtime, true_time, wait_until
+from hri_sync.clock.truth import KeptGil, realtime, true_time, wait_until
 from hri_sync.wire.validate import Context
 from hri_sync.wire.vocabulary import MAX_UNCERTAINTY
 
+# s before a start's spin that its thread takes the GIL and keeps it
+# (clock.truth): while the cores are still free of other robots' spins.
+HOLD = 0.02
 LOG = {'info': rospy.loginfo, 'warn': rospy.logwarn, 'error': rospy.logerr}
 
 
@@ -230,13 +233,20 @@ class TurtlebotGesture:
         return trip
 
     def execute(self, job):
-        trip = self.guard(job)
-        run = None if trip is not None else self.rob.begin(job)
+        # The GIL is kept from HOLD s before the start to the first command.
+        with KeptGil() as kept:
+            trip = self.guard(job)
+            run = None if trip is not None else self.rob.begin(job)
+            if trip is None and (run is None or wait_until(
+                    self.cpm.clock.now, run.start, spin=self.start_spin,
+                    stop=rospy.is_shutdown, hold=self.start_spin + HOLD,
+                    kept=kept) is None):
+                return
+            self.run_job(job, run, trip, kept)
+
+    def run_job(self, job, run, trip, kept):
+        """Command ``run`` from its start (now) to its end or a trip."""
         now = self.cpm.clock.now
-        if trip is None and (run is None or wait_until(
-                now, run.start, spin=self.start_spin,
-                stop=rospy.is_shutdown) is None):
-            return
         while trip is None and not rospy.is_shutdown():
             trip = self.guard(job)
             if trip is not None:
@@ -246,6 +256,7 @@ class TurtlebotGesture:
             if tick is None:
                 break
             self.command(*tick.twist)
+            kept.release()
             if tick.first:
                 # Robots starting at this instant on other real-time
                 # threads get the core before this one's bookkeeping.
