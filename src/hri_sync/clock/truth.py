@@ -136,18 +136,20 @@ class KeptGil:
 def wait_until(now: Callable, target: float, spin: float = 0.003,
                stop: Callable = lambda: False, hold: float = 0.0,
                kept: Optional[KeptGil] = None, sleep: Callable = time.sleep,
-               pause: Callable = pause, turn: Callable = turn
-               ) -> float | None:
+               pause: Callable = pause, turn: Callable = turn,
+               free_turn: Callable = os.sched_yield) -> float | None:
     """Block until ``now() >= target`` (both in the same clock, s).
 
     Sleeps (``sleep``, which releases the GIL) until ``max(hold, spin)``
     s before the target; from ``hold`` s before it keeps the GIL
     (``kept.keep()``, then ``pause`` until ``spin`` s before); then spins,
-    yielding the CPU at each turn (``turn``): several real-time threads
-    spinning for the same instant (robots in unison) take turns on the
-    cores instead of the first ones holding them past the target.  The
-    caller releases ``kept`` once its start is done.  Returns how late it
-    returned (s, >= 0), or None if ``stop()`` became true first.
+    yielding the CPU at each turn (``turn``; without ``kept``,
+    ``free_turn``, which releases the GIL, so that start threads of one
+    process take turns): several real-time threads spinning for the same
+    instant (robots in unison) take turns on the cores instead of the
+    first ones holding them past the target.  The caller releases
+    ``kept`` once its start is done.  Returns how late it returned (s,
+    >= 0), or None if ``stop()`` became true first.
     """
     ahead = max(hold, spin)
     while True:
@@ -164,4 +166,4 @@ def wait_until(now: Callable, target: float, spin: float = 0.003,
         if remaining > spin:
             pause(min(remaining - spin, 0.1))
         else:
-            turn()
+            (turn if kept is not None else free_turn)()
