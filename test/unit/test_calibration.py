@@ -312,3 +312,18 @@ def test_a_recording_files_the_calibration_apart_from_the_rounds():
     c.topics = {'/decision': 'hri_sync/Decision'}
     assert analysis.calibration(build_session(c)) is None
     assert 'none recorded' in analysis.calibration_text(None)
+
+
+def test_a_processor_without_a_quiet_level_calibrates_nothing():
+    # CountMean's value is a mean, not a level of activity: its floor
+    # stays unknown and the decision module's threshold rule decides.
+    from hri_sync.data_process.processors import CountMean
+    d = DataProcess(CountMean)
+    d.set_clock(ClockModel(0.0, OFFSET, 0.0, 50e-6))
+    d.calibrate(8.0, 10.0)
+    d.open(1, 11.0, 12.0)
+    cal, r = feed(d, 0.0, 7.2, lambda t: 2.0)
+    assert cal.calibration and cal.status == 'ok' and cal.value == 2.0
+    assert not d.calibration.done
+    assert math.isnan(r.noise_floor) and r.noise_source == ''
+    assert math.isnan(cal.noise_floor) and cal.noise_source == ''

@@ -186,7 +186,8 @@ class SkeletonSensor:
 
     def on_calibration(self, msg):
         """The CM's calibration window: the person stands still in it (a
-        motion pauses, a bag shows ~calibration_bag or plays on)."""
+        motion pauses, a bag shows ~calibration_bag or plays on; a
+        bystander pauses)."""
         clock, order = self.clock, Capture.from_msg(msg)
         if clock is None or self.client_id not in order.clients:
             return
@@ -200,7 +201,7 @@ class SkeletonSensor:
             self.source.pause(t0, t1)
         elif self.still is not None:
             self.pauses.append((t0, t1))
-        if still and self.bystander is not None:
+        if self.bystander is not None:      # a motion of its own: still
             self.bystander.pause(t0, t1)
         rospy.loginfo('%s: calibration window in %.1f s: %s for %.1f s',
                       rospy.get_name(), t0 - time.time(),

@@ -550,7 +550,9 @@ class DataProcess:
         """The window's (noise floor, NoiseSource), a calibration window
         taken first; how they were made goes into ``diagnostics``."""
         cal = self.calibration
-        if w.round == CALIBRATION_ROUND:
+        if w.round == CALIBRATION_ROUND and self.baseline is not None:
+            # (a processor without a quiet level, whose value is not a
+            # level of activity, calibrates nothing)
             cal.take(status == ResultStatus.OK, value, w.start, w.end,
                      diagnostics.get('error') or 'its status is %s%s' % (
                          status, ': ' + diagnostics['sensor_silent']

@@ -162,7 +162,7 @@ class Calibration:
         """(noise floor, NoiseSource) of a window whose own estimate is
         ``own`` and whose quiet baseline is ``quiet`` (NaN: none yet;
         ``has_baseline`` False: the processor has none)."""
-        if self.done:
+        if self.done and has_baseline:
             return combine(own, self.level), NoiseSource.NOISE_CALIBRATION
         floor = combine(own, quiet)
         if not valid_floor(floor):
