@@ -35,7 +35,7 @@ from hri_sync.data_process.processors import load_processor
 from hri_sync.data_process.republish import a_time
 from hri_sync.wire.protocol import Capture
 from hri_sync.wire.validate import Context
-from hri_sync.wire.vocabulary import CALIBRATION_NS
+from hri_sync.wire.vocabulary import CALIBRATION_NS, CALIBRATION_ROUND
 
 
 class DataProcessModule:
@@ -265,8 +265,9 @@ class DataProcessModule:
         local = time.time()
         with self.lock:
             self.core.started(round_id, local)
-        rospy.loginfo('%s: round %d capture started', self.client_id,
-                      round_id)
+        rospy.loginfo('%s: %s capture started', self.client_id,
+                      'calibration' if round_id == CALIBRATION_ROUND
+                      else 'round %d' % round_id)
 
     def poll(self):
         """Windows complete for lack of samples: checked every 5 ms from

@@ -55,7 +55,7 @@ class DecisionModule:
         self.pub = Publisher('decision', Decision, queue_size=10,
                              latch=True)
         self.calibration_pub = Publisher(CALIBRATION_NS + '/decision',
-                                         Decision, queue_size=10)
+                                         Decision, queue_size=10, latch=True)
         # The server host's global clock, kept by the CM (latched).
         self.clock = None
         # Only the CM opens, aborts and times rounds; only X's DPM (or its
@@ -68,7 +68,8 @@ class DecisionModule:
         self.inbox = Inbox()
         self.diagnostics = DecisionDiagnostics(
             self.participants, clock_topic, self.noise_health,
-            lambda: dict(self.collector.ignored), self.inbox.summary)
+            lambda: dict(self.collector.ignored), self.inbox.summary,
+            self.calibration_rejections)
         self.inbox.subscribe(clock_topic, ClockState, self.on_clock, 'cm',
                              client='server', context=self.context)
         self.inbox.subscribe('capture_data', CaptureData, self.on_capture,
@@ -94,6 +95,14 @@ class DecisionModule:
             return noise_health(c.rule[3] == NOISE, self.participants,
                                 dict(c.noise_sources), dict(c.noise_unknown),
                                 dict(c.noise_uncalibrated))
+
+    def calibration_rejections(self):
+        """{'<calibration topic> <reason>': n}: the calibration's orders
+        and results not taken."""
+        return {'%s %s' % (rospy.resolve_name(CALIBRATION_NS + (
+            '/capture_data' if why in DecisionDiagnostics.CAPTURE_REASONS
+            else '/client_result')), why): n
+            for why, n in dict(self.calibration.ignored).items()}
 
     def on_clock(self, msg):
         self.diagnostics.clock.on_state(msg)
