@@ -319,7 +319,8 @@ class ControlModule:
         if self.calibration is None or self.session.round != 0:
             return
         if not clock.ready:
-            rospy.logerr('calibration skipped: the server has no clock')
+            rospy.logerr('calibration skipped: the server\'s clock is not '
+                         'synced (%s)', self.synced_clock.last_error)
             return
         wanted = [self.inbox.senders.names('dm')] + [
             self.inbox.senders.names('dpm', c) for c in self.participants]
@@ -357,20 +358,20 @@ class ControlModule:
     def run(self):
         if self.rounds == 0:
             # The calls wait for the clients (and the calibration, when
-            # this node's clock allows one), not for the clock: a round
-            # without it aborts at once and says so.
+            # this node's clock is synced by then), not for the clock: a
+            # round without it aborts at once and says so.
             rospy.loginfo('waiting for ~start_round calls (next: round %d)',
                           self.session.round + 1)
             self.wait_for_clients()
             self.wait_for_recorder()
+            self.calibrate()
+            self.clients_waited.set()
         if not self.synced_clock.wait_ready(self.connect_timeout):
             if rospy.is_shutdown():
                 return
             rospy.logerr('server cannot sync to its time server: %s',
                          self.synced_clock.last_error)
         if self.rounds == 0:
-            self.calibrate()
-            self.clients_waited.set()
             rospy.spin()
             self.call(self.session.shutdown)
             return
