@@ -327,3 +327,23 @@ def test_a_processor_without_a_quiet_level_calibrates_nothing():
     assert not d.calibration.done
     assert math.isnan(r.noise_floor) and r.noise_source == ''
     assert math.isnan(cal.noise_floor) and cal.noise_source == ''
+
+
+def test_the_calibration_windows_samples_are_not_republished():
+    # <client>/captured holds the samples the rounds' results were
+    # computed from, no more.
+    d = dpm()
+    d.calibrate(8.0, 10.0)
+    d.open(1, 11.0, 12.0)
+    steps = [d.on_sample(NS(value=0.3), k / RATE)
+             for k in range(int(7.2 * RATE))]
+    cal, r = [x for s in steps for x in s.results]
+    captured = [c for s in steps for c in s.captured]
+    assert cal.frames == 40 and r.frames == 20
+    assert len(captured) == r.frames
+    assert all(11.0 <= t < 12.0 for t, _, _ in captured)
+    late = dpm()
+    feed(late, 0.0, 4.0, dancing)       # history: 7 to 9 s global
+    step = late.calibrate(8.0, 9.5)
+    assert step.captured == [] and 8.0 in [w.start for w in
+                                           late.windows.values()]

@@ -381,7 +381,8 @@ class DataProcess:
         self.history.add(stamp, (msg, raw, arrival, bound))
         captured = False
         for w in list(self.windows.values()):
-            captured |= w.offer(stamp, msg, arrival, bound)
+            took = w.offer(stamp, msg, arrival, bound)
+            captured |= took and w.round != CALIBRATION_ROUND
             if w.complete:
                 step.results.append(self._close(w))
         if captured:
@@ -427,7 +428,8 @@ class DataProcess:
             self._spans.append((start, end))
         for f in self.history.take(start, GlobalTime(math.inf)):
             msg, raw, arrival, bound = f.msg
-            if w.offer(GlobalTime(f.stamp), msg, arrival, bound):
+            if w.offer(GlobalTime(f.stamp), msg, arrival, bound) and \
+                    round_id != CALIBRATION_ROUND:
                 step.captured.append((f.stamp, msg, raw))
             if w.complete:
                 step.results.append(self._close(w))
@@ -438,7 +440,9 @@ class DataProcess:
         """The CM's calibration window [start, end) (global; nobody
         moves): captured as a window of round ``CALIBRATION_ROUND``, whose
         result (``WindowResult.calibration``), when ok, sets the quiet
-        level of every later result's noise floor."""
+        level of every later result's noise floor.  Its samples are not
+        among a Step's ``captured``: the republished samples are the
+        rounds'."""
         return self.open(CALIBRATION_ROUND, start, end)
 
     def started(self, round_id: int, local: LocalTime) -> None:

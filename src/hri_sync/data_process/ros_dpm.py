@@ -242,7 +242,7 @@ class DataProcessModule:
                 self.core.open(cmd.round, cmd.start, cmd.end)
             clock = self.core.clock
             opened = cmd.round in self.core.windows
-            if opened and self.republisher:
+            if opened and self.republisher and not calibrate:
                 self.republisher.hold(cmd.start, cmd.end)
         self.handle(step)
         if opened:
