@@ -20,14 +20,32 @@ rendered truth. Prints one JSON object:
 - ``duplicate_people``: person ids beyond the one dancer;
   ``missing_frames``: instants without a person once tracking started;
 - ``bound_coverage``: share of fused joints within their 95 % bound;
+- ``view_oracle_mean_m`` / ``view_oracle_hidden_mean_m``: at each fused
+  instant and joint the view nearest the truth (which no fusion can
+  know): a ceiling for any weighting of the views;
 - ``no_time_alignment``: the same fusion fed each view's arrival time as
   its stamp (a plain subscriber), same figures;
 - ``targets``: each target and whether it is met.
+
+``--people 2`` or ``3``: the dancer's first 13 s and one or two walkers
+crossing (WALKERS), every view tracked as several users, the fused people
+scored against the truth instead (hri_sync_support.fusion_people):
+``id_switches``, ``reentries``, ``id_transfers``, ``duplicate_people``,
+``duplicate_instants``, ``missing_people``, ``fused_mean_m`` per person,
+``view_alone`` (each view's tracker scored alike); docs/fusion.md.
+
+``--pose-error VIEW:DX,DY,DEG``: the fusion is told VIEW's pose moved DX,
+DY m and turned DEG degrees (a pose wrong from the start; the renders are
+the true poses'); ``pose_error`` says how far its skeletons were off, when
+they were first fused with another view's, which views were reported and
+the fitted pose's error.
 
     bench/fusion_accuracy.py --motion data/motion/cmu_60_01_salsa.track \
         --views 3
     bench/fusion_accuracy.py \
         --motion /work/shared/data/mocap/cmu_61_01_salsa.bvh --views 4
+    bench/fusion_accuracy.py --motion data/motion/cmu_60_01_salsa.track \
+        --views 3 --people 3
 
 Renders are cached in --cache (default /tmp/hri_sync_fusion). Needs the
 built workspace sourced (source WS/devel/setup.bash).
@@ -47,13 +65,17 @@ import yaml
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, 'src'))
+sys.path.insert(0, os.path.join(ROOT, 'support'))
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS  # noqa: E402
 from hri_sync.dance_off.motion import Motion, load_motion  # noqa: E402
 from hri_sync.fusion.align import Sample, Track  # noqa: E402
-from hri_sync.fusion.frames import facing  # noqa: E402
+from hri_sync.fusion.associate import body_distance  # noqa: E402
+from hri_sync.fusion.frames import SensorPose, facing  # noqa: E402
 from hri_sync.fusion.pipeline import Fusion, FusionParams  # noqa: E402
 from hri_sync.fusion.profile import Profile, fit_profile  # noqa: E402
+from hri_sync_support.fusion_people import (  # noqa: E402
+    gait_cycle, match, score, walker)
 
 FPS = 30.0
 PROFILE = os.path.join(ROOT, 'config', 'fusion_depth_tracker.yaml')
@@ -67,6 +89,16 @@ VIEWS = [
     ('back_right', (-2.6, -2.0), 0.006, -60e-6, 0.0010, 0.085),
 ]
 JITTER = 0.004      # s, mean of the exponential pipeline jitter
+USERS = 4           # users each view's tracker follows (--people 2, 3)
+# --people 2, 3: the dancer and one or two walkers, each crossing (start s,
+# lane m to the left of the heading, heading deg) a CROSSING m path past
+# the dancer: they pass each other half way, then come back in each
+# other's lane (hri_sync_support.fusion_people).
+WALKERS = [[(1.0, 0.9, 60.0), (8.0, -1.6, 240.0)],
+           [(1.3, -1.6, 240.0), (8.3, 0.9, 60.0)]]
+CROSSING = 6.0
+PEOPLE_SECONDS = 13.0
+WALK = os.path.join(ROOT, 'data', 'motion', 'cmu_131_01_walk.track')
 TICK = 0.005        # s, the node's poll period
 
 
@@ -91,24 +123,37 @@ def capture_times(i, n):
     return phase + np.arange(n) / FPS * (1 + drift)
 
 
-def render(i, world, cache, scene, eval_path):
-    """View ``i``'s tracker dump file (rendered once, then cached)."""
+def render(i, motions, cache, scene, eval_path):
+    """View ``i``'s tracker dump file (rendered once, then cached): the
+    first motion is the person (tracked alone, ``--dump``); more are the
+    crowd (``crowd_tracks``), every user tracked (``--dump-users``)."""
+    world = motions[0]
     n = int(world.duration * FPS) - 2
-    key = hashlib.sha1(repr((world.name, world.positions.shape, VIEWS[i],
-                             scene, n)).encode()).hexdigest()[:12]
-    dump = os.path.join(cache, '%s_%s_%s.dump' % (world.name, VIEWS[i][0],
-                                                  key))
+    ident = (world.name, world.positions.shape, VIEWS[i], scene, n)
+    if len(motions) > 1:
+        ident += (USERS, hashlib.sha1(np.round(np.concatenate(
+            [m.positions for m in motions[1:]]), 4).tobytes()).hexdigest())
+    key = hashlib.sha1(repr(ident).encode()).hexdigest()[:12]
+    dump = os.path.join(cache, '%s_%s%s_%s.dump' % (
+        world.name, VIEWS[i][0], '_%dp' % len(motions) if len(motions) > 1
+        else '', key))
     if os.path.exists(dump):
         return dump
     tau = np.arange(int(n / FPS * 60) + 2) / 60.0
     _, _, phase, drift, _, _ = VIEWS[i]
     t_world = np.clip(phase + tau * (1 + drift), 0, world.duration)
-    local = view_pose(i).from_world(world.positions_at(t_world))
-    track = dump[:-5] + '.track'
-    Motion(tau, local).save_track(track)
-    subprocess.run([eval_path, '--track', track, '--direct', '--scene',
-                    scene, '--seconds', '%.3f' % (n / FPS), '--dump',
-                    dump + '.part'], check=True, stdout=subprocess.DEVNULL)
+    tracks = []
+    for k, motion in enumerate(motions):
+        tracks.append('%s_%d.track' % (dump[:-5], k))
+        Motion(tau, view_pose(i).from_world(motion.positions_at(
+            t_world, 'clamp'))).save_track(tracks[-1])
+    out = ['--dump', dump + '.part']
+    if len(motions) > 1:
+        scene += '&crowd_tracks=' + ','.join(tracks[1:])
+        out = ['--users', str(USERS), '--dump-users', dump + '.part']
+    subprocess.run([eval_path, '--track', tracks[0], '--direct', '--scene',
+                    scene, '--seconds', '%.3f' % (n / FPS)] + out,
+                   check=True, stdout=subprocess.DEVNULL)
     os.replace(dump + '.part', dump)
     return dump
 
@@ -125,27 +170,36 @@ def read_dump(path):
 
 
 def messages(views, rng):
-    """Each view's skeletons as the fusion receives them: dicts with the
-    arrival time, stamp (true capture + the clock model's error), true
-    capture, uncertainty, Skeleton-frame joints and confidences."""
+    """Each view's skeletons as the fusion receives them (``timed``)."""
+    return timed([[(n, 1, est[n], conf[n]) for n in np.flatnonzero(tracked)]
+                  for tracked, est, _, conf in views], rng)
+
+
+def timed(views, rng):
+    """Skeletons as the fusion receives them, in arrival order: dicts with
+    the view, user, arrival time, stamp (true capture + the clock model's
+    error), true capture, uncertainty, Skeleton-frame joints and
+    confidences. ``views``: per view, [(frame, user, positions,
+    confidence)]."""
     out = []
-    for i, (tracked, est, _, conf) in enumerate(views):
+    for i, skeletons in enumerate(views):
         _, _, _, _, sigma, latency = VIEWS[i]
-        caught = capture_times(i, len(tracked))
-        for n in np.flatnonzero(tracked):
+        caught = capture_times(i, 1 + max((s[0] for s in skeletons),
+                                          default=0))
+        for n, user, positions, confidence in skeletons:
             out.append({
-                'view': VIEWS[i][0], 'capture': caught[n],
+                'view': VIEWS[i][0], 'user': user, 'capture': caught[n],
                 'stamp': caught[n] + rng.normal(0, sigma),
                 'uncertainty': 2.5 * sigma + 1e-5,
                 'arrival': caught[n] + latency + rng.exponential(JITTER),
-                'positions': est[n], 'confidence': conf[n]})
+                'positions': positions, 'confidence': confidence})
     return sorted(out, key=lambda m: m['arrival'])
 
 
 def run_fusion(msgs, poses, aligned, profile):
     """Frames of the fusion fed ``msgs`` in arrival order, polled after
     each and every TICK s; stamps are arrival times when not ``aligned``.
-    Also {stamp used: true capture} for the latency."""
+    Also {stamp used: true capture} for the latency, and the Fusion."""
     sim = {'now': 0.0, 'wall': time.thread_time()}
     fusion = Fusion(poses, FusionParams(),
                     lambda: sim['now'] + time.thread_time() - sim['wall'],
@@ -163,10 +217,10 @@ def run_fusion(msgs, poses, aligned, profile):
         stamp = m['stamp'] if aligned else m['arrival']
         captured[stamp - profile.delay] = m['capture']
         sim.update(now=m['arrival'], wall=time.thread_time())
-        fusion.add(m['view'], 1, stamp, m['positions'], m['confidence'],
-                   m['uncertainty'])
+        fusion.add(m['view'], m['user'], stamp, m['positions'],
+                   m['confidence'], m['uncertainty'])
         frames += fusion.poll()
-    return frames, captured
+    return frames, captured, fusion
 
 
 def truth_at(views, poses, t):
@@ -209,19 +263,21 @@ def single_view_errors(views, poses, profile, truth):
 
 def fitted_profile(views, poses, truth):
     """The tracker profile measured on these views: the delay that fits
-    best (10 ms steps), then offsets and sigmas (delay_spread: the
-    delay)."""
+    best (10 ms steps), then offsets, sigmas and the confidence power
+    (delay_spread: the delay)."""
     t = np.arange(math.ceil(FPS), int(len(views[0][0]) - FPS)) / FPS
-    est, ok = [], np.ones(len(t), bool)
-    for i, (tracked, e, _, _) in enumerate(views):
+    est, conf, ok = [], [], np.ones(len(t), bool)
+    for i, (tracked, e, _, c) in enumerate(views):
         caught = capture_times(i, len(tracked))
         est.append(Motion(caught, poses[i].to_world(e)).positions_at(t))
+        conf.append(c[np.clip(np.searchsorted(caught, t), 0, len(c) - 1)])
         ok &= np.interp(t, caught, tracked.astype(float)) >= 1.0
     est = np.array(est)[:, ok]
     scan = {d: np.linalg.norm(est - truth(t[ok] - d), axis=-1).mean()
             for d in np.arange(0.0, 0.101, 0.01)}
     delay = float(min(scan, key=scan.get))
-    return fit_profile(est, truth(t[ok] - delay), delay, delay)
+    return fit_profile(est, truth(t[ok] - delay), delay, delay,
+                       np.array(conf)[:, ok])
 
 
 def figures(frames, captured, truth, best_track):
@@ -262,6 +318,67 @@ def figures(frames, captured, truth, best_track):
     }
 
 
+def declared_poses(error, names, poses):
+    """The poses the fusion is given: the views' own, but for ``error``
+    (VIEW:DX,DY,DEG)."""
+    declared = dict(zip(names, poses))
+    if error:
+        view, _, moved = error.partition(':')
+        dx, dy, deg = (float(v) for v in moved.split(','))
+        p = declared[view]
+        declared[view] = SensorPose(p.x + dx, p.y + dy, p.z,
+                                    p.yaw + math.radians(deg), p.pitch)
+    return declared
+
+
+def pose_figures(view, frames, fusion, true, declared, truth):
+    """How the fusion met a view's wrong pose: its skeletons' offset
+    (median, along the floor), when they were first fused with another
+    view's (s from the first fused instant), the fitted pose's error."""
+    people = [f for f in frames if f.people]
+    offsets = [body_distance(declared[view].to_world(true.from_world(
+        truth([f.stamp])[0])), truth([f.stamp])[0]) for f in people[::30]]
+    joined = [f.stamp for f in people for p in f.people
+              if view in p.body.views and len(p.body.views) > 1]
+    fitted = fusion.fitted.get(view)
+    return {
+        'view': view, 'offset_m': round(float(np.median(offsets)), 3),
+        'joined_after_s': round(joined[0] - people[0].stamp, 2)
+        if joined else None,
+        'reported': sorted(v for v, h in fusion.health.items()
+                           if h.wrong_pose),
+        'fitted_error_m': round(math.hypot(fitted[0].x - true.x,
+                                           fitted[0].y - true.y), 3)
+        if fitted else None,
+        'fitted_error_deg': round(math.degrees(abs(math.remainder(
+            fitted[0].yaw - true.yaw, 2 * math.pi))), 2) if fitted else None,
+    }
+
+
+def oracle(frames, truth, tracks, best):
+    """The view nearest the truth at each fused instant and joint (mean
+    error, and on the best view's hidden joints)."""
+    near, hidden = [], []
+    for f in frames:
+        if not f.people:
+            continue
+        seen = {n: tr.at(f.stamp, 0.04) for n, tr in tracks.items()}
+        errs = np.array([np.linalg.norm(a.positions - truth([f.stamp])[0],
+                                        axis=1) for a in seen.values()
+                         if a is not None])
+        if not len(errs):
+            continue
+        low = np.nanmin(np.where(np.isfinite(errs), errs, np.inf), axis=0)
+        ok = np.isfinite(low)
+        near.extend(low[ok])
+        if seen[best] is not None:
+            hid = (seen[best].confidence < HIDDEN) & ok \
+                & np.isfinite(seen[best].positions).all(axis=1)
+            hidden.extend(low[hid])
+    return {'view_oracle_mean_m': round(float(np.mean(near)), 4),
+            'view_oracle_hidden_mean_m': round(float(np.mean(hidden)), 4)}
+
+
 def targets(out):
     """Each target of the fusion and whether this run meets it."""
     best = min(out['single_view_mean_m'].values())
@@ -287,14 +404,24 @@ def arguments():
                     help='the tracker profile (YAML; default %(default)s)')
     ap.add_argument('--table', action='store_true',
                     help='print a short table for people instead of JSON')
+    ap.add_argument('--people', type=int, default=1, choices=(1, 2, 3),
+                    help='2, 3: the dancer and walkers crossing, tracked '
+                    'as several users; ids, switches, duplicates, missing')
+    ap.add_argument('--pose-error', metavar='VIEW:DX,DY,DEG',
+                    help='tell the fusion that VIEW stands DX, DY m away '
+                    'and turned DEG degrees (its renders unchanged): a '
+                    'pose wrong from the start')
+    ap.add_argument('--jobs', '-j', type=int, default=2, choices=(1, 2),
+                    help='views rendered at once')
     ap.add_argument('--fit-profile', action='store_true',
                     help='print the tracker profile measured on this '
                     'motion (YAML) instead of the figures')
     return ap.parse_args()
 
 
-def rendered_views(args):
-    """The views' tracker dumps (read) and poses."""
+def rendered_views(args, motions):
+    """The views' tracker dump files of ``motions`` (the person, then the
+    crowd) and the views' poses."""
     eval_path = subprocess.run(
         ['catkin_find', '--first-only', '--libexec', 'hri_sync',
          'tracker_eval'], capture_output=True, text=True).stdout.strip()
@@ -302,19 +429,122 @@ def rendered_views(args):
         sys.exit('fusion_accuracy: tracker_eval is not built; run make '
                  'build and source WS/devel/setup.bash')
     os.makedirs(args.cache, exist_ok=True)
-    world = world_motion(load_motion(args.motion))
-    with concurrent.futures.ThreadPoolExecutor(2) as pool:
-        dumps = list(pool.map(lambda i: render(i, world, args.cache,
+    with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
+        dumps = list(pool.map(lambda i: render(i, motions, args.cache,
                                                args.scene, eval_path),
                               range(args.views)))
-    return ([read_dump(d) for d in dumps],
-            [view_pose(i) for i in range(args.views)])
+    return dumps, [view_pose(i) for i in range(args.views)]
+
+
+def people_motions(dancer, count):
+    """World Motions of the dancer's first PEOPLE_SECONDS and of
+    ``count - 1`` walkers (WALKERS)."""
+    t = np.arange(int(PEOPLE_SECONDS * dancer.rate) + 1) / dancer.rate
+    out = [Motion(t, dancer.positions_at(t, 'clamp'), name=dancer.name)]
+    walk = world_motion(load_motion(WALK))
+    cycle = gait_cycle(walk)
+    for crossings in WALKERS[:count - 1]:
+        out.append(walker(walk, cycle, [(
+            start, (-lane * math.sin(math.radians(heading)),
+                    lane * math.cos(math.radians(heading))),
+            math.radians(heading), CROSSING)
+            for start, lane, heading in crossings], PEOPLE_SECONDS))
+    return out
+
+
+def read_users(path):
+    """A --dump-users file: per frame, the tracked users [(user,
+    positions (15, 3), confidence (15,))], and the people's truth (frames,
+    people, 15, 3)."""
+    frames, truth = [], []
+    for line in open(path):
+        v = line.split()
+        k, users = 2, []
+        for _ in range(int(v[1])):
+            if v[k + 1] == '1':
+                users.append((int(v[k]), np.array(v[k + 2:k + 47], float)
+                              .reshape(NUM_JOINTS, 3),
+                              np.array(v[k + 47:k + 62], float)))
+            k += 2 + 4 * NUM_JOINTS
+        truth.append(np.array(v[k + 1:], float).reshape(int(v[k]),
+                                                        NUM_JOINTS, 3))
+        frames.append(users)
+    return frames, np.array(truth)
+
+
+def people_truth(views, poses):
+    """truth(t) (people, 15, 3) in world (mean of views) and seen(t)
+    (people,) whether some view tracks each person, at instant t."""
+    world, seen = [], []
+    for i, (frames, truth) in enumerate(views):
+        world.append((capture_times(i, len(truth)), poses[i].to_world(truth)))
+        seen.append(np.zeros(truth.shape[:2], bool))
+        for n, users in enumerate(frames):
+            pairs = match(np.array([p for _, p, _ in users]), truth[n])
+            seen[-1][n, list(pairs.values())] = True
+
+    def truth_at(t):
+        return np.mean([[Motion(caught, w[:, k]).positions_at([t], 'clamp')[0]
+                         for k in range(w.shape[1])] for caught, w in world],
+                       axis=0)
+
+    def seen_at(t):
+        out = np.zeros(len(seen[0][0]), bool)
+        for (caught, _), s in zip(world, seen):
+            n = round((t - caught[0]) * FPS)
+            out |= s[n] if 0 <= n < len(s) else False
+        return out
+    return truth_at, seen_at
+
+
+def people_main(args, names, profile):
+    """--people: ids kept, switches, duplicates and people missing."""
+    motions = people_motions(world_motion(load_motion(args.motion)),
+                             args.people)
+    dumps, poses = rendered_views(args, motions)
+    views = [read_users(d) for d in dumps]
+    truth, seen = people_truth(views, poses)
+    msgs = timed([[(n, u, p, c) for n, users in enumerate(frames)
+                   for u, p, c in users] for frames, _ in views],
+                 np.random.default_rng(args.seed))
+    out = {'motion': os.path.basename(args.motion), 'views': args.views,
+           'people': args.people, 'seconds': PEOPLE_SECONDS,
+           'view_alone': {}}
+    for i, name in enumerate(names):
+        mine = {}
+        for m in msgs:
+            if m['view'] == name:
+                mine.setdefault(m['capture'], []).append(
+                    (m['user'], poses[i].to_world(m['positions'])))
+        out['view_alone'][name] = {k: v for k, v in score(
+            sorted(mine.items()), truth, seen).items()
+            if k in ('id_switches', 'id_transfers', 'reentries',
+                     'duplicate_people',
+                     'fused_ids')}
+    for aligned in (True, False):
+        frames, _, _ = run_fusion(msgs, dict(zip(names, poses)), aligned,
+                                  profile)
+        result = score([(f.stamp, [(p.person, p.body.positions)
+                                   for p in f.people]) for f in frames],
+                       truth, seen)
+        if aligned:
+            out.update(result)
+        else:
+            out['no_time_alignment'] = result
+    print(json.dumps(out, indent=1, default=float))
 
 
 def main():
     args = arguments()
-    views, poses = rendered_views(args)
     names = [v[0] for v in VIEWS[:args.views]]
+    with open(args.profile) as f:
+        profile = Profile.from_dict(yaml.safe_load(f))
+    if args.people > 1:
+        people_main(args, names, profile)
+        return
+    dumps, poses = rendered_views(
+        args, [world_motion(load_motion(args.motion))])
+    views = [read_dump(d) for d in dumps]
 
     def truth(t):
         return truth_at(views, poses, t)
@@ -323,8 +553,6 @@ def main():
         print(yaml.safe_dump(fitted_profile(views, poses, truth).to_dict(),
                              default_flow_style=None, sort_keys=False))
         return
-    with open(args.profile) as f:
-        profile = Profile.from_dict(yaml.safe_load(f))
     msgs = messages(views, np.random.default_rng(args.seed))
     fixed, raw = single_view_errors(views, poses, profile, truth)
     best = names[int(np.argmin(fixed))]
@@ -336,13 +564,21 @@ def main():
            'slowest_pipeline_p95_ms': round(max(np.percentile(
                [m['arrival'] - m['capture'] for m in msgs
                 if m['view'] == name], 95) for name in names) * 1e3, 1)}
+    declared = declared_poses(args.pose_error, names, poses)
     for aligned in (True, False):
-        frames, captured = run_fusion(msgs, dict(zip(names, poses)),
-                                      aligned, profile)
+        frames, captured, fusion = run_fusion(msgs, declared, aligned,
+                                              profile)
         result = figures(frames, captured, truth, best_view_track(
             msgs, best, poses, aligned, profile))
         if aligned:
             out.update(result)
+            out.update(oracle(frames, truth, {n: best_view_track(
+                msgs, n, poses, aligned, profile) for n in names}, best))
+            if args.pose_error:
+                out['pose_error'] = pose_figures(
+                    args.pose_error.split(':')[0], frames, fusion,
+                    poses[names.index(args.pose_error.split(':')[0])],
+                    declared, truth)
         else:
             out['no_time_alignment'] = result
     out['targets'] = targets(out)

@@ -74,6 +74,25 @@ class Room {
   int frames_ = 0;
 };
 
+/// A Kinect v1 now and then shifts the disparity of a whole frame: every depth
+/// moves by the same step of 1/z (centimetres at 4 m). The shift is measured
+/// as the median change of 1/z, against a running reference, over the cells
+/// that read nearly what they read before (the background, a still person;
+/// someone moving reads far off and is left out), and taken out of the frame.
+class DepthSteadier {
+ public:
+  /// Corrects g in place; returns the shift taken out (1/m).
+  double correct(PointGrid* g);
+  void reset() {
+    ref_.clear();
+    mean_shift_ = 0;
+  }
+
+ private:
+  std::vector<float> ref_;  ///< per cell: its corrected 1/z, low-passed (0: none yet)
+  double mean_shift_ = 0;   ///< the measured shifts' running mean (1/m)
+};
+
 struct Segmentation {
   std::vector<int> cells;        ///< grid indices of the user
   std::vector<uint8_t> mask;     ///< per grid cell: 1 = user
@@ -235,6 +254,7 @@ struct TrackerParams {
   int calibration_frames = 15;
   int hold_frames = 10;       ///< how long a lost extremity is held
   JointFilterParams filter;   ///< each joint's filter (joint_filter.h)
+  bool steady_depth = true;   ///< take each frame's depth shift out (DepthSteadier)
 };
 
 struct SkeletonEstimate {
@@ -272,6 +292,8 @@ class DepthTracker {
   /// Stage "fit": the model fit refines this frame's estimate and last frame's
   /// pose; the one explaining the depth better wins.
   void fit(const PointGrid& g, const Segmentation& seg, Joints* j, std::array<float, NUM_JOINTS>* conf);
+  /// Keeps every kRefitEvery-th fitted frame for the second bone-length search.
+  void keepForRefit(const PointGrid& g, const Segmentation& seg);
   Joints smooth(const Joints& j, double t);
   LabelMemory memory() const;
   SkeletonEstimate follow(const PointGrid& g, const Segmentation& seg, double t);
@@ -279,6 +301,7 @@ class DepthTracker {
   Camera cam_;
   TrackerParams params_;
   Room room_;
+  DepthSteadier steadier_;
   Plane floor_;                 ///< the room's, or the multi-user tracker's
   BodyModel model_;
   std::vector<CalibrationSample> calib_;
@@ -291,6 +314,12 @@ class DepthTracker {
   double torso_bias_ = 0;
   std::vector<FitFrame> calib_frames_;  ///< frames kept to fit the bone lengths
   std::unique_ptr<ModelSearch> search_;  ///< the bone-length search under way
+  BodyModel target_;                      ///< the search's best, which model_ approaches
+  /// Second search: frames kept once the first is over, each from its fitted
+  /// pose (the first starts from rough poses and stops in their minimum).
+  std::vector<FitFrame> refine_frames_;
+  bool refined_ = false;
+  int refit_count_ = 0;
   bool have_fit_ = false;
   Joints prev_fit_;             ///< last frame's fitted pose, before smoothing
   std::array<JointFilter, NUM_JOINTS> filters_;

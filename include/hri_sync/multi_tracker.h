@@ -76,6 +76,7 @@ class MultiTracker {
   TrackerParams params_;
   MultiParams multi_;
   Room room_;
+  DepthSteadier steadier_;
   std::vector<User> users_;
   uint32_t next_id_ = 1;
 };

@@ -9,6 +9,7 @@
 
 #include "hri_sync/body.h"
 #include "hri_sync/depth_tracker.h"
+#include "hri_sync/render.h"
 
 namespace hri_sync {
 
@@ -18,6 +19,9 @@ struct PoseFitParams {
   double free_space = 1.0;     ///< weight of model surface seen in free space
   double margin = 0.03;        ///< depth tolerance of the free-space test (m)
   double stiffness = 2.0;      ///< points' worth of inertia per joint per iteration
+  /// Pull the sole of a leg seen down to the floor band onto the floor: the
+  /// bone-length search's cue for the leg's length, which the band hides.
+  bool ground = false;
 };
 
 struct PoseFit {
@@ -46,6 +50,8 @@ class PoseFitter {
   /// hint: per user cell, the capsule that explained it last (-1: none yet).
   double step(Joints* j, std::vector<int8_t>* hint, std::array<int, NUM_JOINTS>* support, bool move) const;
   void constrain(Joints* j) const;
+  /// The model's body: the head ball, then the virtual Kinect's capsules (render.h).
+  const BodyPart& part(int c) const { return c == 0 ? head_ : kBodyParts[c - 1]; }
 
   Camera cam_;
   const PointGrid& g_;
@@ -54,7 +60,11 @@ class PoseFitter {
   PoseFitParams p_;
   std::vector<int> nearest_;   ///< per grid cell: the nearest user cell
   std::vector<Bone> bones_;
+  BodyPart head_;
 };
+
+/// from with each searched length moved towards to's by at most max_step of itself.
+BodyModel towards(const BodyModel& from, const BodyModel& to, double max_step);
 
 /// The search for the bone lengths and trunk proportions with which the model
 /// explains kept frames best: coordinate descent over each length's scale from

@@ -37,11 +37,15 @@ struct BodyPart {
 };
 constexpr CapsuleEnd atJoint(int i) { return {i, i, 0.0}; }
 
+/// The foot: a ball on the shin's line, its centre this share of the shin
+/// above the foot joint (about 4 cm), so that the foot joint is the sole.
+inline constexpr double kFootBall = 0.09;
+
 /// The body below the head (radii of an average adult): the virtual Kinect
 /// renders these capsules and the tracker's model fit assumes the same shape.
 inline constexpr std::array<BodyPart, 19> kBodyParts = {{
     {atJoint(NECK), atJoint(HEAD), 0.055},
-    {atJoint(NECK), atJoint(TORSO), 0.12},
+    {{NECK, TORSO, 0.1}, atJoint(TORSO), 0.10},
     {atJoint(TORSO), {L_HIP, R_HIP, 0.5}, 0.12},
     {atJoint(L_SHOULDER), atJoint(R_SHOULDER), 0.06},
     {atJoint(L_SHOULDER), atJoint(L_HIP), 0.09},
@@ -55,14 +59,19 @@ inline constexpr std::array<BodyPart, 19> kBodyParts = {{
     {atJoint(R_HAND), atJoint(R_HAND), 0.05},
     {atJoint(L_HIP), atJoint(L_KNEE), 0.075},
     {atJoint(R_HIP), atJoint(R_KNEE), 0.075},
-    {atJoint(L_KNEE), atJoint(L_FOOT), 0.055},
-    {atJoint(R_KNEE), atJoint(R_FOOT), 0.055},
-    {atJoint(L_FOOT), atJoint(L_FOOT), 0.06},
-    {atJoint(R_FOOT), atJoint(R_FOOT), 0.06},
+    {atJoint(L_KNEE), {L_FOOT, L_KNEE, kFootBall}, 0.055},
+    {atJoint(R_KNEE), {R_FOOT, R_KNEE, kFootBall}, 0.055},
+    {{L_FOOT, L_KNEE, kFootBall}, {L_FOOT, L_KNEE, kFootBall}, 0.045},
+    {{R_FOOT, R_KNEE, kFootBall}, {R_FOOT, R_KNEE, kFootBall}, 0.045},
 }};
 
-/// The capsules of the body model the virtual Kinect renders: a head sphere
-/// above the head joint, then kBodyParts.
+/// The head: a ball of kHeadRadius whose centre lies kHeadAbove beyond the head
+/// joint along the neck-to-head line (the head joint sits at the skull's base).
+inline constexpr double kHeadRadius = 0.10;
+inline constexpr double kHeadAbove = 0.045;
+
+/// The capsules of the body model the virtual Kinect renders: the head ball,
+/// then kBodyParts.
 std::vector<Capsule> bodyCapsules(const Joints& j);
 
 /// Ray-capsule distance from origin o along the unit direction rd, or -1.

@@ -89,7 +89,9 @@ struct KinectNoise {
   double projector_x = 1.0;      ///< +1: projector on the sensor's +x side, -1: -x side
   bool holes = true;             ///< dropouts on dark, far or grazing surfaces
   double min_range = 0.8;        ///< default mode 0.8 m (near mode 0.4-0.5 m)
-  double max_range = 4.0;        ///< the specified working range; beyond reads 0
+  /// Beyond max_range reads 0. The specified working range ends at 4 m, but the
+  /// sensor reads farther, more noisily (its error was measured to 5 m).
+  double max_range = 5.0;
 
   /// The depth (m) a Kinect v1 reports for a true depth z, before random error.
   double quantize(double z) const;
@@ -118,10 +120,16 @@ struct SceneOptions {
                                    ///< stand: m to the side (+x right, -x left)
   BodyShape bystander_shape = BodyShape::preset("short_broad");
   int crowd = 0;                   ///< more people (0-3), on the bystander's track (multi-user tests)
-  std::string crowd_motion = "stand";  ///< stand (in a row beside the person) or walk (across the room)
+  /// stand (in a row beside the person), walk (across the room) or track
+  /// (each on its own track of crowd_tracks)
+  std::string crowd_motion = "stand";
   double crowd_spacing = 0.9;      ///< stand: m between neighbours along x; walk: m between walking lanes
-  /// Whether the scene needs the walk track (a bystander or a crowd).
-  bool needsWalk() const { return bystander != "none" || crowd > 0; }
+  /// crowd_motion track: crowd member c's .track file, its joints as they
+  /// are in the person's track frame (moved with the person by distance):
+  /// one room seen by several sensors, each given the tracks in its own frame.
+  std::vector<std::string> crowd_tracks;
+  /// Whether the scene needs the walk track (a bystander, or a crowd on it).
+  bool needsWalk() const { return bystander != "none" || (crowd > 0 && crowd_motion != "track"); }
   /// Throws std::invalid_argument when a value is out of its documented range.
   void validate() const;
 };

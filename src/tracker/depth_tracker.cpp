@@ -15,7 +15,16 @@ namespace hri_sync {
 namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
-constexpr int kSearchFitsPerFrame = 2;  // pose fits of the bone-length search per frame
+// DepthSteadier: cells within 3 disparity steps (2.85e-3 1/m each) of their
+// reference measure the shift; at least this many of them; the reference's rate.
+constexpr double kSteadyBand = 3 * 2.85e-3;
+constexpr size_t kSteadyCells = 200;
+constexpr double kSteadyRate = 0.1;
+constexpr double kSteadyMeanRate = 1.0 / 900;  // the shifts' mean over about 30 s
+constexpr int kSearchFitsPerFrame = 4;  // pose fits of the bone-length search per frame
+constexpr int kRefitEvery = 3;          // frames between two kept for the second search
+constexpr size_t kRefitFrames = 8;      // frames the second search fits
+constexpr double kModelStepPerFrame = 0.003;  // a length's largest relative change per frame
 constexpr int kSeenPoints = 5;  // depth points a fitted joint needs to count as seen
 
 // Neighbouring points belong to one object when their depths differ by less than this.
@@ -200,6 +209,43 @@ PointGrid makeGrid(const uint16_t* depth_mm, const Camera& cam, int step) {
   return g;
 }
 
+namespace {
+
+// The least-squares plane y = a x + b z + c through the points within 2 cm of
+// a RANSAC plane (three points tilt a narrow strip of floor by degrees).
+Plane refineFloor(const PointGrid& g, const std::vector<int>& cand, const Plane& p) {
+  double m[3][3] = {}, r[3] = {};
+  for (int i : cand) {
+    const Vec3& q = g.points[i];
+    if (std::fabs(p.height(q)) >= 0.02) continue;
+    const double v[3] = {q.x, q.z, 1.0};
+    for (int a = 0; a < 3; ++a) {
+      r[a] += v[a] * q.y;
+      for (int b = 0; b < 3; ++b) m[a][b] += v[a] * v[b];
+    }
+  }
+  auto det = [](const double (&k)[3][3]) {
+    return k[0][0] * (k[1][1] * k[2][2] - k[1][2] * k[2][1]) - k[0][1] * (k[1][0] * k[2][2] - k[1][2] * k[2][0]) +
+           k[0][2] * (k[1][0] * k[2][1] - k[1][1] * k[2][0]);
+  };
+  const double d0 = det(m);
+  if (std::fabs(d0) < 1e-12) return p;
+  double sol[3];
+  for (int c = 0; c < 3; ++c) {  // Cramer's rule
+    double k[3][3];
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) k[a][b] = b == c ? r[a] : m[a][b];
+    sol[c] = det(k) / d0;
+  }
+  Plane out = p;
+  const Vec3 n(-sol[0], 1.0, -sol[1]);
+  out.n = n.normalized();
+  out.d = -sol[2] / n.norm();
+  return out;
+}
+
+}  // namespace
+
 Plane fitFloor(const PointGrid& g, uint32_t seed) {
   std::vector<int> cand;  // the lower half of the image holds the floor
   for (int y = g.height / 2; y < g.height; ++y)
@@ -223,8 +269,15 @@ Plane fitFloor(const PointGrid& g, uint32_t seed) {
       best.d = d;
     }
   }
-  // The floor must be a large share of the lower half and lie below the sensor.
-  best.found = best_inliers > cand.size() / 5 && best.d > 0.2;
+  if (best_inliers >= 3) best = refineFloor(g, cand, best);
+  // The floor lies below the sensor and is a large share of the lower half, or
+  // (a narrow strip before a wall near the person) a smaller one with nothing
+  // seen below it, which a table top or a seat would have.
+  size_t below = 0;
+  for (int i : cand) below += best.n.dot(g.points[i]) + best.d < -0.05;
+  const bool large = best_inliers > cand.size() / 5;
+  const bool strip = best_inliers > cand.size() / 25 && below < best_inliers / 50;
+  best.found = (large || strip) && best.d > 0.2;
   return best;
 }
 
@@ -317,6 +370,31 @@ bool wallStands(const PointGrid& g, const Plane& floor, const Plane& wall) {
     behind += d < -2 * m;
   }
   return area >= 1.0 && behind < on;
+}
+
+double DepthSteadier::correct(PointGrid* g) {
+  const size_t n = g->points.size();
+  if (ref_.size() != n) ref_.assign(n, 0.f);
+  std::vector<double> diffs;
+  for (size_t i = 0; i < n; ++i) {
+    if (!g->valid[i] || ref_[i] <= 0) continue;
+    const double d = 1.0 / g->points[i].z - ref_[i];
+    if (std::fabs(d) < kSteadyBand) diffs.push_back(d);
+  }
+  // The reference holds the first frame's shift; the shifts' long mean (the
+  // sensor's are centred on zero) takes it out slowly.
+  const double shift = diffs.size() >= kSteadyCells ? median(diffs) : 0.0;
+  mean_shift_ += kSteadyMeanRate * (shift - mean_shift_);
+  for (size_t i = 0; i < n; ++i) {
+    if (!g->valid[i]) continue;
+    Vec3& p = g->points[i];
+    const double steady = 1.0 / p.z - shift;
+    if (steady <= 0) continue;
+    ref_[i] = ref_[i] <= 0 ? static_cast<float>(steady) : static_cast<float>(ref_[i] + kSteadyRate * (steady - ref_[i]));
+    const double out = steady + mean_shift_;
+    if (out > 0) p = p * (1.0 / (out * p.z));
+  }
+  return shift - mean_shift_;
 }
 
 void Room::update(const PointGrid& g) {
@@ -610,11 +688,15 @@ DepthTracker::~DepthTracker() = default;
 
 void DepthTracker::reset() {
   room_.reset();
+  steadier_.reset();
   floor_ = Plane();
-  model_ = BodyModel();
+  model_ = target_ = BodyModel();
   calib_.clear();
   calib_frames_.clear();
   search_.reset();
+  refine_frames_.clear();
+  refined_ = false;
+  refit_count_ = 0;
   have_prev_ = false;
   tip_age_.fill(1 << 20);
   lateral_ = Vec3(1, 0, 0);
@@ -875,6 +957,7 @@ void DepthTracker::calibrate(const PointGrid& g, const Segmentation& seg, const 
     if (calib_.size() % 2 == 0) calib_frames_.push_back({g, seg, floor_, j});
     if (static_cast<int>(calib_.size()) >= params_.calibration_frames) {
       model_ = calibrateBody(calib_);
+      target_ = model_;
       if (model_.calibrated) search_ = std::make_unique<ModelSearch>(cam_, std::move(calib_frames_), model_);
       calib_.clear();  // done (or no head seen yet: start over)
       calib_frames_.clear();
@@ -883,14 +966,21 @@ void DepthTracker::calibrate(const PointGrid& g, const Segmentation& seg, const 
   // The bone lengths are refined on the kept frames, a few fits per frame.
   if (search_) {
     const bool over = search_->advance(kSearchFitsPerFrame);
-    model_ = search_->best();
+    target_ = search_->best();
     if (over) search_.reset();
   }
+  // The model the poses are fitted with follows the search's best slowly: a
+  // length changed at once would move a still person's joints in one frame.
+  if (model_.calibrated) model_ = towards(model_, target_, kModelStepPerFrame);
 }
 
 void DepthTracker::fit(const PointGrid& g, const Segmentation& seg, Joints* j,
                        std::array<float, NUM_JOINTS>* conf) {
-  PoseFitter fitter(cam_, g, seg, floor_, model_);
+  // Soles go to the floor once the first length search is over: with the
+  // rough first lengths the pull would drag the trunk down instead.
+  PoseFitParams fp;
+  fp.ground = refined_ || !search_;
+  PoseFitter fitter(cam_, g, seg, floor_, model_, fp);
   PoseFit best = fitter.fit(*j);
   if (have_fit_) {
     PoseFit cont = fitter.fit(prev_fit_);
@@ -905,10 +995,20 @@ void DepthTracker::fit(const PointGrid& g, const Segmentation& seg, Joints* j,
   *j = best.joints;
   prev_fit_ = *j;
   have_fit_ = true;
+  keepForRefit(g, seg);
   // A joint whose capsules explain depth points is measured; one explaining
   // none is hidden and only inferred.
   for (int k : {HEAD, L_ELBOW, R_ELBOW, L_HAND, R_HAND, L_KNEE, R_KNEE, L_FOOT, R_FOOT})
     (*conf)[k] = best.support[k] >= kSeenPoints ? std::max((*conf)[k], 0.6f) : std::min((*conf)[k], 0.3f);
+}
+
+void DepthTracker::keepForRefit(const PointGrid& g, const Segmentation& seg) {
+  if (refined_ || search_ || ++refit_count_ % kRefitEvery != 0) return;
+  refine_frames_.push_back({g, seg, floor_, prev_fit_});
+  if (refine_frames_.size() < kRefitFrames) return;
+  search_ = std::make_unique<ModelSearch>(cam_, std::move(refine_frames_), target_);
+  refine_frames_.clear();
+  refined_ = true;
 }
 
 Joints DepthTracker::smooth(const Joints& j, double t) {
@@ -921,6 +1021,7 @@ Joints DepthTracker::smooth(const Joints& j, double t) {
 
 SkeletonEstimate DepthTracker::update(const uint16_t* depth_mm, double t) {
   PointGrid g = makeGrid(depth_mm, cam_, params_.grid_step);
+  if (params_.steady_depth) steadier_.correct(&g);
   Segmentation seg = segment(g);
   if (!seg.found) {
     lose();
@@ -979,7 +1080,13 @@ SkeletonEstimate DepthTracker::follow(const PointGrid& g, const Segmentation& se
   BodyPose pose = placeJoints(tf, paths, tips_, assign, model_, lateral_, have_prev_ ? &prev_mid : nullptr);
   torso_bias_ += 0.2 * pose.torso_shift;
   calibrate(g, seg, pose.joints, assign);
-  if (model_.calibrated) fit(g, seg, &pose.joints, &pose.confidence);
+  if (model_.calibrated) {
+    // The first fitted pose starts the filters over: the rough poses before it
+    // came from another estimator, and a still joint's filter would take
+    // seconds to cross the gap.
+    if (!have_fit_) for (auto& f : filters_) f.reset();
+    fit(g, seg, &pose.joints, &pose.confidence);
+  }
   out.joints = smooth(pose.joints, t);
   have_prev_ = true;
   prev_centroid_ = seg.centroid;

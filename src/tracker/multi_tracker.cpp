@@ -20,6 +20,7 @@ double MultiTracker::acrossFloor(const Vec3& a, const Vec3& b) const {
 
 void MultiTracker::reset() {
   room_.reset();
+  steadier_.reset();
   users_.clear();
   next_id_ = 1;
 }
@@ -120,7 +121,8 @@ std::vector<std::vector<int>> MultiTracker::fragments(const std::vector<Blob>& p
 
 MultiEstimate MultiTracker::update(const uint16_t* depth_mm, double t) {
   MultiEstimate out;
-  const PointGrid g = makeGrid(depth_mm, cam_, params_.grid_step);
+  PointGrid g = makeGrid(depth_mm, cam_, params_.grid_step);
+  if (params_.steady_depth) steadier_.correct(&g);
   room_.update(g);
   users_.erase(std::remove_if(users_.begin(), users_.end(), [&](const User& u) {
                  return !u.seen && (t - u.last_seen > multi_.lost_timeout || t < u.last_seen);

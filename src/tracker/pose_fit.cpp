@@ -10,14 +10,19 @@ namespace hri_sync {
 
 namespace {
 
-// The model's head: a sphere on the neck-head line, beyond the head joint.
-constexpr BodyPart kHead = {{HEAD, NECK, -0.4}, {HEAD, NECK, -0.4}, 0.10};
 constexpr int kNumParts = kBodyParts.size() + 1;
-// The model's body: the head, then the virtual Kinect's capsules (render.h).
-const BodyPart& part(int c) { return c == 0 ? kHead : kBodyParts[c - 1]; }
 constexpr double kLengthPrior = 1e-3;  // prior energy per kept frame per (log of a length's scale)^2
 constexpr double kOverRelax = 2.0;  // steps beyond the mean pull converge in fewer iterations
 constexpr double kFloorBand = 0.06;  // segmentUser drops points within 5 cm of the floor (+1 cm noise)
+// A leg seen down to this height stands: the floor band hides its foot, whose
+// sole is then on the floor, pulled there with this many points' weight.
+constexpr double kStandsBelow = kFloorBand + 0.03;
+constexpr double kGroundWeight = 10.0;
+constexpr double kGroundReach = 0.15;  // only a foot joint this low is pulled
+// The head ball's centre above the head joint: a ball of kHeadRadius fits a
+// head (a crown ball, the face below and before it) best 2 cm above the joint
+// seen from the front, 3.5 cm from the side, 4.5 cm from behind.
+constexpr double kFitHeadAbove = 0.03;
 
 // Per-joint weighted sums of displacements.
 struct Pull {
@@ -38,11 +43,30 @@ struct Pull {
   }
 };
 
+// The pull of each standing foot's sole to the floor (lowest: the height of
+// the lowest depth point on each leg's shin and foot); returns its energy.
+double ground(const Plane& floor, const Joints& j, const std::array<double, 2>& lowest, Pull* pull) {
+  double energy = 0;
+  for (int side = 0; side < 2; ++side) {
+    if (lowest[side] > kStandsBelow) continue;
+    const int foot = side == 0 ? L_FOOT : R_FOOT;
+    const double h = floor.height(j[foot]);
+    if (h > kGroundReach) continue;  // a foot held up, whatever its leg's lowest point
+    energy += kGroundWeight * h * h;
+    if (pull) pull->addJoint(foot, floor.n * -h, kGroundWeight);
+  }
+  return energy;
+}
+
 }  // namespace
 
 PoseFitter::PoseFitter(const Camera& cam, const PointGrid& g, const Segmentation& seg, const Plane& floor,
                        const BodyModel& m, const PoseFitParams& p)
     : cam_(cam), g_(g), seg_(seg), floor_(floor), p_(p) {
+  // The head ball a fixed distance beyond the head joint, whatever the neck's
+  // length: the best ball for a head whose face lies below and before the crown.
+  const double beyond = -kFitHeadAbove / std::max(m.head_to_neck, 0.02);
+  head_ = {{HEAD, NECK, beyond}, {HEAD, NECK, beyond}, kHeadRadius};
   // Nearest user cell of every grid cell (multi-source breadth-first search).
   nearest_.assign(g.width * g.height, -1);
   std::vector<int> queue(seg.cells.begin(), seg.cells.end());
@@ -110,6 +134,7 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
   Pull pull;
   double energy = 0;
   const double tau = p_.outlier;
+  std::array<double, 2> lowest{1e9, 1e9};  // per foot (left, right): its lowest point's height
   // Data: every user point lies on the surface of its nearest capsule.
   for (size_t n = 0; n < seg_.cells.size(); ++n) {
     const Vec3& pt = g_.points[seg_.cells[n]];
@@ -137,6 +162,11 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
     }
     (*hint)[n] = static_cast<int8_t>(best);
     energy += std::min(best_d * best_d, tau * tau);
+    const CapsuleEnd& low = part(best).b;  // a shin's lower half or a foot ball
+    if ((low.i == L_FOOT || low.i == R_FOOT) && best_t > 0.5 && floor_.found) {
+      double& l = lowest[low.i == L_FOOT ? 0 : 1];
+      l = std::min(l, floor_.height(pt));
+    }
     if (support) {
       const BodyPart& p = part(best);
       ++(*support)[best_t < 0.5 ? p.a.i : p.b.i];
@@ -189,7 +219,9 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
       }
     }
   }
-  energy = (energy + p_.free_space * fs_energy) / n_points;
+  energy += p_.free_space * fs_energy;
+  if (p_.ground) energy += ground(floor_, *j, lowest, move ? &pull : nullptr);
+  energy /= n_points;
   if (!move) return energy;
   for (int k = 0; k < NUM_JOINTS; ++k) (*j)[k] += pull.sum[k] * (kOverRelax / (pull.weight[k] + p_.stiffness));
   constrain(j);
@@ -208,9 +240,11 @@ void PoseFitter::constrain(Joints* j) const {
     }
   }
   if (!floor_.found) return;
-  for (Vec3& p : *j) {
-    double h = floor_.height(p);
-    if (h < 0.05) p += floor_.n * (0.05 - h);
+  // The soles may touch the floor; every other joint is 5 cm above it.
+  for (int k = 0; k < NUM_JOINTS; ++k) {
+    const double lowest = k == L_FOOT || k == R_FOOT ? 0.0 : 0.05;
+    const double h = floor_.height((*j)[k]);
+    if (h < lowest) (*j)[k] += floor_.n * (lowest - h);
   }
 }
 
@@ -258,6 +292,15 @@ constexpr int kSearchRounds = 3;                  // passes over the lengths per
 
 }  // namespace
 
+BodyModel towards(const BodyModel& from, const BodyModel& to, double max_step) {
+  BodyModel out = from;
+  for (auto len : kLengths) {
+    const double lo = from.*len * (1 - max_step), hi = from.*len * (1 + max_step);
+    out.*len = std::clamp(to.*len, lo, hi);
+  }
+  return out;
+}
+
 ModelSearch::ModelSearch(const Camera& cam, std::vector<FitFrame> frames, const BodyModel& start)
     : cam_(cam), frames_(std::move(frames)), prior_(start), best_(start), cand_(start) {
   done_ = frames_.empty();
@@ -266,6 +309,7 @@ ModelSearch::ModelSearch(const Camera& cam, std::vector<FitFrame> frames, const 
 bool ModelSearch::advance(int fits) {
   PoseFitParams p;
   p.iterations = 8;
+  p.ground = true;
   for (int k = 0; k < fits && !done_; ++k) {
     const FitFrame& f = frames_[frame_];
     cand_e_ += PoseFitter(cam_, f.grid, f.seg, f.floor, cand_, p).fit(f.init).energy;

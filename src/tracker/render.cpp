@@ -9,7 +9,7 @@ namespace hri_sync {
 
 std::vector<Capsule> bodyCapsules(const Joints& j) {
   Vec3 up = (j[HEAD] - j[NECK]).normalized();
-  std::vector<Capsule> c = {{j[HEAD] + up * 0.04, j[HEAD] + up * 0.05, 0.10}};  // head
+  std::vector<Capsule> c = {{j[HEAD] + up * (kHeadAbove - 0.005), j[HEAD] + up * (kHeadAbove + 0.005), kHeadRadius}};
   for (const BodyPart& p : kBodyParts) c.push_back({p.a.at(j), p.b.at(j), p.radius});
   return c;
 }

@@ -259,8 +259,14 @@ void SceneOptions::validate() const {
   checkRange("bystander_offset", bystander_offset, -3.0, 3.0);
   bystander_shape.validate();
   checkRange("crowd", crowd, 0, 3);
-  if (crowd_motion != "stand" && crowd_motion != "walk") {
-    throw std::invalid_argument("crowd_motion must be stand or walk, not '" + crowd_motion + "'");
+  if (crowd_motion != "stand" && crowd_motion != "walk" && crowd_motion != "track") {
+    throw std::invalid_argument("crowd_motion must be stand, walk or track, not '" + crowd_motion + "'");
+  }
+  if ((crowd_motion == "track") != !crowd_tracks.empty() ||
+      (!crowd_tracks.empty() && static_cast<int>(crowd_tracks.size()) != crowd)) {
+    throw std::invalid_argument("crowd_tracks gives each crowd member's track (crowd_motion track): " +
+                                std::to_string(crowd_tracks.size()) + " tracks for a crowd of " +
+                                std::to_string(crowd) + " (" + crowd_motion + ")");
   }
   checkRange("crowd_spacing", crowd_spacing, 0.3, 2.0);
 }
@@ -305,11 +311,15 @@ Scene::Scene(const Track& person, const BodyShape& shape, const SceneOptions& op
   if (opt_.needsWalk()) {
     if (bystander_motion == nullptr) throw std::invalid_argument("a bystander needs a motion (a walk track)");
     if (opt_.bystander != "none") bystander_.emplace_back(*bystander_motion, opt_.bystander_shape);
-    for (int k = 0; k < opt_.crowd; ++k) bystander_.emplace_back(*bystander_motion, BodyShape::preset(kCrowdBodies[k]));
     Vec3 c;
     int m = 0;
     for (const Joints& j : bystander_motion->frames()) { c += (j[L_HIP] + j[R_HIP]) * 0.5; ++m; }
     walk_centre_ = c * (1.0 / std::max(m, 1));
+  }
+  for (int k = 0; k < opt_.crowd; ++k) {
+    const BodyShape crowd_shape = BodyShape::preset(kCrowdBodies[k]);
+    if (opt_.crowd_motion == "track") bystander_.emplace_back(Track::load(opt_.crowd_tracks[k]), crowd_shape);
+    else bystander_.emplace_back(*bystander_motion, crowd_shape);
   }
 }
 
@@ -368,12 +378,18 @@ Joints Scene::truth(double t) const {
 // bystander_offset to the side), then crowd member c = 1, 2, 3: stand: in the
 // walk's first pose at +s, -s, +2s (s = crowd_spacing) beside the person;
 // walk: in lane bystander_offset + c s behind the person, crossing along -x,
-// +x, -x (so it meets the bystander or its neighbour half way).
+// +x, -x (so it meets the bystander or its neighbour half way); track: on its
+// own track, placed as the person's.
 Joints Scene::extraPose(size_t k, double t) const {
   const bool is_bystander = opt_.bystander != "none" && k == 0;
   const int c = static_cast<int>(k) + (opt_.bystander != "none" ? 0 : 1);  // crowd number, 0: bystander
-  const bool walk = is_bystander ? opt_.bystander == "walk" : opt_.crowd_motion == "walk";
   const BodyRig& rig = bystander_[k];
+  if (!is_bystander && opt_.crowd_motion == "track") {
+    Joints b = rig.pose(t);
+    for (Vec3& p : b) p += shift_ + Vec3(0, -kTrackFloor, 0);
+    return b;
+  }
+  const bool walk = is_bystander ? opt_.bystander == "walk" : opt_.crowd_motion == "walk";
   Joints b = rig.pose(walk ? t : 0.0);
   // The walk's path is centred on its mean hip position; a standing person on their own hips.
   const Vec3 centre = walk ? walk_centre_ : (b[L_HIP] + b[R_HIP]) * 0.5;
@@ -783,7 +799,8 @@ bool flag(const std::string& key, const std::string& value) {
 const char* sceneKeys() {
   return "body, height, girth, limbs, arms, legs, clothing, clothes_albedo, person, wall, distance, furniture, "
          "furniture_x, "
-         "bystander, bystander_offset, bystander_body, bystander_track, crowd, crowd_motion, crowd_spacing, sensor_height, tilt, "
+         "bystander, bystander_offset, bystander_body, bystander_track, crowd, crowd_motion, crowd_spacing, crowd_tracks, "
+         "sensor_height, tilt, "
          "noise=kinect1|kinect1_iid, "
          "shadow, holes, baseline, projector, min_range, max_range, seed";
 }
@@ -833,6 +850,18 @@ bool applySceneKey(const std::string& key, const std::string& value, SceneSpec* 
     if (v < 0 || v > 3 || v != std::floor(v)) throw std::invalid_argument("crowd must be 0, 1, 2 or 3, not " + value);
     s.crowd = static_cast<int>(v);
   } else if (key == "crowd_motion") { s.crowd_motion = value;
+  } else if (key == "crowd_tracks") {  // a, b, c: the crowd, each on its own track
+    s.crowd_tracks.clear();
+    for (size_t from = 0; from <= value.size();) {
+      const size_t comma = std::min(value.find(',', from), value.size());
+      s.crowd_tracks.push_back(value.substr(from, comma - from));
+      from = comma + 1;
+    }
+    if (s.crowd_tracks.size() > 3 || value.empty()) {
+      throw std::invalid_argument("crowd_tracks takes 1-3 comma-separated track files, not '" + value + "'");
+    }
+    s.crowd = static_cast<int>(s.crowd_tracks.size());
+    s.crowd_motion = "track";
   } else if (key == "crowd_spacing") { s.crowd_spacing = number(key, value);
   } else if (key == "sensor_height") { s.sensor_height = number(key, value);
   } else if (key == "tilt") { s.tilt_deg = number(key, value);

@@ -380,17 +380,20 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     if (global <= last_global_) { ++withheld_back_; return; }
     last_global_ = global;
     for (const UserEstimate& u : est.users) {
-      if (u.estimate.tracked) publishSkeleton(u.user_id, u.estimate, global, device_s);
+      if (u.estimate.tracked) publishSkeleton(u.user_id, u.estimate, global, device_s, index);
     }
   }
 
-  void publishSkeleton(uint32_t user_id, const SkeletonEstimate& est, double global, double device_s) {
+  /// One user's skeleton of frame ``index``, with the frames skipped so far (mu_ held).
+  void publishSkeleton(uint32_t user_id, const SkeletonEstimate& est, double global, double device_s, int index) {
     hri_sync::Skeleton msg;
     msg.header.stamp.fromSec(global);
     msg.header.frame_id = frame_id_;
     msg.client_id = client_id_;
     msg.user_id = user_id;
     msg.device_stamp.fromSec(device_s);
+    msg.frame_index = index > 0 ? static_cast<uint32_t>(index) : 0;
+    msg.frames_skipped = static_cast<uint32_t>(dropped_);
     for (int k = 0; k < NUM_JOINTS; ++k) {
       msg.positions[k].x = est.joints[k].x;
       msg.positions[k].y = est.joints[k].y;

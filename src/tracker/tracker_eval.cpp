@@ -3,7 +3,7 @@
 // error against the motion's true joints, the tracked share and the speed.
 //   tracker_eval --track FILE.track [--res 320x240] [--seconds S] [--background 0|1]
 //                [--noise SIGMA] [--scene KEY=V&KEY=V...] [--direct] [--step N] [--dump FILE]
-//                [--snapshot N] [--users N]
+//                [--snapshot N] [--users N] [--dump-users FILE]
 //   tracker_eval --oni FILE.oni [--loops N] [--users N] [--dump FILE]
 // --scene: the virtual Kinect's scene keys (body, wall, bystander, noise=kinect1, ...;
 // docs/tracker.md); the truth is then the rendered (reshaped) body's joints.
@@ -12,6 +12,9 @@
 // --step: depth pixels per tracker grid cell (default width / 160).
 // --dump writes per frame: index, tracked, 15 estimated and 15 true joints, 15 confidences,
 // the extremity count and the extremities.
+// --dump-users (with --direct and --users N) writes per frame: index, the user count, per
+// user its id, tracked, 15 estimated joints and 15 confidences, then the person count
+// and each rendered person's 15 true joints (the person, the bystander, the crowd).
 // --direct renders in-process instead of through OpenNI (same renderer).
 // --users N (1-4): the multi-user tracker the node runs (MultiTracker, N users at
 // most), scored on the tracked user whose torso is nearest the person's (as a
@@ -70,13 +73,31 @@ double pct(std::vector<double> v, double q) {
 }
 
 FILE* g_dump = nullptr;
+FILE* g_dump_users = nullptr;
 int g_snapshot = -1;
+
+void dumpJoints(FILE* f, const Joints& joints) {
+  for (const Vec3& p : joints) std::fprintf(f, " %.4f %.4f %.4f", p.x, p.y, p.z);
+}
+
+// One --dump-users line: every user the tracker has, every rendered person's truth.
+void dumpUsers(int index, const std::vector<UserEstimate>& users, const std::vector<Joints>& people) {
+  std::fprintf(g_dump_users, "%d %zu", index, users.size());
+  for (const UserEstimate& u : users) {
+    std::fprintf(g_dump_users, " %u %d", u.user_id, u.estimate.tracked ? 1 : 0);
+    dumpJoints(g_dump_users, u.estimate.joints);
+    for (float c : u.estimate.confidence) std::fprintf(g_dump_users, " %.2f", c);
+  }
+  std::fprintf(g_dump_users, " %zu", people.size());
+  for (const Joints& p : people) dumpJoints(g_dump_users, p);
+  std::fprintf(g_dump_users, "\n");
+}
 
 void account(Stats* s, const SkeletonEstimate& est, const Joints& truth) {
   if (g_dump) {
     std::fprintf(g_dump, "%d %d", s->frames, est.tracked ? 1 : 0);
-    for (const Vec3& p : est.joints) std::fprintf(g_dump, " %.4f %.4f %.4f", p.x, p.y, p.z);
-    for (const Vec3& p : truth) std::fprintf(g_dump, " %.4f %.4f %.4f", p.x, p.y, p.z);
+    dumpJoints(g_dump, est.joints);
+    dumpJoints(g_dump, truth);
     for (float c : est.confidence) std::fprintf(g_dump, " %.2f", c);
     std::fprintf(g_dump, " %d", est.extremities);
     for (const Vec3& p : est.extremity_points) std::fprintf(g_dump, " %.4f %.4f %.4f", p.x, p.y, p.z);
@@ -110,6 +131,7 @@ class Runner {
   SkeletonEstimate update(const uint16_t* depth, double t, const Joints& truth, const std::vector<Vec3>* people) {
     if (single_) return single_->update(depth, t);
     const MultiEstimate m = multi_->update(depth, t);
+    last_ = m.users;
     users_ += m.tracked_users;
     last_users_ = static_cast<int>(m.users.size());
     // A user more than 0.7 m along the floor from every person's torso is a
@@ -137,6 +159,7 @@ class Runner {
   long ghostFrames() const { return ghost_frames_; }  ///< ghost users summed over frames
   size_t ghostUsers() const { return ghost_ids_.size(); }  ///< ids ever given to a ghost
   int lastUsers() const { return last_users_; }  ///< users (tracked or not) in the last frame
+  const std::vector<UserEstimate>& users() const { return last_; }  ///< the last frame's users
   uint32_t idsIssued() const { return multi_ ? multi_->idsIssued() : 0; }
 
  private:
@@ -146,6 +169,7 @@ class Runner {
   long ghost_frames_ = 0;
   std::set<uint32_t> ghost_ids_;
   int last_users_ = 0;
+  std::vector<UserEstimate> last_;
   Vec3 up_{0, 1, 0};
 };
 
@@ -234,6 +258,7 @@ int main(int argc, char** argv) {
     else if (a == "--snapshot") g_snapshot = std::stoi(next());
     else if (a == "--users") users = std::stoi(next());
     else if (a == "--dump") g_dump = std::fopen(next().c_str(), "w");
+    else if (a == "--dump-users") g_dump_users = std::fopen(next().c_str(), "w");
     else if (a == "--oni") oni = next();
     else if (a == "--loops") loops = std::stoi(next());
     else { std::fprintf(stderr, "tracker_eval: unknown argument %s\n", a.c_str()); return 2; }
@@ -281,6 +306,10 @@ int main(int argc, char** argv) {
   const int fps = 30;
   const int total = static_cast<int>(seconds * fps);
   if (users < 0 || users > 4) { std::fprintf(stderr, "tracker_eval: --users must be 0-4\n"); return 2; }
+  if (g_dump_users && (users == 0 || !direct || !scene)) {
+    std::fprintf(stderr, "tracker_eval: --dump-users needs --users N, --direct and --scene\n");
+    return 2;
+  }
   Runner tracker(cam, params, users);
   if (scene) tracker.setUp(scene->toSensor(Vec3(0, 1, 0)) - scene->toSensor(Vec3()));
   Stats st;
@@ -319,6 +348,12 @@ int main(int argc, char** argv) {
       if (scene) for (const Joints& c : frame.crowd_truth) people.push_back(c[TORSO]);
       SkeletonEstimate est = tracker.update(depth.data(), t, truth, &people);
       st.cpu += threadCpu() - c0;
+      if (g_dump_users) {
+        std::vector<Joints> all{truth};
+        if (spec.scene.bystander != "none") all.push_back(frame.bystander_truth);
+        all.insert(all.end(), frame.crowd_truth.begin(), frame.crowd_truth.end());
+        dumpUsers(st.frames, tracker.users(), all);
+      }
       account(&st, est, truth);
     }
   } else {

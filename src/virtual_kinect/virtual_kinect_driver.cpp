@@ -5,7 +5,8 @@
 //   res=320x240 (or 640x480), fps=30, background=0 (1: back wall and a cabinet),
 //   noise=0.0015 (depth sigma in m at 1 m, grows with z^2; 0 turns it off),
 //   loop=1 (0: stop sending frames at the end of the track), start=0 (s into the track),
-//   hold=-1 (s into the track: the motion frozen at that time, a still person; -1: off),
+//   hold=-1 (s into the track: the motion frozen at that time, a still person, whom the
+//   scene keys distance and wall place as they place a still .track; -1: off),
 //   offset_us=1000000 (device clock at open), drift_ppm=0 (device clock rate error),
 //   lose_after=0 (s; > 0: the sensor is unplugged then: no more frames, a disconnect
 //   event, and the device is announced again at once (replugged), so a reader that
@@ -16,7 +17,7 @@
 // Scene keys (docs/tracker.md, "Virtual Kinect scenes"): body=average|short_broad|tall_slim|
 //   loose_clothes|dark_clothes|model, height, girth, limbs, arms, legs, clothing, clothes_albedo,
 //   wall=GAP_M|none, furniture=none|table|chair, furniture_x, bystander=none|walk|stand,
-//   bystander_offset, bystander_body, bystander_track=PATH, crowd=0..3, crowd_motion=stand|walk,
+//   bystander_offset, bystander_body, bystander_track=PATH, crowd=0..3, crowd_motion=stand|walk|track,
 //   crowd_spacing, sensor_height, tilt (deg),
 //   noise=kinect1, shadow, holes, baseline, projector=+x|-x, min_range, max_range, seed.
 //   Any of them renders the scene (hri_sync::Scene) instead of the capsule body;
@@ -357,7 +358,7 @@ class VirtualDriver : public oni::driver::DriverBase {
   OniStatus tryDevice(const char* uri) override {
     try {
       VirtualConfig cfg = parseUri(uri);
-      makeScene(cfg, load(cfg.path));
+      makeScene(cfg, shown(cfg, load(cfg.path)));
     } catch (const std::exception& e) {
       if (std::strncmp(uri, "virtual://", 10) == 0) getServices().errorLoggerAppend("%s", e.what());
       return ONI_STATUS_ERROR;
@@ -379,7 +380,7 @@ class VirtualDriver : public oni::driver::DriverBase {
   oni::driver::DeviceBase* deviceOpen(const char* uri, const char* /*mode*/) override {
     try {
       VirtualConfig cfg = parseUri(uri);
-      auto track = load(cfg.path);
+      auto track = shown(cfg, load(cfg.path));
       const std::string key = uri;
       const OniDeviceInfo* info = nullptr;
       {
@@ -446,6 +447,16 @@ class VirtualDriver : public oni::driver::DriverBase {
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(std::string("virtual kinect: ") + e.what());
     }
+  }
+
+  /// The motion the device shows: with hold, the one pose at that time held over
+  /// the motion's span (a still person), so that a scene places that pose (distance,
+  /// wall, body height) as it places a still .track, not the whole motion's range.
+  static std::shared_ptr<const Track> shown(const VirtualConfig& cfg, std::shared_ptr<const Track> track) {
+    if (cfg.hold < 0) return track;
+    const hri_sync::Joints pose = track->at(cfg.hold, cfg.loop);
+    return std::make_shared<const Track>(
+        Track::fromFrames({track->times().front(), track->times().back()}, {pose, pose}));
   }
 
   std::shared_ptr<const Track> load(const std::string& path) {

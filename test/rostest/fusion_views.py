@@ -6,7 +6,8 @@ before now, joints of data/motion ~motion seen from each view's pose in
 ~poses, 1 cm noise) and /<view>/clock_state (ok, 0.5 ms). ~fault, on view
 ~faulty from ~fault_after s: ``stall`` (it stops), ``clock_lost`` (its
 ClockState is not ok), ``wrong_pose`` (it is seen from its pose moved
-0.3 m and turned 10 degrees, the fusion keeps the declared one),
+~wrong_shift m along x and turned ~wrong_turn degrees, default 0.3 and 10;
+the fusion keeps the declared one),
 ``nan_joints`` (every skeleton has NaN hands), or ``none``.  In the
 CM's calibration window (/calibration/capture_data, global time: this
 machine's clock, which the time server serves) the dancer stands still
@@ -46,8 +47,9 @@ def main():
     seen = dict(poses)
     if fault == 'wrong_pose':
         p = poses[faulty]
-        seen[faulty] = SensorPose(p.x + 0.3, p.y, p.z,
-                                  p.yaw + math.radians(10))
+        seen[faulty] = SensorPose(
+            p.x + rospy.get_param('~wrong_shift', 0.3), p.y, p.z,
+            p.yaw + math.radians(rospy.get_param('~wrong_turn', 10.0)))
     pubs = {v: rospy.Publisher('/%s/skeleton' % v, Skeleton, queue_size=30)
             for v in poses}
     clocks = {v: rospy.Publisher('/%s/clock_state' % v, ClockState,

@@ -15,18 +15,30 @@ to a few skeletons in the window (this checker counts them as they arrive)
 may leave its DPM nothing it can stamp: its window is then rightly
 ``no_data``, and the decision must say so.  With
 ~unplug_file, it creates that file ~unplug_at s into the first capture
-window: the virtual Kinect that watches it is unplugged then.
+window: the virtual Kinect that watches it is unplugged then.  With
+~stall_for, it freezes the tracker client's skeleton_tracker (SIGSTOP,
+then SIGCONT) for that many s ~stall_at s into the window, as a machine
+too busy to run it would: the tracker's result must count the frames it
+skipped apart (diagnostics frames_skipped: at least 80 % of the stall's
+frames at the sensor's rate, at most what its /diagnostics dropped_frames
+counted; frames_expected the window's at that rate).  With ~still_client
+(a tracker client too, of a person standing still), that client's score
+must be below the noise rule's bar, ~noise_factor times its noise floor,
+and below ~min_expressiveness, with its tracker tracking.
 """
 import math
 import os
+import signal
 import threading
 import time
 import unittest
 
 import rospy
 import rostest
+from diagnostic_msgs.msg import DiagnosticArray
 from hri_sync.msg import CaptureData, ClientResult, Decision
 from hri_sync.ros.node import init_checker
+from hri_sync.ros.unique import node_pid
 
 PKG = 'hri_sync'
 # Hz: a tracker that kept fewer frames than this over the part of the
@@ -34,10 +46,10 @@ PKG = 'hri_sync'
 STARVED_RATE = 10.0
 
 
-def unplug_in_window(path, at, windows):
-    """Create ``path`` ``at`` s after the start of the first capture window
-    of ``windows`` (a list the /capture_data subscriber fills; the global
-    clock is this host's)."""
+def at_in_window(at, windows, action):
+    """Call ``action()`` ``at`` s after the start of the first capture
+    window of ``windows`` (a list the /capture_data subscriber fills; the
+    global clock is this host's)."""
     def run():
         while not windows and not rospy.is_shutdown():
             time.sleep(0.01)
@@ -47,11 +59,40 @@ def unplug_in_window(path, at, windows):
         due = w.header.stamp.to_sec() + w.str_aft + at
         while time.time() < due and not rospy.is_shutdown():
             time.sleep(0.01)
-        with open(path, 'w'):
-            pass
-        rospy.loginfo('unplugged the sensor (%s) %.2f s into the window',
-                      path, time.time() - due + at)
+        late = time.time() - due
+        action()
+        rospy.loginfo('(%.2f s into the window)', at + late)
     threading.Thread(target=run, daemon=True).start()
+
+
+def unplug(path):
+    """Create ``path``: the virtual Kinect that watches it is unplugged."""
+    with open(path, 'w'):
+        pass
+    rospy.loginfo('unplugged the sensor (%s)', path)
+
+
+def freeze(node, seconds, frozen):
+    """SIGSTOP node ``node`` for ``seconds`` s, then SIGCONT; appends how
+    long it was stopped to ``frozen``."""
+    pid = node_pid(node)
+    if pid is None:
+        rospy.logerr('no node %s to freeze', node)
+        return
+    os.kill(pid, signal.SIGSTOP)
+    t0 = time.time()
+    try:
+        time.sleep(seconds)
+    finally:
+        os.kill(pid, signal.SIGCONT)
+    frozen.append(time.time() - t0)
+    rospy.loginfo('froze %s (pid %d) for %.2f s', node, pid, frozen[-1])
+
+
+def diag(result, key):
+    """A result diagnostic as a number (NaN when absent)."""
+    return next((float(kv.value) for kv in result.diagnostics
+                 if kv.key == key), math.nan)
 
 
 class TrackerDanceOffTest(unittest.TestCase):
@@ -66,8 +107,16 @@ class TrackerDanceOffTest(unittest.TestCase):
                          lambda _: cls.arrivals.append(time.time()))
         cls.unplug_file = rospy.get_param('~unplug_file', '')
         if cls.unplug_file:
-            unplug_in_window(cls.unplug_file, rospy.get_param('~unplug_at'),
-                             cls.windows)
+            at_in_window(rospy.get_param('~unplug_at'), cls.windows,
+                         lambda: unplug(cls.unplug_file))
+        cls.stall_for = rospy.get_param('~stall_for', 0.0)
+        cls.frozen = []
+        if cls.stall_for > 0:
+            node = '/%s/tracker' % rospy.get_param('~tracker_client')
+            at_in_window(rospy.get_param('~stall_at'), cls.windows,
+                         lambda: freeze(node, cls.stall_for, cls.frozen))
+        cls.tracker_diags = {}      # client: [(tracking_state, dropped)]
+        rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics)
         rospy.Subscriber('/client_result', ClientResult,
                          lambda m: cls.results.__setitem__(m.client_id, m))
         rospy.Subscriber('/decision', Decision, cls.decisions.append)
@@ -81,6 +130,16 @@ class TrackerDanceOffTest(unittest.TestCase):
         while (not {'left', 'right'} <= set(cls.results)
                and time.time() < deadline and not rospy.is_shutdown()):
             time.sleep(0.1)
+
+    @classmethod
+    def on_diagnostics(cls, msg):
+        for st in msg.status:
+            client = st.name.split('/')[0]
+            if st.name == client + '/tracker: sensor':
+                v = {kv.key: kv.value for kv in st.values}
+                cls.tracker_diags.setdefault(client, []).append(
+                    (v.get('tracking_state', ''),
+                     int(v.get('dropped_frames', 0))))
 
     @classmethod
     def tearDownClass(cls):
@@ -161,12 +220,13 @@ class TrackerDanceOffTest(unittest.TestCase):
             expect = rospy.get_param(
                 '~expect_status_' + client, ClientResult.OK)
             allowed = {expect}
-            if client == tracker and expect == ClientResult.OK:
+            if client in (tracker, rospy.get_param('~still_client', '')) \
+                    and expect == ClientResult.OK:
                 # A tracker starved of CPU skips frames (13-24 ms of CPU
                 # each on 2 cores): then its window is rightly partial.
                 # How many frames it keeps is tracker_accuracy's figure.
                 allowed.add(ClientResult.PARTIAL)
-                if self.starved_to_nothing(r):
+                if client == tracker and self.starved_to_nothing(r):
                     rospy.logwarn('%s starved: no_data, %d skeletons '
                                   'arrived in the window', client,
                                   self.window_arrivals())
@@ -200,6 +260,56 @@ class TrackerDanceOffTest(unittest.TestCase):
                               '%.2f', tracker, r.frames, r.coverage)
             else:
                 self.assertGreater(r.coverage, 0.0)
+
+    def test_skipped_frames_counted_apart(self):
+        if not self.stall_for > 0:
+            self.skipTest('no ~stall_for')
+        tracker = rospy.get_param('~tracker_client')
+        self.assertTrue(self.frozen, 'the tracker was not frozen')
+        r = self.results.get(tracker)
+        self.assertIsNotNone(r, 'no result from %s' % tracker)
+        n = {k: diag(r, k) for k in (
+            'frames_expected', 'frames_published', 'frames_skipped',
+            'frames_unpublished', 'sensor_rate')}
+        rospy.loginfo('%s: frozen %.2f s; result %s frames %d, dropped %d;'
+                      ' %s', tracker, self.frozen[0], r.status, r.frames,
+                      r.frames_dropped, n)
+        dur = rospy.get_param('~dur')
+        self.assertAlmostEqual(n['sensor_rate'], 30.0, delta=0.5)
+        self.assertAlmostEqual(n['frames_expected'], 30.0 * dur, delta=2)
+        self.assertGreaterEqual(n['frames_skipped'],
+                                0.8 * self.frozen[0] * n['sensor_rate'])
+        self.assertLessEqual(n['frames_published'] + n['frames_skipped'],
+                             n['frames_expected'] + 1)
+        self.assertAlmostEqual(n['frames_published'] + n['frames_skipped']
+                               + n['frames_unpublished'],
+                               n['frames_expected'], delta=1)
+        self.assertGreaterEqual(n['frames_published'], r.frames)
+        # The tracker's own count (all it skipped since it started).
+        dropped = [d for _, d in self.tracker_diags.get(tracker, [])]
+        self.assertTrue(dropped, 'no /diagnostics from %s/tracker'
+                        % tracker)
+        self.assertGreaterEqual(max(dropped), n['frames_skipped'])
+
+    def test_still_client_below_the_noise_bar(self):
+        still = rospy.get_param('~still_client', '')
+        if not still:
+            self.skipTest('no ~still_client')
+        r = self.results.get(still)
+        self.assertIsNotNone(r, 'no result from %s' % still)
+        factor = rospy.get_param('~noise_factor', 3.0)
+        rospy.loginfo('still client %s: %s, %d frames, value %.4f, noise '
+                      'floor %.4f (window %.4f, quiet %.4f)', still,
+                      r.status, r.frames, r.value, r.noise_floor,
+                      diag(r, 'noise_window'), diag(r, 'noise_quiet'))
+        states = {s for s, _ in self.tracker_diags.get(still, [])}
+        self.assertIn('tracking', states, 'the still person was never '
+                      'tracked: %s' % sorted(states))
+        self.assertGreater(r.frames, 0)
+        self.assertTrue(math.isfinite(r.noise_floor), r.noise_floor)
+        self.assertLess(r.value, factor * r.noise_floor)
+        self.assertLess(r.value, rospy.get_param('~min_expressiveness',
+                                                 1.0))
 
 
 if __name__ == '__main__':

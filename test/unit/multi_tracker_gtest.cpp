@@ -300,7 +300,7 @@ Track stillAt(double z) {  // salsa's first pose moved to z m from the sensor
   Joints pose = salsa().frames()[0];
   const double shift = z - pose[TORSO].z;
   for (Vec3& p : pose) p.z += shift;
-  for (int i = 0; i <= 180; ++i) { times.push_back(i / 30.0); frames.push_back(pose); }
+  for (int i = 0; i <= 600; ++i) { times.push_back(i / 30.0); frames.push_back(pose); }
   return Track::fromFrames(times, frames);
 }
 
@@ -312,6 +312,7 @@ TEST(StillPerson, IsStillThroughTheTrackerOnKinectNoise) {
   before.filter.beta = 2.0;
   before.filter.dead_zone = 0.0;
   before.filter.block_s = 0.0;
+  before.steady_depth = false;
   double worst_before = 0;
   for (double z : {2.5, 2.8}) {
     const Scene scene = makeScene(stillAt(z), "wall=0.3&noise=kinect1");
@@ -344,6 +345,108 @@ TEST(StillPerson, StaysApartFromAWallAtTheSensorsRange) {
   EXPECT_GT(s.frames, 90);
   EXPECT_LE(s.torso_error, 0.1);
   EXPECT_LE(s.trunk_expressiveness, 0.1);
+}
+
+// People near walls: a still person with a wall 0.1 m behind at 2.5 m (the
+// wall hides all but a strip of the floor) and 0.3 m behind at 3.5 m, Kinect
+// v1 noise. Once the bone lengths are known (the last 5 s of 15), the head
+// joint to the feet joints' midpoint is within 5 % of the truth's (measured
+// -0.2 and -2.2 %; 7-10 % short before the head ball, the soles and the
+// floor cue of the length search), and the torso within 0.1 m after the
+// first second.
+TEST(StillPerson, HeadToFootNearAWall) {
+  for (auto [z, wall] : {std::pair<double, const char*>{2.5, "0.1"}, {3.5, "0.3"}}) {
+    const Scene scene = makeScene(stillAt(z), std::string("wall=") + wall + "&noise=kinect1");
+    Camera cam;
+    DepthTracker tracker(cam);
+    SceneFrame f;
+    std::vector<double> ratio;
+    double torso = 0;
+    int tracked = 0;
+    for (int n = 0; n < 450; ++n) {
+      scene.render(n / 30.0, n + 1, cam, &f);
+      const SkeletonEstimate est = tracker.update(f.depth_mm.data(), n / 30.0);
+      if (!est.tracked || n < 30) continue;
+      ++tracked;
+      torso = std::max(torso, (est.joints[TORSO] - f.truth[TORSO]).norm());
+      auto h2f = [](const Joints& j) { return (j[HEAD] - (j[L_FOOT] + j[R_FOOT]) * 0.5).norm(); };
+      if (n >= 300) ratio.push_back(h2f(est.joints) / h2f(f.truth) - 1);
+    }
+    ASSERT_FALSE(ratio.empty()) << z;
+    std::sort(ratio.begin(), ratio.end());
+    const double median = ratio[ratio.size() / 2];
+    std::printf("still at %.1f m, wall %s m behind: head-to-foot %+.1f %% of the truth, torso error %.3f m, "
+                "tracked %d of 420 frames\n", z, wall, 100 * median, torso, tracked);
+    EXPECT_LE(std::fabs(median), 0.05) << z;
+    EXPECT_LE(torso, 0.1) << z;
+    EXPECT_GT(tracked, 400) << z;
+  }
+}
+
+// A Kinect v1 shifts the inverse depth of a whole frame now and then (the
+// scene's frame offsets: about once a second, 0.8 disparity steps, 2-3 cm at
+// 3 m), and a tracker fitting the depth moves a still person with it. Taken
+// out (TrackerParams::steady_depth, DepthSteadier), a still person 3 m away, 0.3 m
+// before a wall, stays still: from 2 s to 8 s the torso's depth error varies
+// by at most 6.5 mm (sd; 5.8 measured, 10.8 without) and that window's score
+// is at most twice the score of its quietest second (the noise rule decides
+// against 3 times a sensor's quietest second; 1.6 measured, 3.5 without).
+// Without it the torso follows the offsets.
+namespace {
+
+struct StillRun {
+  double torso_z_sd = 0;  ///< m
+  double window = 0;      ///< m^2/s^2 over 2-8 s
+  double quietest = 1e9;  ///< m^2/s^2 of the quietest whole second in 2-8 s
+};
+
+StillRun stillRun(const Scene& scene, const TrackerParams& params) {
+  Camera cam;
+  MultiTracker tracker(cam, params);
+  SceneFrame f;
+  std::vector<double> err, second(6, 0.0);
+  Joints last;
+  int last_n = -1;
+  StillRun r;
+  for (int n = 0; n < 240; ++n) {
+    scene.render(n / 30.0, n + 1, cam, &f);
+    const MultiEstimate est = tracker.update(f.depth_mm.data(), n / 30.0);
+    if (est.users.empty() || !est.users[0].estimate.tracked || n < 60) continue;
+    const Joints& j = est.users[0].estimate.joints;
+    err.push_back(j[TORSO].z - f.truth[TORSO].z);
+    if (last_n >= 0 && (last_n - 60) / 30 == (n - 60) / 30) {
+      for (int k = 0; k < NUM_JOINTS; ++k) {
+        const double d = (j[k] - last[k]).norm();
+        second[(n - 60) / 30] += d * d / ((n - last_n) / 30.0);
+      }
+    }
+    last = j;
+    last_n = n;
+  }
+  double mean = 0, var = 0;
+  for (double e : err) mean += e / err.size();
+  for (double e : err) var += (e - mean) * (e - mean) / err.size();
+  r.torso_z_sd = std::sqrt(var);
+  for (double v : second) { r.window += v / 6.0; r.quietest = std::min(r.quietest, v); }
+  EXPECT_GT(err.size(), 170u);
+  return r;
+}
+
+}  // namespace
+
+TEST(StillPerson, FrameDepthOffsetsDoNotMoveAStillPerson) {
+  const Scene scene = makeScene(stillAt(3.0), "wall=0.3&noise=kinect1");
+  TrackerParams off;
+  off.steady_depth = false;
+  const StillRun now = stillRun(scene, TrackerParams()), before = stillRun(scene, off);
+  std::printf("still at 3 m: torso depth error sd %.4f m, 6 s score %.4f = %.2f x its quietest second; "
+              "not steadied: %.4f m, %.4f = %.2f x\n", now.torso_z_sd, now.window, now.window / now.quietest,
+              before.torso_z_sd, before.window, before.window / before.quietest);
+  EXPECT_LE(now.torso_z_sd, 0.0065);
+  EXPECT_LE(now.window, 2.0 * now.quietest);
+  // The test sees a tracker that follows the offsets (and would win alone under the noise rule).
+  EXPECT_GT(before.torso_z_sd, 0.009);
+  EXPECT_GT(before.window, 3.0 * before.quietest);
 }
 
 // Users farther than 0.7 m along the floor from the person's torso (every

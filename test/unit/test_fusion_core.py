@@ -10,6 +10,7 @@ from hri_sync.fusion.associate import Associator
 from hri_sync.fusion.calibration import Residuals, refine_pose, shared_points
 from hri_sync.fusion.frames import SensorPose, facing, parse_pose
 from hri_sync.fusion.fuse import FuseParams, Observation, fuse
+from hri_sync.fusion.profile import Profile, confidence_power
 
 RNG = np.random.default_rng(36)
 
@@ -97,6 +98,50 @@ def test_association_one_view_person_two_close_people_stable_ids():
     assert len(assoc.persons) == 2
 
 
+def test_association_a_new_user_placed_too_low_joins_its_person():
+    # A view's tracker has just found someone half hidden: its skeleton
+    # stands where the person stands but 0.6 m too low. It is the same
+    # person (people are told apart along the floor), not a second one;
+    # someone 0.6 m away along the floor is.
+    assoc = Associator()
+    assoc.assign(0.0, {('a', 1): body(0, 0)})
+    low = body(0.1, 0)
+    low[:, 2] -= 0.6
+    ids = assoc.assign(1 / 30, {('a', 1): body(0, 0), ('b', 5): low,
+                                ('c', 2): body(0, 0.6)})
+    assert ids[('b', 5)] == ids[('a', 1)] != ids[('c', 2)]
+    assert len(assoc.persons) == 2
+
+
+def test_association_a_user_its_tracker_gives_to_someone_else_moves():
+    # Two people 0.7 m apart, seen by views a and b. View b's tracker loses
+    # its user 3 (on the first person) and finds it again on the second:
+    # the key leaves the first person (whose body the other view holds)
+    # for the second at once, and neither person gets the other's joints.
+    assoc = Associator()
+    first = assoc.assign(0.0, {('a', 1): body(0, 0), ('a', 2): body(0, 0.7),
+                               ('b', 3): body(0.05, 0)})
+    for key, pid in first.items():
+        assoc.update(pid, body(0, 0.7 * (key == ('a', 2))), 0.0)
+    ids = assoc.assign(1 / 30, {('a', 1): body(0, 0),
+                                ('a', 2): body(0, 0.7),
+                                ('b', 3): body(0.05, 0.72)})
+    assert ids[('b', 3)] == first[('a', 2)] != first[('b', 3)]
+    assert assoc.switches == 1 and assoc.jumps == 0
+
+
+def test_association_gates_grow_while_a_person_is_unseen():
+    # A person one view sees walks on (1.5 m/s) through a 0.5 s gap in
+    # that view's tracking: the key that comes back 0.8 m on is theirs.
+    assoc = Associator()
+    pid = assoc.assign(0.0, {('a', 1): body(0, 0)})[('a', 1)]
+    assoc.update(pid, body(0, 0), 0.0)
+    assert assoc.assign(0.5, {('a', 1): body(0.8, 0)}) == {('a', 1): pid}
+    assoc.update(pid, body(0.8, 0), 0.5)
+    assert assoc.assign(0.55, {('a', 1): body(1.7, 0)}) == {}
+    assert assoc.jumps == 1
+
+
 def test_association_merges_duplicates_and_forgets():
     assoc = Associator(merge_after=0.2, forget_after=0.5)
     ids = {}
@@ -153,6 +198,40 @@ def test_fuse_drops_an_outlier_of_three_and_missing_joints():
                           - body()[INDEX['torso']]) < 0.03
     assert np.isnan(f.positions[INDEX['head']]).all()
     assert f.confidence[INDEX['head']] == 0
+
+
+def test_fuse_weighs_a_view_by_its_agreement_with_the_others():
+    # Three views, one 0.25 m off (under the 0.3 m outlier cut): weighted
+    # by agreement, the fused joint follows the two that agree; two views
+    # alone, each as far from the middle, stay as they were weighted.
+    truth = body()
+    views = [obs(v, truth.copy()) for v in 'abc']
+    views[2].positions = truth + [0.25, 0, 0]
+    plain = fuse(views, FuseParams(agreement=0))
+    agreed = fuse(views, FuseParams())
+    assert plain.positions[0, 0] == pytest.approx(0.25 / 3)
+    assert agreed.positions[0, 0] < plain.positions[0, 0] / 2
+    two = [obs('a', truth), obs('b', truth + [0.2, 0, 0])]
+    assert fuse(two, FuseParams()).positions[0, 0] == pytest.approx(0.1)
+
+
+def test_profile_error_grows_with_falling_confidence_as_measured():
+    # Errors whose size grows as confidence ** -0.5 within each joint:
+    # the power is found; the profile keeps it (YAML and back) and the
+    # fusion weighs by it (at confidence 0.25 a view's error is twice, not
+    # four times, that at 1: a fourth of the weight, not a sixteenth).
+    rng = np.random.default_rng(4)
+    conf = rng.choice([0.25, 0.5, 1.0], size=(3, 400, NUM_JOINTS))
+    scale = np.linspace(0.03, 0.12, NUM_JOINTS)     # joints differ
+    own = rng.normal(size=(3, 400, NUM_JOINTS, 3)) \
+        * (scale * conf ** -0.5)[..., None]
+    assert confidence_power(own, conf) == pytest.approx(0.5, abs=0.05)
+    profile = Profile(sigma=0.05, confidence_power=0.5)
+    assert Profile.from_dict(profile.to_dict()).confidence_power == 0.5
+    sure, unsure = obs('a', body(), conf=1.0), obs('b', body(0.1), conf=0.25)
+    sure.power = unsure.power = 0.5
+    f = fuse([sure, unsure], FuseParams(agreement=0))
+    assert f.positions[0, 0] == pytest.approx(0.1 / 5)
 
 
 def test_residuals_blame_the_view_that_disagrees():

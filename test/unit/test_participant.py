@@ -103,10 +103,10 @@ def test_leaving_the_zone_is_a_loss_and_absent_window():
     assert summary_text(s).startswith('participant absent')
 
 
-def msg(user, pos):
+def msg(user, pos, sources=()):
     pts = [SimpleNamespace(x=p[0], y=p[1], z=p[2]) for p in pos]
     return SimpleNamespace(positions=pts, confidence=[1.0] * NUM_JOINTS,
-                           user_id=user)
+                           user_id=user, sources=list(sources))
 
 
 def test_processor_still_participant_and_wild_bystander():
@@ -127,6 +127,27 @@ def test_processor_still_participant_and_wild_bystander():
     # without a zone the first one seen is chosen: the same here
     res = SkeletonExpressiveness().process(frames, 10.0, 15.0)
     assert res.diagnostics['participant'] == '1' and res.value < 1.0
+
+
+def test_processor_names_the_views_of_a_fused_participant():
+    """A fused body's frames carry their views (Skeleton sources): the
+    result names those of the scored frames, with each one's count; a
+    bystander's views are not the participant's."""
+    frames = []
+    for k in range(40):
+        views = ['cam1', 'cam2'] + (['robot1/cam'] if k >= 30 else [])
+        frames.append(Frame(k * 0.05, msg(1, person(0.0, 2.0), views)))
+        frames.append(Frame(k * 0.05 + 0.01, msg(2, person(1.5, 2.0),
+                                                 ['cam9'])))
+    zoned = SkeletonExpressiveness(participant_zone=[-0.5, 0.5, 1.5, 3.0])
+    res = zoned.process(frames, 0.0, 2.0)
+    assert res.diagnostics['sources'] == 'cam1 cam2 robot1/cam'
+    assert res.diagnostics['source_frames'] == \
+        'cam1:40 cam2:40 robot1/cam:10'
+    plain = SkeletonExpressiveness().process(
+        [Frame(k * 0.05, msg(1, person(0.0, 2.0))) for k in range(20)],
+        0.0, 1.0)
+    assert 'sources' not in plain.diagnostics
 
 
 def test_processor_absent_participant_has_no_data():

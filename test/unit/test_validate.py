@@ -63,7 +63,8 @@ def good(msg_type):
             device_stamp=12.5,
             positions=[{'x': 0.1, 'y': 0.2, 'z': 2.0}] * joints,
             orientations=[(0.0, 0.0, 0.0, 1.0)] * joints,
-            confidence=[1.0] * joints),
+            confidence=[1.0] * joints, frame_index=31, frames_skipped=2,
+            sources=['left', 'robot1/cam']),
         'hri_sync/Sample': dict(header=header, index=3, value=0.5),
         'hri_sync/ActionStart': dict(
             header=hdr(NOW - 0.99), round=5, client_id='dj_rob',
@@ -409,7 +410,12 @@ def test_round_status_rejections():
     (dict(device_stamp=2.0 ** 32 + 5), 'time_unrepresentable'),
     (dict(header={'stamp': NOW + 1e4}), 'time_in_future'),
     (dict(header={}), 'malformed'),
-    (dict(client_id='a/b'), 'name_invalid')])
+    (dict(client_id='a/b'), 'name_invalid'),
+    (dict(frame_index=-1), 'out_of_range'),
+    (dict(frames_skipped=1.5), 'not_a_number'),
+    (dict(sources=['left', 'left']), 'list_duplicate'),
+    (dict(sources=['left/']), 'name_empty'),
+    (dict(sources=['left', 3]), 'not_a_string')])
 def test_skeleton_rejections(change, reason):
     assert rejected('hri_sync/Skeleton', **change).reason == reason
 

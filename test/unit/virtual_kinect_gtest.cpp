@@ -311,8 +311,8 @@ TEST(KinectNoise, WorkingRangeAndHolesOnDarkSurfaces) {
     for (size_t i = 0; i < f.depth_mm.size(); ++i) {
       int d = f.depth_mm[i];
       if (d != 0) {
-        EXPECT_GE(d, 800);
-        EXPECT_LE(d, 4000);
+        EXPECT_GE(d, n.min_range * 1000);
+        EXPECT_LE(d, n.max_range * 1000);
       }
       if (f.label[i] == LABEL_PERSON) { ++person; holes += d == 0; }
     }
@@ -462,6 +462,51 @@ TEST(Scene, CrowdStandsInARowOrWalksAcross) {
   EXPECT_THROW(Scene(stillTrack(), BodyShape::preset("average"), o, KinectNoise()), std::invalid_argument);
 }
 
+// crowd_tracks: each crowd member on its own track, placed as the person is
+// (several sensors' views of one room): its truth follows its track, its
+// pixels are rendered; a count that does not match is refused.
+TEST(Scene, CrowdOnTheirOwnTracks) {
+  Joints j = motion().frames()[0];
+  std::vector<std::string> paths;
+  for (const Vec3& d : {Vec3(1.0, 0, 0.5), Vec3(1.6, 0, -0.9)}) {
+    Joints moved = j;
+    for (Vec3& p : moved) p = p + d;
+    paths.push_back("/tmp/virtual_kinect_gtest_crowd_" + std::to_string(getpid()) + "_" +
+                    std::to_string(paths.size()) + ".track");
+    FILE* f = std::fopen(paths.back().c_str(), "w");
+    for (double t : {0.0, 10.0}) {
+      std::fprintf(f, "%.1f", t);
+      for (const Vec3& p : moved) std::fprintf(f, " %.4f %.4f %.4f", p.x, p.y, p.z);
+      std::fprintf(f, "\n");
+    }
+    std::fclose(f);
+  }
+  SceneSpec spec = parseSceneQuery("crowd_tracks=" + paths[0] + "," + paths[1]);
+  EXPECT_EQ(spec.scene.crowd, 2);
+  EXPECT_EQ(spec.scene.crowd_motion, "track");
+  EXPECT_FALSE(spec.scene.needsWalk());
+  Scene room(stillTrack(), BodyShape::preset("average"), spec.scene, KinectNoise());
+  SceneFrame f = renderOnce(room);
+  ASSERT_EQ(f.crowd_truth.size(), 2u);
+  EXPECT_NEAR(f.crowd_truth[0][TORSO].x - f.truth[TORSO].x, 1.0, 0.05);
+  EXPECT_NEAR(f.crowd_truth[0][TORSO].z - f.truth[TORSO].z, 0.5, 0.05);
+  EXPECT_NEAR(f.crowd_truth[1][TORSO].x - f.truth[TORSO].x, 1.6, 0.05);
+  EXPECT_NEAR(f.crowd_truth[1][TORSO].z - f.truth[TORSO].z, -0.9, 0.05);
+  EXPECT_GT(std::count(f.label.begin(), f.label.end(), LABEL_BYSTANDER), 2 * 500);
+  SceneOptions o = spec.scene;
+  o.crowd = 1;
+  EXPECT_THROW(Scene(stillTrack(), BodyShape::preset("average"), o, KinectNoise()), std::invalid_argument);
+  o = SceneOptions();
+  o.crowd = 1;
+  o.crowd_motion = "track";
+  EXPECT_THROW(Scene(stillTrack(), BodyShape::preset("average"), o, KinectNoise()), std::invalid_argument);
+  EXPECT_THROW(parseSceneQuery("crowd_tracks=a,b,c,d"), std::invalid_argument);
+  EXPECT_THROW(Scene(stillTrack(), BodyShape::preset("average"), parseSceneQuery("crowd_tracks=/nonexistent.track").scene,
+                     KinectNoise()),
+               std::runtime_error);
+  for (const std::string& p : paths) std::remove(p.c_str());
+}
+
 TEST(Scene, BadKeysGiveClearErrors) {
   SceneSpec spec;
   auto message = [&](const char* k, const char* v) -> std::string {
@@ -578,6 +623,42 @@ TEST_F(VirtualKinectDriver, RendersAStillPersonBeforeAWallWithKinectNoise) {
     }
     EXPECT_GT(floor, 0.3 * below) << kJointNames[foot] << ": no floor under the foot";
   }
+}
+
+// hold=0 on the whole dance shows its first pose as a still .track of that pose
+// shows it: distance and wall place the pose held, not the dance's mean and
+// farthest position (which put this pose's hips at 4.17 m, beyond the 4 m range:
+// nothing person-sized in view).
+TEST_F(VirtualKinectDriver, HeldPoseIsPlacedAsAStillTrack) {
+  const std::string query = "distance=3.5&wall=0.3&noise=kinect1";
+  openni::Device dev;
+  ASSERT_EQ(dev.open(("virtual://" + kMotion + "?hold=0&" + query).c_str()), openni::STATUS_OK)
+      << openni::OpenNI::getExtendedError();
+  openni::VideoStream depth;
+  ASSERT_EQ(depth.create(dev, openni::SENSOR_DEPTH), openni::STATUS_OK);
+  ASSERT_EQ(depth.start(), openni::STATUS_OK);
+  openni::VideoFrameRef frame;
+  ASSERT_EQ(depth.readFrame(&frame), openni::STATUS_OK);
+  const int index = frame.getFrameIndex();
+  std::vector<uint16_t> got(static_cast<const uint16_t*>(frame.getData()),
+                            static_cast<const uint16_t*>(frame.getData()) + 320 * 240);
+  depth.stop();
+  depth.destroy();
+  dev.close();
+
+  SceneSpec spec = parseSceneQuery(query);
+  Scene scene(stillTrack(), spec.body, spec.scene, spec.noise, nullptr, spec.seed);
+  Camera cam;
+  SceneFrame want;
+  scene.render(0.0, index, cam, &want);
+  ASSERT_EQ(got, want.depth_mm);
+  std::vector<double> person;
+  for (size_t i = 0; i < got.size(); ++i) {
+    if (want.label[i] == LABEL_PERSON && got[i]) person.push_back(got[i] / 1000.0);
+  }
+  ASSERT_GT(person.size(), 800u);
+  std::sort(person.begin(), person.end());
+  EXPECT_NEAR(person[person.size() / 2], 3.5, 0.2);
 }
 
 TEST_F(VirtualKinectDriver, BadSceneKeysFailToOpenWithTheReason) {

@@ -42,6 +42,7 @@ from typing import Any, Sequence, TYPE_CHECKING
 import numpy as np
 
 from hri_sync.dance_off.joints import NUM_JOINTS
+from hri_sync.dance_off.sensor_frames import SensorFrames
 from hri_sync.people.participant import (PARTICIPANT, ParticipantSelector,
                                          Zone)
 from hri_sync.data_process.processors import Processor, ProcessResult
@@ -289,8 +290,14 @@ class SkeletonExpressiveness(Processor):
     z, yaw, pitch] of the sensor in world) the zone is [x_min, x_max,
     y_min, y_max] in the world frame. T is the window (end - start),
     stamps are the frames' global stamps. A message without 15 positions
-    and 15 confidences is rejected as malformed. Incremental: ``add``
-    updates the running sum, ``result`` reads it.
+    and 15 confidences is rejected as malformed. A tracker's frames are
+    counted apart (``SensorFrames``: expected, published, skipped by a
+    tracker that fell behind, unpublished) from its skeletons'
+    ``frame_index`` and ``frames_skipped``. A fused body's frames name
+    their views (Skeleton ``sources``, nodes/fusion): the result then names
+    the views of its scored frames (diagnostics ``sources``) and how many
+    scored frames each gave (``source_frames``, ``view:count ...``).
+    Incremental: ``add`` updates the running sum, ``result`` reads it.
     """
 
     msg_type = 'hri_sync/Skeleton'
@@ -338,21 +345,30 @@ class SkeletonExpressiveness(Processor):
         self._people = ParticipantSelector(self.zone, self.lost_after,
                                            start, end)
         self._malformed = 0
+        self._sensor = SensorFrames()
+        self._sources: dict[str, int] = {}
 
     def add(self, frame: Frame) -> None:
+        msg = frame.msg
         try:
-            pos = np.array([(p.x, p.y, p.z) for p in frame.msg.positions],
+            pos = np.array([(p.x, p.y, p.z) for p in msg.positions],
                            dtype=float)
-            conf = np.array(frame.msg.confidence, dtype=float)
-            user = int(getattr(frame.msg, 'user_id', 0))
+            conf = np.array(msg.confidence, dtype=float)
+            user = int(getattr(msg, 'user_id', 0))
+            index = int(getattr(msg, 'frame_index', 0))
+            skipped = int(getattr(msg, 'frames_skipped', 0))
+            device = self.device_stamp(msg) if index > 0 else math.nan
         except (AttributeError, TypeError, ValueError):
             self._malformed += 1
             return
         if pos.shape != (NUM_JOINTS, 3) or conf.shape != (NUM_JOINTS,):
             self._malformed += 1
             return
+        self._sensor.add(device, index, skipped)
         if self._people.offer(frame.stamp, user, pos) == PARTICIPANT:
             self._run.add(frame.stamp, pos, conf)
+            for view in getattr(frame.msg, 'sources', ()):
+                self._sources[view] = self._sources.get(view, 0) + 1
 
     def result(self) -> ProcessResult:
         res = self._run.score(self._duration)
@@ -369,6 +385,11 @@ class SkeletonExpressiveness(Processor):
             'T': res.duration}
         diagnostics.update(self.zone_params())
         diagnostics.update(people)
+        diagnostics.update(self._sensor.summary(self._duration))
+        if self._sources:
+            diagnostics['sources'] = ' '.join(sorted(self._sources))
+            diagnostics['source_frames'] = ' '.join(
+                '%s:%d' % v for v in sorted(self._sources.items()))
         return ProcessResult(
             value=res.value, frames_used=res.frames_used,
             frames_rejected=(res.frames_rejected + self._malformed

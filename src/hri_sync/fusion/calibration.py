@@ -9,14 +9,17 @@ confidence >= ``min_confidence``), averaged with a time constant of
 views) has a wrong pose; with two views a high residual names the pair
 only (either pose may be wrong). ``shared_points`` and ``refine_pose``
 refine a view's pose from a person the other views see
-(scripts/fusion_refine_pose.py).
+(scripts/fusion_refine_pose.py). ``PoseFit`` does it while the fusion
+runs, for a view whose pose is wrong by more than the association gate
+(its skeletons join none of the people the others see) as well.
 """
 
 from __future__ import annotations
 
+import collections
 import math
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Tuple
+from typing import Deque, Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -87,6 +90,66 @@ class Residuals:
         unexplained = [p for p, r in ready.items() if r > self.threshold
                        and not set(p) & set(blamed)]
         return blamed, unexplained
+
+
+Fit = Tuple[SensorPose, float, float]      # pose, residual before, after
+
+
+class PoseFit:
+    """A suspect view's pose fitted to the people the other views see.
+
+    The fusion pairs a suspect view's skeletons (Skeleton frame) with the
+    bodies other views agree on (world): ``add``. Over the last ``window``
+    s, once ``min_instants`` pairs are in and the people moved (their
+    centre's spread) ``min_motion`` m or more, ``fit`` fits the view's yaw
+    and position (``refine_pose``; a still person could be anyone
+    standing: no fit); ``good``: a fit whose mean residual is within
+    ``threshold`` and half the residual before is the view's pose."""
+
+    def __init__(self, window: float = 3.0, min_instants: int = 45,
+                 min_motion: float = 0.3, threshold: float = 0.2,
+                 min_confidence: float = 0.5) -> None:
+        self.window = window
+        self.min_instants = min_instants
+        self.min_motion = min_motion
+        self.threshold = threshold
+        self.min_confidence = min_confidence
+        self.pairs: Dict[str, Deque[Tuple[float, np.ndarray,
+                                          np.ndarray]]] = {}
+
+    def add(self, t: float, view: str, sensor: np.ndarray,
+            world: np.ndarray, confidence: np.ndarray) -> None:
+        """One skeleton of ``view`` (15, 3) and the others' body (15, 3)
+        at ``t``; joints under ``min_confidence`` or missing are left
+        out."""
+        ok = (confidence >= self.min_confidence) \
+            & np.isfinite(sensor).all(axis=1) & np.isfinite(world).all(axis=1)
+        if ok.sum() < 3:
+            return
+        pairs = self.pairs.setdefault(view, collections.deque())
+        pairs.append((t, sensor[ok], world[ok]))
+        while pairs and pairs[0][0] < t - self.window:
+            pairs.popleft()
+
+    def fit(self, view: str, pose: SensorPose) -> Optional[Fit]:
+        """(fitted pose, residual before, after) of ``view`` from its
+        pairs, or None (too few, or too still)."""
+        pairs = self.pairs.get(view, ())
+        if len(pairs) < self.min_instants:
+            return None
+        centres = np.array([w.mean(axis=0)[:2] for _, _, w in pairs])
+        if np.linalg.norm(np.ptp(centres, axis=0)) < self.min_motion:
+            return None
+        return refine_pose(pose, np.concatenate([s for _, s, _ in pairs]),
+                           np.concatenate([w for _, _, w in pairs]))
+
+    def good(self, fit: Fit) -> bool:
+        """Whether ``fit`` explains the pairs (the view's pose)."""
+        return fit[2] <= min(self.threshold, fit[1] / 2)
+
+    def forget(self, view: str) -> None:
+        """Drop ``view``'s pairs (its pose changed)."""
+        self.pairs.pop(view, None)
 
 
 def _level(pose: SensorPose, points: np.ndarray) -> np.ndarray:

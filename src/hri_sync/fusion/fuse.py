@@ -1,12 +1,16 @@
 """One joint from the views that see it, with a 95 % bound.
 
 Each view's joint is weighted by the inverse of its variance: the
-view's own error at that confidence, ``sigma / confidence`` (m, one axis),
-plus the timing term, the view's stamp uncertainty (95 %, s) times the
-joint's speed; times the view's weight (1, less for a suspect view). A joint
-hidden in one view (low confidence) thus comes from the views that see
-it. With three or more views a joint farther than ``outlier`` m from the
-views' median is left out. The fused joint's 95 % bound is
+view's own error at that confidence, ``sigma * confidence ** -power`` (m,
+one axis; the tracker's profile), plus the timing term, the view's stamp
+uncertainty (95 %, s) times the joint's speed; times the view's weight (1,
+less for a suspect view). A joint hidden in one view (low confidence) thus
+comes from the views that see it. With three or more views a joint farther
+than ``outlier`` m from the views' median is left out; then each view's
+weight is scaled by its agreement with the others, ``1 / (1 + (d / (c *
+s)) ** 2)`` (Cauchy, c = ``agreement``: 2.385, its usual 95 %-efficient
+constant), d its distance from the fused joint, s its expected error,
+``agreement_steps`` times. The fused joint's 95 % bound is
 ``k * sqrt(sigma_fused ** 2 + sigma_common ** 2) + uncertainty * speed``:
 the views' own errors averaged by the weights, the error they share
 (``sigma_common``, hri_sync.fusion.profile) that no weighting removes, and
@@ -33,6 +37,7 @@ class Observation:
     weight: float = 1.0         # the view's trust (calibration)
     sigma: float = 0.05         # m, one axis, at confidence 1
     sigma_common: float = 0.0   # m, one axis, shared by all views
+    power: float = 1.0          # sigma grows as confidence ** -power
 
 
 @dataclass
@@ -42,6 +47,8 @@ class FuseParams:
     min_confidence: float = 0.05
     k: float = 2.8              # 95 % of a 3-D normal: sqrt(chi2(3, .95))
     outlier: float = 0.3        # m
+    agreement: float = 2.385    # Cauchy constant (0: no reweighting)
+    agreement_steps: int = 3
 
 
 @dataclass
@@ -64,13 +71,31 @@ def _stack(obs: List[Observation], p: FuseParams) -> Dict[str, np.ndarray]:
     usable = np.isfinite(a['pts']).all(axis=2) \
         & (a['conf'] >= p.min_confidence) & (weight > 0)
     a['own'] = np.array([o.sigma for o in obs])[:, None] \
-        / np.maximum(a['conf'], p.min_confidence)
+        * np.maximum(a['conf'], p.min_confidence) \
+        ** -np.array([o.power for o in obs])[:, None]
     a['common'] = np.array([o.sigma_common for o in obs])[:, None] \
         + np.zeros_like(a['conf'])
     var = a['own'] ** 2 + (a['timing'] / p.k) ** 2
     a['w'] = np.where(usable, weight / var, 0.0)
     a['w'] *= _kept(a['pts'], usable, p.outlier)
+    a['w'] = _agreed(a['pts'], a['w'], np.sqrt(var), p)
     return a
+
+
+def _agreed(pts: np.ndarray, w: np.ndarray, spread: np.ndarray,
+            p: FuseParams) -> np.ndarray:
+    """The weights ``w`` (views, 15) scaled by each view's agreement with
+    the fused joint (Cauchy on its distance in units of ``spread``, its
+    expected error), ``p.agreement_steps`` times."""
+    out = w
+    pts = np.nan_to_num(pts)
+    for _ in range(p.agreement_steps if p.agreement > 0 else 0):
+        total = out.sum(axis=0)
+        mean = (out[..., None] * pts).sum(axis=0) \
+            / np.where(total > 0, total, 1.0)[:, None]
+        d = np.linalg.norm(pts - mean, axis=2) / (p.agreement * spread)
+        out = w / (1.0 + d ** 2)
+    return out
 
 
 def _kept(pts: np.ndarray, usable: np.ndarray, limit: float) -> np.ndarray:

@@ -10,6 +10,15 @@ period plus its p95 pipeline latency (it is then extrapolated a little or
 left out). A stalled view or one with a lost clock is not waited for.
 Each view's tracker profile (hri_sync.fusion.profile) dates its skeletons
 (stamp minus the tracker's delay) and corrects its joints first.
+
+A view is suspect while its residuals blame it (calibration.Residuals), or
+while none of its users joins a person other views agree on and one is
+near (a pose wrong by more than the association gate). Its skeletons are
+then paired with the others' bodies (calibration.PoseFit); a pose that fits
+them becomes the view's (``fitted``: its skeletons, those kept included,
+are placed by it), and the view stays ``wrong_pose`` (down-weighted,
+reported) for the session; when none does, the people it alone gives are
+other people (the associator holds them back until then).
 """
 
 from __future__ import annotations
@@ -21,8 +30,8 @@ from typing import Callable, Dict, Hashable, List, Optional, Tuple
 import numpy as np
 
 from hri_sync.fusion.align import Sample, Track
-from hri_sync.fusion.associate import Associator, Key
-from hri_sync.fusion.calibration import Residuals
+from hri_sync.fusion.associate import Associator, Key, body_distance, views_of
+from hri_sync.fusion.calibration import Fit, PoseFit, Residuals
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import FuseParams, Fused, Observation, fuse
 from hri_sync.fusion.profile import Profile
@@ -43,6 +52,7 @@ class FusionParams:
     health: HealthParams = field(default_factory=HealthParams)
     gate: float = 0.5                   # m, association (associate.py)
     residual_threshold: float = 0.2     # m, wrong pose (calibration.py)
+    refit: float = 0.5                  # s between a suspect view's fits
 
 
 @dataclass
@@ -79,6 +89,9 @@ class Fusion:
         self.tracks: Dict[Key, Track] = {}
         self.associator = Associator(gate=self.params.gate)
         self.residuals = Residuals(threshold=self.params.residual_threshold)
+        self.pose_fit = PoseFit(threshold=self.params.residual_threshold)
+        self.fitted: Dict[str, Fit] = {}    # view: (pose, before, after)
+        self.tried: Dict[str, float] = {}   # view: when its pose was fitted
         self.next_k: Optional[int] = None
 
     def add(self, view: str, user: Hashable, stamp: float,
@@ -111,10 +124,6 @@ class Fusion:
             health.reject('repeated_stamp')
             return 'repeated_stamp'
         return None
-
-    def set_pose(self, view: str, pose: SensorPose) -> None:
-        """A view's new pose (a refined calibration)."""
-        self.poses[view] = pose
 
     def _newest(self, view: str) -> float:
         stamps = self.health[view].stamps
@@ -170,8 +179,8 @@ class Fusion:
             profile = self.profiles[view]
             out[key] = (Observation(view, a.positions, a.confidence,
                                     a.speed, a.uncertainty, weight,
-                                    profile.sigma, profile.sigma_common),
-                        a.newest)
+                                    profile.sigma, profile.sigma_common,
+                                    profile.confidence_power), a.newest)
         return out
 
     def _fuse_at(self, t: float) -> Frame:
@@ -182,20 +191,75 @@ class Fusion:
         groups: Dict[int, List[Key]] = {}
         for key, pid in ids.items():
             groups.setdefault(pid, []).append(key)
-        people = []
+        people, bodies = [], {}
         for pid in sorted(groups):
             views = [obs[k][0] for k in groups[pid]]
-            body = fuse(views, self.params.fuse)
+            body = bodies[pid] = fuse(views, self.params.fuse)
             self.associator.update(pid, body.positions, t)
+            if self.associator.held(pid, t):
+                continue
             self.residuals.add(t, {o.view: (o.positions, o.confidence)
                                    for o in views})
             newest = max((obs[k][1] for k in groups[pid]
                           if k[0] in body.views), default=t)
             people.append(Person(pid, body, newest))
         blamed, _ = self.residuals.wrong()
+        self._check_poses(t, obs, ids, bodies, blamed)
         for view, health in self.health.items():
-            health.wrong_pose = view in blamed
+            health.wrong_pose = view in blamed or view in self.fitted
         return Frame(t, people, self.clock())
+
+    def _check_poses(self, t: float, obs: Dict[Key, Tuple[Observation,
+                                                         float]],
+                     ids: Dict[Key, int], bodies: Dict[int, Fused],
+                     blamed: List[str]) -> None:
+        """Pair the suspect views' skeletons with the others' bodies, and
+        fit their poses (every ``refit`` s at most)."""
+        agreed = {p: v for p, v in views_of(ids).items() if len(v) > 1}
+        shared = {v for views in agreed.values() for v in views}
+        suspects = set()
+        for key, (o, _) in obs.items():
+            view, pid = key[0], ids.get(key)
+            if view in blamed and pid in agreed:
+                target: Optional[np.ndarray] = bodies[pid].positions
+            elif view not in shared:
+                target = self._nearest(o.positions, view, agreed, bodies)
+            else:
+                continue
+            if target is not None:
+                suspects.add(view)
+                self.pose_fit.add(t, view, self.poses[view].from_world(
+                    o.positions), target, o.confidence)
+        for view in sorted(suspects):
+            if t - self.tried.get(view, -math.inf) >= self.params.refit:
+                self.tried[view] = t
+                fit = self.pose_fit.fit(view, self.poses[view])
+                if fit is not None and self.pose_fit.good(fit):
+                    self._adopt(view, fit)
+                elif fit is not None:       # they are other people
+                    self.associator.release(view)
+
+    def _nearest(self, positions: np.ndarray, view: str,
+                 agreed: Dict[int, set], bodies: Dict[int, Fused]
+                 ) -> Optional[np.ndarray]:
+        """The body of the nearest person other views agree on, within
+        the associator's ``hold_near``, or None."""
+        near = [(d, p) for p in agreed if view not in agreed[p]
+                for d in [body_distance(positions, bodies[p].positions)]
+                if d <= self.associator.hold_near]
+        return bodies[min(near)[1]].positions if near else None
+
+    def _adopt(self, view: str, fit: Fit) -> None:
+        """``view``'s fitted pose: its skeletons, kept ones too, are
+        placed by it from now on."""
+        pose, old = fit[0], self.poses[view]
+        for (v, _), track in self.tracks.items():
+            for sample in track.samples if v == view else ():
+                sample.positions = pose.to_world(old.from_world(
+                    sample.positions))
+        self.poses[view] = pose
+        self.fitted[view] = fit
+        self.pose_fit.forget(view)
 
     def faults(self) -> Dict[str, List[Tuple[str, str]]]:
         """Each view's faults now (views.ViewHealth.faults)."""

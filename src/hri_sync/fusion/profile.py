@@ -10,9 +10,10 @@ body's own axes (x forward, y left, z up, from the hips and neck) and
 dates the skeleton ``delay`` s before its stamp. ``delay_spread`` (95 %,
 s) is the timing uncertainty that delay adds (it varies with speed in a
 filter); ``sigma`` (m, one axis, at confidence 1) is the error a view has
-on its own, ``sigma_common`` (m, one axis) the error left that all views
-share. ``fit_profile`` measures them from views of a motion with its
-truth (bench/fusion_accuracy.py --fit-profile).
+on its own, growing as ``confidence ** -confidence_power`` (1: as one
+over the confidence), ``sigma_common`` (m, one axis) the error left that
+all views share. ``fit_profile`` measures them from views of a motion with
+its truth (bench/fusion_accuracy.py --fit-profile).
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ class Profile:
     delay_spread: float = 0.0
     sigma: float = 0.05
     sigma_common: float = 0.0
+    confidence_power: float = 1.0
     offsets: np.ndarray = field(
         default_factory=lambda: np.zeros((NUM_JOINTS, 3)))
 
@@ -51,6 +53,7 @@ class Profile:
                 'delay_spread': round(self.delay_spread, 4),
                 'sigma': round(self.sigma, 4),
                 'sigma_common': round(self.sigma_common, 4),
+                'confidence_power': round(self.confidence_power, 3),
                 'offsets': np.round(self.offsets, 4).tolist()}
 
     @classmethod
@@ -63,7 +66,7 @@ class Profile:
                 not np.isfinite(offsets).all():
             raise ValueError('a profile has 15 finite (x, y, z) offsets')
         unknown = set(d) - {'delay', 'delay_spread', 'sigma',
-                            'sigma_common'}
+                            'sigma_common', 'confidence_power'}
         if unknown:
             raise ValueError('unknown profile keys: %s' % sorted(unknown))
         values = {k: float(v) for k, v in d.items()}
@@ -87,9 +90,11 @@ def body_frame_errors(estimates: np.ndarray, truth: np.ndarray
 
 
 def fit_profile(estimates: np.ndarray, truth: np.ndarray, delay: float,
-                delay_spread: float) -> Profile:
+                delay_spread: float, confidence: Optional[np.ndarray] = None
+                ) -> Profile:
     """The offsets and error model of views of one tracker (frames where
-    every view tracks), given its delay (estimates already at it)."""
+    every view tracks), given its delay (estimates already at it);
+    ``confidence`` (views, frames, 15): the confidence power too."""
     err = body_frame_errors(estimates, truth)
     ok = np.isfinite(err).all(axis=(0, 2, 3))
     err = err[:, ok]
@@ -101,7 +106,32 @@ def fit_profile(estimates: np.ndarray, truth: np.ndarray, delay: float,
     sigma = float(np.sqrt((own ** 2).mean() * n / max(n - 1, 1)))
     sigma_common = float(np.sqrt(max((common ** 2).mean()
                                      - sigma ** 2 / n, 0.0)))
-    return Profile(delay, delay_spread, sigma, sigma_common, offsets)
+    power = 1.0 if confidence is None else \
+        confidence_power(own, confidence[:, ok])
+    return Profile(delay, delay_spread, sigma, sigma_common, power,
+                   offsets)
+
+
+def confidence_power(own: np.ndarray, confidence: np.ndarray,
+                     least: int = 30) -> float:
+    """p in rms error ~ confidence ** -p: the slope of log rms error on
+    log confidence within each joint (its confidence levels with
+    ``least`` errors or more), pooled over joints. ``own``: (views,
+    frames, 15, 3) errors, ``confidence``: (views, frames, 15)."""
+    norms = np.linalg.norm(own, axis=-1)
+    xs, ys = [], []
+    for j in range(norms.shape[2]):
+        c, e = np.round(confidence[..., j], 2).ravel(), norms[..., j].ravel()
+        levels = [(np.log(v), np.log(np.sqrt(np.mean(e[c == v] ** 2))))
+                  for v in np.unique(c) if v > 0 and (c == v).sum() >= least]
+        if len(levels) > 1:
+            x, y = np.array(levels).T
+            xs.append(x - x.mean())
+            ys.append(y - y.mean())
+    if not xs:
+        return 1.0
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    return float(-(x * y).sum() / (x * x).sum())
 
 
 def profiles(values: Dict[str, Any], views: List[str]) -> Dict[str, Profile]:

@@ -38,14 +38,19 @@ def view_status(fusion: Fusion, view: str) -> Status:
 
 
 def calibration_status(fusion: Fusion) -> Status:
-    """The residual of every pair of views."""
+    """The residual of every pair of views, and the views whose pose is
+    wrong: down-weighted, and placed by a pose fitted to the others'."""
     ready = fusion.residuals.ready()
     blamed, unexplained = fusion.residuals.wrong()
     values = [('%s-%s (mm)' % pair, '%.0f' % (r * 1e3))
               for pair, r in sorted(ready.items())]
-    if blamed:
-        return ('calibration', WARN, 'wrong pose: %s (down-weighted)'
-                % ', '.join(blamed), values)
+    values += [('%s fitted pose' % view, '%.3f %.3f %.3f %.4f %.4f' % (
+        p.x, p.y, p.z, p.yaw, p.pitch)) for view, (p, _, _) in
+        sorted(fusion.fitted.items())]
+    wrong = sorted(set(blamed) | set(fusion.fitted))
+    if wrong:
+        return ('calibration', WARN, 'wrong pose: %s (down-weighted)' % '; '
+                .join(v + _fitted(fusion, v) for v in wrong), values)
     if unexplained:
         return ('calibration', WARN, 'residual over %.0f mm: %s'
                 % (fusion.residuals.threshold * 1e3,
@@ -53,6 +58,15 @@ def calibration_status(fusion: Fusion) -> Status:
     if not ready:
         return 'calibration', OK, 'no pair of views sees a person yet', []
     return 'calibration', OK, 'views agree', values
+
+
+def _fitted(fusion: Fusion, view: str) -> str:
+    """', placed by a fitted pose' and its residuals, if ``view`` is."""
+    if view not in fusion.fitted:
+        return ''
+    _, before, after = fusion.fitted[view]
+    return (', placed by a pose fitted to the other views: %.0f mm off, '
+            '%.0f mm after' % (before * 1e3, after * 1e3))
 
 
 def people_status(fusion: Fusion, last: Frame | None) -> Status:

@@ -114,7 +114,8 @@ class FusionNode:
                              np.nanmean(body.positions, axis=0))
             msg = Skeleton(client_id=self.client_id, user_id=person.person,
                            positions=[Point(*p) for p in
-                                      self.output_pose.from_world(world)])
+                                      self.output_pose.from_world(world)],
+                           sources=list(body.views))
             msg.header.stamp, msg.device_stamp = stamp, device
             msg.header.frame_id = self.client_id + '_sensor'
             msg.orientations = [Quaternion(w=1.0) for _ in range(15)]

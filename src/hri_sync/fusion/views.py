@@ -102,6 +102,6 @@ class ViewHealth:
             out.append(('nan_joints', '%d skeletons with NaN joints in '
                         '%.0f s' % (len(self.nan_times), self.params.window)))
         if self.wrong_pose:
-            out.append(('wrong_pose', 'disagrees with every other view: '
-                        'down-weighted'))
+            out.append(('wrong_pose', 'its pose disagrees with the other '
+                        'views: down-weighted'))
         return out

@@ -44,13 +44,15 @@ PRE_HEADER = {
 
 # md5sums of definitions today's only extend with fields at the end
 # (ActionStart's kind, event, status, ...; ClientResult's noise_floor, then
-# noise_source; Decision's noise_floors), oldest first: read as they are,
-# without the appended fields.
+# noise_source; Decision's noise_floors; Skeleton's frame_index,
+# frames_skipped and sources), oldest first: read as they are, without the
+# appended fields.
 APPENDED = {
     'hri_sync/ActionStart': ('afa9bd87c199ede36d50d1488f2c8ff8',),
     'hri_sync/ClientResult': ('4be20d7e3c87c82059393adb83f3435f',
                               '8ed9e139336825069cfc0365383a0d62'),
     'hri_sync/Decision': ('f79083d8878f6b9e5010c20090402872',),
+    'hri_sync/Skeleton': ('8c168feb7dcf11c4819ee7ddd6080a4b',),
 }
 
 

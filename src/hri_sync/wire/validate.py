@@ -217,8 +217,9 @@ def client_name(s: str, what: str, ctx: Context) -> str:
 
 
 def names(items: list[Any], what: str, ctx: Context,
-          empty: bool = True) -> list[Any]:
-    """A list of distinct client ids, at most ``max_clients``."""
+          empty: bool = True, graph: bool = False) -> list[Any]:
+    """A list of distinct client ids (``graph``: or graph names, client
+    ids joined by '/'), at most ``max_clients``."""
     items = list(items)
     if not items and not empty:
         raise Rejected('list_empty', '%s is empty' % what, what)
@@ -226,7 +227,8 @@ def names(items: list[Any], what: str, ctx: Context,
         raise Rejected('list_too_long', '%s has %d entries (limit %d)'
                        % (what, len(items), ctx.limits.max_clients), what)
     for s in items:
-        name(s, what, ctx)
+        for part in s.split('/') if graph and isinstance(s, str) else [s]:
+            name(part, what, ctx)
     if len(set(items)) != len(items):
         raise Rejected('list_duplicate', '%s lists a client twice' % what,
                        what)
@@ -554,18 +556,23 @@ def dpm_state(*, header: Any, client_id: Any, input: Any, samples: Any,
 
 def skeleton(*, header: Any, client_id: Any, user_id: Any, device_stamp: Any,
              positions: Any, orientations: Any, confidence: Any,
+             frame_index: Any, frames_skipped: Any, sources: Any,
              ctx: Context) -> None:
     """/<id>/skeleton (and /<id>/captured): one tracked user's joints.
 
     ``header.stamp`` is global time, ``device_stamp`` the sensor's own
     clock (only representable: a device clock may start anywhere).  NaN
     positions (a joint not tracked) pass with ``nan_joints``; infinite or
-    far ones do not.  Confidence is within [0, 1].
+    far ones do not.  Confidence is within [0, 1].  ``frame_index`` and
+    ``frames_skipped`` are counts (0: unknown).  ``sources`` (a fused
+    skeleton's views) are distinct view ids (graph names: ``robot1/cam``).
     """
     lim = ctx.limits
     time_near(header_stamp(header), 'header.stamp', ctx)
     client_name(client_id, 'client_id', ctx)
     count(user_id, 'user_id', 2 ** 32 - 1)
+    count(frame_index, 'frame_index', 2 ** 32 - 1)
+    count(frames_skipped, 'frames_skipped', 2 ** 32 - 1)
     time_value(device_stamp, 'device_stamp')
     for i, p in enumerate(array(positions, 'positions', NUM_JOINTS)):
         vector(p, 'positions[%d]' % i, lim.max_coordinate,
@@ -575,6 +582,7 @@ def skeleton(*, header: Any, client_id: Any, user_id: Any, device_stamp: Any,
                ('x', 'y', 'z', 'w'), nan=lim.nan_joints)
     for i, c in enumerate(array(confidence, 'confidence', NUM_JOINTS)):
         number(c, 'confidence[%d]' % i, 0.0, 1.0)
+    names(sources, 'sources', ctx, graph=True)
 
 
 def sample(*, header: Any, index: Any, value: Any, ctx: Context) -> None:

@@ -1,0 +1,118 @@
+"""A tracker's frames in a window: expected, published, skipped apart."""
+import math
+from types import SimpleNamespace as NS
+
+from hri_sync.clock.model import ClockModel
+from hri_sync.dance_off.expressiveness import SkeletonExpressiveness
+from hri_sync.dance_off.joints import NUM_JOINTS
+from hri_sync.dance_off.sensor_frames import SensorFrames
+from hri_sync.data_process.dpm import DataProcess
+
+RATE = 30.0
+
+
+def tracker_stream(n, untracked=(), stall=(), users=1, first=1):
+    """(device s, frame index, skipped so far) of each skeleton a tracker
+    publishes from ``n`` sensor frames: none for the ``untracked`` frames
+    (processed, not published) or the ``stall`` frames (never processed,
+    counted as skipped), ``users`` skeletons for each other frame."""
+    out, skipped = [], 0
+    for k in range(n):
+        if k in stall:
+            skipped += 1
+            continue
+        if k in untracked:
+            continue
+        out += [(10.0 + k / RATE, first + k, skipped)] * users
+    return out
+
+
+def count(stream, duration):
+    frames = SensorFrames()
+    for device, index, skipped in stream:
+        frames.add(device, index, skipped)
+    return frames.summary(duration)
+
+
+def test_a_stall_is_counted_apart_from_untracked_frames():
+    s = count(tracker_stream(300, untracked=range(0, 15),
+                             stall=range(100, 130), users=2), 10.0)
+    assert s['frames_expected'] == 300
+    assert s['frames_published'] == 255
+    assert s['frames_skipped'] == 30
+    assert s['frames_unpublished'] == 15
+    assert math.isclose(s['sensor_rate'], RATE)
+
+
+def test_a_tracker_that_keeps_up_skips_nothing():
+    s = count(tracker_stream(300), 10.0)
+    assert (s['frames_expected'], s['frames_published'], s['frames_skipped'],
+            s['frames_unpublished']) == (300, 300, 0, 0)
+
+
+def test_every_other_frame_skipped_keeps_the_sensors_rate():
+    # A tracker at half the sensor's rate: the stamps' spacing says 15 Hz,
+    # the frame indices 30.
+    s = count(tracker_stream(300, stall=range(1, 300, 2)), 10.0)
+    assert s['frames_expected'] == 300
+    assert s['frames_published'] == 150
+    assert s['frames_skipped'] == 149      # the last one is after the last
+    assert s['frames_unpublished'] == 1    # published: at the window's edge
+
+
+def test_skips_before_the_first_frame_of_the_window_are_not_its_own():
+    stream = [(d, i, k + 7) for d, i, k in tracker_stream(300,
+                                                          stall=[50])]
+    assert count(stream, 10.0)['frames_skipped'] == 1
+
+
+def test_a_sensor_reopened_or_a_tracker_restarted_starts_over():
+    before = tracker_stream(150, stall=[20, 21])        # skipped 2
+    after = [(d + 5.0, i, k) for d, i, k in tracker_stream(150,
+                                                          stall=[40])]
+    s = count(before + after, 10.0)
+    assert s['frames_published'] == 297
+    assert s['frames_skipped'] == 3
+    assert s['frames_expected'] == 300
+
+
+def test_unknown_indices_count_nothing():
+    s = count([(10.0, 0, 0), (10.1, 0, 5)], 10.0)
+    assert s['frames_published'] == 0 and s['frames_skipped'] == 0
+    assert math.isnan(s['frames_expected'])
+    assert math.isnan(s['frames_unpublished'])
+    s = count([(10.0, 4, 0)], 10.0)
+    assert s['frames_published'] == 1 and math.isnan(s['sensor_rate'])
+
+
+def skeleton(device, index, skipped):
+    return NS(positions=[NS(x=0.0, y=0.0, z=2.0)] * NUM_JOINTS,
+              confidence=[1.0] * NUM_JOINTS, user_id=1, device_stamp=device,
+              frame_index=index, frames_skipped=skipped)
+
+
+def test_the_window_result_says_what_the_tracker_skipped():
+    # Through the DPM: a tracker that loses its person for 0.5 s (15
+    # frames) and then stalls 1 s (30 frames) inside a 6 s window; its
+    # result (partial: 1.5 s uncovered) counts both gaps as frames the
+    # stamps miss (frames_dropped), and, told apart by the tracker, the
+    # stall's as frames it skipped.
+    local0, offset = 1000.0, 5.0
+    d = DataProcess(SkeletonExpressiveness, stamp_source='device')
+    d.set_clock(ClockModel(local0, offset, 0.0, 50e-6))
+    start = local0 + offset + 2.0
+    d.open(1, start, start + 6.0)
+    got = []
+    for device, index, skipped in tracker_stream(300, untracked=range(120,
+                                                                       135),
+                                                 stall=range(150, 180)):
+        arrival = local0 + (device - 10.0) + 0.004
+        got += d.on_sample(skeleton(device, index, skipped), arrival).results
+    (r,) = got
+    assert r.status == 'partial' and math.isclose(r.coverage, 0.75,
+                                                   abs_tol=0.02)
+    assert r.diagnostics['frames_expected'] == 180
+    assert r.diagnostics['frames_skipped'] == 30
+    assert r.diagnostics['frames_unpublished'] == 15
+    assert r.diagnostics['frames_published'] == r.frames == 135
+    assert r.frames_dropped == 45
