@@ -347,3 +347,18 @@ def test_the_calibration_windows_samples_are_not_republished():
     step = late.calibrate(8.0, 9.5)
     assert step.captured == [] and 8.0 in [w.start for w in
                                            late.windows.values()]
+
+
+def test_the_calibration_window_on_a_sensors_own_clock():
+    from hri_sync.control.calibration import host_window
+    order = Capture(CALIBRATION_ROUND, 100.0, 1.0, 5.0, ['left'])
+    own = ClockModel(0.0, 40.0, 0.0, 1e-4)      # global = local + 40
+    # received 3 ms after its sending, by this host's clock model
+    assert host_window(order, 60.003, own) == pytest.approx((60.8, 66.2))
+    # a model of another clock (a CPM under libfaketime, 1.2 s off): the
+    # window STR_AFT after the receipt
+    faked = ClockModel(0.0, 41.2, 0.0, 1e-4)
+    assert host_window(order, 60.003, faked) == pytest.approx((60.803,
+                                                               66.203))
+    assert host_window(order, 60.003, None, margin=0.0) == \
+        pytest.approx((61.003, 66.003))

@@ -21,6 +21,10 @@ from hri_sync.control.session import Log
 from hri_sync.wire.protocol import Capture, ProtocolError
 from hri_sync.wire.vocabulary import CALIBRATION_ROUND
 
+STILL_MARGIN = 0.2     # s a simulated person stands still before and after
+OWN_CLOCK = 0.5        # s: a clock model that puts an order's receipt
+#                        farther from its sending is not this host's
+
 
 class CalibrationRun:
     """One calibration window, as the events of ``ControlSession``:
@@ -81,3 +85,22 @@ class CalibrationRun:
                         'module within %.1f s of the window\'s end; going '
                         'on to round 1' % self.decision_timeout)]
         return []
+
+
+def host_window(order: Capture, now: float, clock: Any = None,
+                margin: float = STILL_MARGIN) -> tuple[float, float]:
+    """The calibration window of ``order`` on this host's clock, widened by
+    ``margin`` s on either side, for a simulated sensor to stand still in
+    (a frame stamped a little off the window's edges is still, and a
+    switch to a still recording falls outside it).  ``now``: this host's
+    clock at the order's receipt.  ``clock``: a clock model (local ->
+    global, ``to_global``/``to_local``) of the client, used when it is this
+    host's clock (it puts the receipt within ``OWN_CLOCK`` s of the order's
+    sending); else (a CPM under libfaketime beside a sensor on the true
+    clock, or none) the window starts STR_AFT after the receipt."""
+    if clock is not None and abs(clock.to_global(now) - order.cr_t) \
+            < OWN_CLOCK:
+        start = clock.to_local(order.start)
+    else:
+        start = now + order.str_aft
+    return start - margin, start + order.dur + margin

@@ -11,6 +11,7 @@ import rospkg
 import rospy
 from geometry_msgs.msg import Point, Quaternion
 
+from hri_sync.control.calibration import host_window
 from hri_sync.dance_off.joints import NUM_JOINTS
 from hri_sync.dance_off.motion import MODES, load_motion
 from hri_sync.msg import CaptureData, ClockState, Skeleton
@@ -27,12 +28,6 @@ from hri_sync.wire.validate import Context
 from hri_sync.wire.vocabulary import CALIBRATION_NS
 from hri_sync.dance_off.skeleton_source import (Perturbation, SkeletonSource,
                                                 replay_schedule, tick_times)
-
-
-STILL_MARGIN = 0.2     # s the person stands still before and after a
-#                        calibration window
-OWN_CLOCK = 0.5        # s: a clock model that puts the order's receipt
-#                        farther from its sending is not this host's
 
 
 def resolve_motion(name):
@@ -190,19 +185,10 @@ class SkeletonSensor:
         """The CM's calibration window: the person stands still in it (a
         motion pauses, a bag shows ~calibration_bag or plays on; a
         bystander pauses)."""
-        now, clock, order = time.time(), self.clock, Capture.from_msg(msg)
+        order = Capture.from_msg(msg)
         if self.client_id not in order.clients:
             return
-        # The window on this host's clock: by its CPM's clock model, or,
-        # when that model is not this clock's (a CPM under libfaketime
-        # beside this sensor on the true clock), from the order's receipt
-        # (sent at CR_T, its window STR_AFT later).  With a margin: a frame
-        # the DPM stamps a little off the window's edges is still, and a
-        # bag's switch to its still recording (a jump) falls outside it.
-        start = clock.to_local(order.start) if clock is not None and abs(
-            clock.to_global(now) - order.cr_t) < OWN_CLOCK \
-            else now + order.str_aft
-        t0, t1 = start - STILL_MARGIN, start + order.dur + STILL_MARGIN
+        t0, t1 = host_window(order, time.time(), self.clock)
         still = self.source is not None or self.still is not None
         if self.source is not None:
             self.source.pause(t0, t1)
