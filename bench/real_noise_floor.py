@@ -15,6 +15,15 @@ the six Kinect v2 gesture captures; punches: every Kinect v1 window over
 its sequence's median.  The sets marked ``check`` (Ges01_wavehand, the
 ``real_k2_calm`` stretch of joints.csv, Kinect v1 subjects 4-6) are left
 out of ``choose`` and reported apart.
+
+``--calibrate``: as a DPM after the CM's calibration window (nobody
+moving), each stream's quiet level is a calibration score instead of its
+own quietest second: for Kinect v2 the score of the ``real_k2_calm``
+stretch of joints.csv (5.2-6.9 s, the recording the rostests replay as a
+Kinect v2's calibration), for a Kinect v1 sequence the score of its own
+first second (its person standing before the punches); a sequence whose
+first second is not still (0.1 or more) has no calibration and is left
+out.
 """
 import argparse
 import glob
@@ -64,14 +73,26 @@ class Arrays(Processor):
         return ProcessResult(r.value, r.frames_used, noise_floor=r.jitter)
 
 
-def windows(rec, width, step=0.1):
-    """[(t0, score, jitter floor, quiet baseline, floor)] of a recording."""
+def score(rec, t0, t1):
+    """(score, jitter floor) of a recording's [t0, t1)."""
+    k = (rec.stamps >= t0) & (rec.stamps < t1)
+    proc = Arrays()
+    proc.begin(t0, t1)
+    for t, p, c in zip(rec.stamps[k], rec.positions[k], rec.confidence[k]):
+        proc.add(type('F', (), {'stamp': float(t), 'msg': (p, c)}))
+    r = proc.result()
+    return r.value, r.noise_floor
+
+
+def windows(rec, width, step=0.1, calibration=None):
+    """[(t0, score, jitter floor, quiet level, floor)] of a recording; the
+    quiet level is ``calibration`` when given, else the quiet baseline."""
     base = QuietBaseline(Arrays)
     for t, p, c in zip(rec.stamps, rec.positions, rec.confidence):
         base.add(float(t), (p, c))
     base.add(float(rec.stamps[-1]) + 10.0, (rec.positions[-1],
                                             rec.confidence[-1]))
-    quiet = base.level()[0]
+    quiet = base.level()[0] if calibration is None else calibration
     out = []
     for t0 in np.arange(0.0, rec.stamps[-1] - width + 1e-9, step):
         k = (rec.stamps >= t0) & (rec.stamps < t0 + width)
@@ -90,12 +111,18 @@ def inside(t0, width, spans):
     return any(a <= t0 and t0 + width <= b for a, b in spans)
 
 
-def collect(src, width):
+def collect(src, width, calibrate=False):
     sets = {k: {'calm': [], 'move': []} for k in ('choose', 'check')}
     levels = {}
+    k2 = None
+    if calibrate:
+        k2 = score(read_kinect_v2(os.path.join(src, 'kinect2_laban',
+                                               'joints.csv')),
+                   *CALM['check'][0])[0]
+        levels['calibration (real_k2_calm)'] = round(k2, 4)
     for path in sorted(glob.glob(os.path.join(src, 'kinect2_laban/*.csv'))):
         name = os.path.basename(path)
-        w = windows(read_kinect_v2(path), width)
+        w = windows(read_kinect_v2(path), width, calibration=k2)
         levels[name] = summary(w)
         if name == 'joints.csv':
             for part, spans in CALM.items():
@@ -109,9 +136,10 @@ def collect(src, width):
     for path in sorted(glob.glob(os.path.join(src, 'kinect1_precog/*.csv'))):
         name = os.path.basename(path)
         rec = read_kinect_v1(path)
-        if rec.stamps[-1] < 2 * width:
+        first = score(rec, 0.0, 1.0)[0]
+        if rec.stamps[-1] < 2 * width or calibrate and not first < 0.1:
             continue
-        w = windows(rec, width)
+        w = windows(rec, width, calibration=first if calibrate else None)
         part = 'check' if name.startswith(CHECK_V1_SUBJECTS) else 'choose'
         if w[0][1] < 0.1:
             v1_calm[part].append(w[0])
@@ -148,10 +176,13 @@ def main():
     parser.add_argument('--src', default=DEFAULT_SRC)
     parser.add_argument('--window', type=float, default=1.0)
     parser.add_argument('--factors', default='1.5,2,3,4,5')
+    parser.add_argument('--calibrate', action='store_true',
+                        help='quiet levels from a calibration (see above)')
     args = parser.parse_args()
-    sets, levels, v1_calm, v1_move = collect(args.src, args.window)
-    out = {'window_s': args.window, 'kinect_v2_levels [min, median, max]':
-           levels}
+    sets, levels, v1_calm, v1_move = collect(args.src, args.window,
+                                             args.calibrate)
+    out = {'window_s': args.window, 'calibrated': args.calibrate,
+           'kinect_v2_levels [min, median, max]': levels}
     for part in ('choose', 'check'):
         s = sets[part]
         out[part] = {'kinect_v2_calm_windows': len(s['calm']),

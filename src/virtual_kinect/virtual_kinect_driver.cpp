@@ -14,6 +14,9 @@
 //   unplug_file=PATH (unplugged as with lose_after as soon as PATH exists: a test
 //   unplugs the sensor at a time of its choosing). A device is unplugged once: the
 //   replugged one, opened again, stays.
+//   still_file=PATH (while PATH exists the person stands still: the motion stops at
+//   its pose, frames and noise go on, and it goes on from that pose once PATH is
+//   gone; nodes/still_file makes PATH over the control module's calibration window).
 // Scene keys (docs/tracker.md, "Virtual Kinect scenes"): body=average|short_broad|tall_slim|
 //   loose_clothes|dark_clothes|model, height, girth, limbs, arms, legs, clothing, clothes_albedo,
 //   wall=GAP_M|none, furniture=none|table|chair, furniture_x, bystander=none|walk|stand,
@@ -66,6 +69,7 @@ struct VirtualConfig {
   double hold = -1.0;           ///< >= 0: the motion frozen at this time (s)
   double offset_us = 1e6;
   std::string unplug_file;      ///< unplugged when this file exists (empty: never)
+  std::string still_file;       ///< the motion stands still while it exists
   hri_sync::SceneSpec scene;    ///< scene.used: render a Scene
   bool sigma_given = false;
 };
@@ -122,9 +126,11 @@ VirtualConfig parseUri(const std::string& uri) {
     } else if (k == "drift_ppm") { c.drift_ppm = toNumber(k, v);
     } else if (k == "lose_after") { c.lose_after = toNumber(k, v);
     } else if (k == "unplug_file") { c.unplug_file = v;
+    } else if (k == "still_file") { c.still_file = v;
     } else {
       throw std::runtime_error("virtual kinect: unknown URI key '" + k + "' (keys: res, fps, background, noise, "
-                               "loop, start, hold, offset_us, drift_ppm, lose_after, unplug_file, " + hri_sync::sceneKeys() + ")");
+                               "loop, start, hold, offset_us, drift_ppm, lose_after, unplug_file, still_file, " +
+                               hri_sync::sceneKeys() + ")");
     }
   }
   if (c.scene.used) {
@@ -244,6 +250,7 @@ class DepthStream : public oni::driver::StreamBase {
     const double period = 1.0 / mode_.fps;
     std::vector<uint16_t> depth;
     hri_sync::SceneFrame scene_frame;
+    uint64_t held = 0, last = 0;  // frame periods the motion stood still (still_file)
     for (uint64_t n = 0; running_; ++n) {
       const auto due = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(n * period));
       while (running_ && Clock::now() < due) std::this_thread::sleep_for(std::chrono::milliseconds(2));
@@ -260,7 +267,9 @@ class DepthStream : public oni::driver::StreamBase {
         while (running_) std::this_thread::sleep_for(std::chrono::milliseconds(20));
         break;
       }
-      double t = cfg_.hold >= 0 ? cfg_.hold : cfg_.start + n * period;
+      if (!cfg_.still_file.empty() && access(cfg_.still_file.c_str(), F_OK) == 0) held += n - last;
+      last = n;
+      double t = cfg_.hold >= 0 ? cfg_.hold : cfg_.start + (n - held) * period;
       if (!cfg_.loop && t > track_->duration()) {  // end of the motion: no more frames
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
         continue;

@@ -22,7 +22,11 @@ streams and, after the round, checks:
 - ~expect_status_text ('<status name>=<text>;...'): a /diagnostics status
   (e.g. 'left/dpm: results') whose message or a value contains the text;
 - with ~verify: records the round with rosbag, then runs verify_decisions
-  on the bag, which must exit 0 and recompute the recorded decision.
+  on the bag, which must exit 0 and recompute the recorded decision;
+- with ~calibration > 0: the calibration window before the round was
+  answered with no winner on /calibration/decision, and every usable
+  result whose client calibrated (an ok calibration result) says its
+  noise floor is calibrated.
 """
 import math
 import os
@@ -47,7 +51,8 @@ MARGIN = 0.005       # s: device clock map error and rounding at the edges
 RECORDER_GRACE = 2.0  # s the recorder may lag this checker (see setUpClass)
 RECORD = ['/sync_time', '/sync_ack', '/capture_data', '/round_status',
           '/client_result', '/decision', '/dance_off/config',
-          '/left/captured', '/right/captured']
+          '/left/captured', '/right/captured', '/calibration/capture_data',
+          '/calibration/client_result', '/calibration/decision']
 
 
 def diag(result, key):
@@ -79,6 +84,8 @@ class DanceOffRound(unittest.TestCase):
             e.strip() for e in rospy.get_param(
                 '~expect_diagnostics', '').split(';') if e.strip()]
         cls.timeout = rospy.get_param('~timeout', 60.0)
+        cls.calibration = rospy.get_param('~calibration', 0.0)
+        cls.calibrated, cls.calibration_decisions = {}, []
         cls.statuses = {c: rospy.get_param('~expect_status_' + c, 'ok')
                         for c in CLIENTS}
         cls.lock = threading.Lock()
@@ -96,6 +103,11 @@ class DanceOffRound(unittest.TestCase):
                 start_new_session=True)
         rospy.Subscriber('/client_result', ClientResult, cls.on_result)
         rospy.Subscriber('/decision', Decision, cls.on_decision)
+        rospy.Subscriber('/calibration/client_result', ClientResult,
+                         lambda m: cls.calibrated.__setitem__(m.client_id,
+                                                              m))
+        rospy.Subscriber('/calibration/decision', Decision,
+                         cls.calibration_decisions.append)
         cls.expect_status = [
             e.strip().split('=', 1) for e in rospy.get_param(
                 '~expect_status_text', '').split(';') if e.strip()]
@@ -216,6 +228,29 @@ class DanceOffRound(unittest.TestCase):
             self.assertEqual(floor, r.noise_floor, c)
             rospy.loginfo('%s: score %.4g, noise floor %.4g', c, r.value,
                           r.noise_floor)
+
+    def test_calibration(self):
+        """With ~calibration: a no_winner answer to the calibration
+        window, and the results' floors calibrated by it."""
+        if not self.calibration:
+            return
+        self.decision()
+        self.assertEqual(len(self.calibration_decisions), 1)
+        cal = self.calibration_decisions[0]
+        self.assertEqual((cal.round, cal.outcome, cal.winner),
+                         (0, 'no_winner', 0), cal.reason)
+        self.assertIn('calibration window', cal.reason)
+        rospy.loginfo('calibration: %s', cal.reason)
+        for c in CLIENTS:
+            r, k = self.results.get(c), self.calibrated.get(c)
+            if k is None or r is None or r.status not in ('ok', 'partial'):
+                continue
+            rospy.loginfo('%s: calibration %s, still score %.4g; round '
+                          'score %.4g, noise floor %.4g (%s)', c, k.status,
+                          k.value, r.value, r.noise_floor, r.noise_source)
+            if k.status == 'ok':
+                self.assertEqual(r.noise_source, 'calibration', c)
+                self.assertGreaterEqual(r.noise_floor, k.value, c)
 
     def test_results(self):
         self.decision()

@@ -8,7 +8,10 @@ before now, joints of data/motion ~motion seen from each view's pose in
 ClockState is not ok), ``wrong_pose`` (it is seen from its pose moved
 ~wrong_shift m along x and turned ~wrong_turn degrees, default 0.3 and 10;
 the fusion keeps the declared one),
-``nan_joints`` (every skeleton has NaN hands), or ``none``.
+``nan_joints`` (every skeleton has NaN hands), or ``none``.  In the
+CM's calibration window (/calibration/capture_data, global time: this
+machine's clock, which the time server serves) the dancer stands still
+and goes on from the same pose after it.
 """
 import math
 import os
@@ -20,7 +23,8 @@ from geometry_msgs.msg import Point
 
 from hri_sync.dance_off.motion import load_motion
 from hri_sync.fusion.frames import SensorPose, parse_pose
-from hri_sync.msg import ClockState, Skeleton
+from hri_sync.msg import CaptureData, ClockState, Skeleton
+from hri_sync.wire.protocol import Capture
 from hri_sync.ros.node import init_checker
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(
@@ -52,13 +56,22 @@ def main():
                                  queue_size=1, latch=True) for v in poses}
     for v in poses:
         clocks[v].publish(clock_state(v, True))
+    pauses = []     # [t0, t1) host time: the calibration window's, widened
+
+    def on_calibration(msg):
+        order = Capture.from_msg(msg)
+        pauses.append((order.start - 0.2, order.end + 0.2))
+    rospy.Subscriber('/calibration/capture_data', CaptureData,
+                     on_calibration)
     rng = np.random.default_rng(36)
     start, lost = time.time(), False
     rate = rospy.Rate(30)
     while not rospy.is_shutdown():
         stamp = time.time() - 0.02
         late = time.time() - start > after
-        world = ORIGINAL.to_world(motion.positions_at([stamp - start])[0])
+        held = sum(min(max(stamp - a, 0.0), b - a) for a, b in pauses)
+        world = ORIGINAL.to_world(motion.positions_at(
+            [stamp - start - held])[0])
         for v, pub in pubs.items():
             bad = late and v == faulty
             if bad and fault == 'stall':

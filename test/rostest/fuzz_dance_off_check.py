@@ -19,7 +19,7 @@ service) on this test's master, with its screen output in a file, and:
    answering a ping);
 4. runs another clean round: it must end in the decision that
    hri_sync.decision.rule.decide gives on the two DPMs' own results
-   (by caller id), both ok;
+   (by caller id), both ok, by the decision module's rule;
    ~impersonate may be a list: steps 2-4 then run once for each item,
    on the same launch;
 5. checks no traceback through this package's code was logged: neither
@@ -361,9 +361,12 @@ class FuzzDanceOff(unittest.TestCase):
         if wrong:
             return wrong
         want = decide(list(self.participants),
-                      {c: (r.status, r.value) for c, r in results.items()},
+                      {c: (r.status, r.value, r.noise_floor, r.noise_source)
+                       for c, r in results.items()},
                       rospy.get_param('~min_expressiveness', 1.0),
-                      rospy.get_param('~tie_margin', 0.0), 'partial')
+                      rospy.get_param('~tie_margin', 0.0), 'partial',
+                      rospy.get_param('/decision_module/decision_rule'),
+                      rospy.get_param('/decision_module/noise_factor'))
         if (decision.outcome, decision.winner) != (want.outcome,
                                                    want.winner):
             return ['decision %s %d (%s), the results give %s %d'

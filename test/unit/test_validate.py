@@ -47,7 +47,8 @@ def good(msg_type):
             frames_rejected=0, frames_dropped=2, coverage=0.99,
             first_frame_offset=0.01, wake_lateness=0.004, value=3.2,
             timing_uncertainty=0.0002, noise_floor=0.05,
-            diagnostics=[{'key': 'terms', 'value': '1199'}]),
+            diagnostics=[{'key': 'terms', 'value': '1199'}],
+            noise_source='calibration'),
         'hri_sync/DpmState': dict(
             header=dict(header, stamp=NOW - 2.0), client_id='left',
             input='/left/skeleton', samples=40, sample_age=0.04, rate=20.0,
@@ -513,3 +514,25 @@ def test_noise_floors_unknown_or_invalid():
         with pytest.raises(v.Rejected):
             v.check('hri_sync/Decision',
                     dict(good('hri_sync/Decision'), noise_floors=bad), CTX)
+    for source in ('', 'uncalibrated', 'estimate'):
+        v.check('hri_sync/ClientResult',
+                dict(good('hri_sync/ClientResult'), noise_source=source), CTX)
+    with pytest.raises(v.Rejected, match='noise_source'):
+        v.check('hri_sync/ClientResult',
+                dict(good('hri_sync/ClientResult'), noise_source='guess'), CTX)
+
+
+def test_calibration_topics_carry_round_zero_only():
+    """The calibration window is round 0 on the calibration/ topics, and
+    round 0 nowhere else."""
+    cal = v.Context(now=NOW, calibration=True)
+    for kind in ('hri_sync/CaptureData', 'hri_sync/ClientResult',
+                 'hri_sync/Decision'):
+        fields = dict(good(kind), round=0)
+        if kind == 'hri_sync/Decision':
+            fields.update(outcome='no_winner', winner=0)
+        v.check(kind, fields, cal)
+        with pytest.raises(v.Rejected, match='rounds count from 1'):
+            v.check(kind, fields, CTX)
+        with pytest.raises(v.Rejected, match='calibration window is round'):
+            v.check(kind, dict(fields, round=1), cal)

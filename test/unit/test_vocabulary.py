@@ -15,9 +15,20 @@ CONSTANT = re.compile(r'^\s*(\w+)\s+([A-Z_][A-Z0-9_]*)\s*=\s*(\S+)')
 
 
 def msg_constants(name):
-    """{NAME: value} of msg/<name>.msg's constants (values as text)."""
+    """{NAME: value} of msg/<name>.msg's constants (values as text); a
+    name ``Msg:PREFIX`` keeps those starting with PREFIX, ``Msg`` those
+    of no prefix in ``PREFIXES``."""
+    name, _, prefix = name.partition(':')
     with open(os.path.join(ROOT, 'msg', name + '.msg')) as f:
-        return {m.group(2): m.group(3) for m in map(CONSTANT.match, f) if m}
+        found = {m.group(2): m.group(3) for m in map(CONSTANT.match, f)
+                 if m}
+    if prefix:
+        return {k: v for k, v in found.items() if k.startswith(prefix)}
+    return {k: v for k, v in found.items()
+            if not any(k.startswith(p) for p in PREFIXES)}
+
+
+PREFIXES = ('NOISE_',)    # a second set of constants in one message
 
 
 def words(cls):
@@ -26,6 +37,7 @@ def words(cls):
 
 
 @pytest.mark.parametrize('cls, msg', [(v.ResultStatus, 'ClientResult'),
+                                      (v.NoiseSource, 'ClientResult:NOISE_'),
                                       (v.Outcome, 'Decision'),
                                       (v.RoundState, 'RoundStatus'),
                                       (v.Action, 'ActionStart'),

@@ -661,6 +661,55 @@ TEST_F(VirtualKinectDriver, HeldPoseIsPlacedAsAStillTrack) {
   EXPECT_NEAR(person[person.size() / 2], 3.5, 0.2);
 }
 
+// still_file: while the file exists the dancer stands still (every frame the pose
+// at the motion's start, frames and noise going on); once it is gone the motion
+// goes on from that pose, behind the frames' clock by the still time.
+TEST_F(VirtualKinectDriver, DancerStandsStillWhileTheStillFileExists) {
+  const std::string query = "noise=kinect1&seed=3";
+  const std::string still_file = track_path_ + ".still";
+  FILE* f = std::fopen(still_file.c_str(), "w");
+  ASSERT_NE(f, nullptr);
+  std::fclose(f);
+  openni::Device dev;
+  ASSERT_EQ(dev.open(("virtual://" + kMotion + "?still_file=" + still_file + "&" + query).c_str()),
+            openni::STATUS_OK) << openni::OpenNI::getExtendedError();
+  openni::VideoStream depth;
+  ASSERT_EQ(depth.create(dev, openni::SENSOR_DEPTH), openni::STATUS_OK);
+  ASSERT_EQ(depth.start(), openni::STATUS_OK);
+  SceneSpec spec = parseSceneQuery(query);
+  Scene scene(Track::load(kMotion), spec.body, spec.scene, spec.noise, nullptr, spec.seed);
+  Camera cam;
+  SceneFrame want;
+  auto read = [&](int* index) {
+    openni::VideoFrameRef frame;
+    EXPECT_EQ(depth.readFrame(&frame), openni::STATUS_OK);
+    *index = frame.getFrameIndex();
+    return std::vector<uint16_t>(static_cast<const uint16_t*>(frame.getData()),
+                                 static_cast<const uint16_t*>(frame.getData()) + 320 * 240);
+  };
+  int index = 0;
+  for (int k = 0; k < 10; ++k) {  // a third of a second: still at the start's pose
+    std::vector<uint16_t> got = read(&index);
+    scene.render(0.0, index, cam, &want);
+    ASSERT_EQ(got, want.depth_mm) << "frame " << index;
+  }
+  const int still_until = index;
+  std::remove(still_file.c_str());
+  std::vector<uint16_t> got;
+  for (int k = 0; k < 10; ++k) got = read(&index);
+  // Going on: the motion's time is (index - held) frames, held at least the still ones.
+  bool found = false;
+  for (int j = 1; j <= index - still_until && !found; ++j) {
+    scene.render(j / 30.0, index, cam, &want);
+    found = got == want.depth_mm;
+  }
+  EXPECT_TRUE(found) << "frame " << index << " is not the motion 1.." << index - still_until
+                     << " frames after the still pose";
+  depth.stop();
+  depth.destroy();
+  dev.close();
+}
+
 TEST_F(VirtualKinectDriver, BadSceneKeysFailToOpenWithTheReason) {
   struct Case { const char* query; const char* reason; };
   for (const Case& c : {Case{"wall=3", "wall must be in [0.1, 1.5]"},

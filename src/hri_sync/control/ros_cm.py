@@ -2,6 +2,7 @@
 
 The executable is ``nodes/control_module``.
 """
+import dataclasses
 import math
 import threading
 import time
@@ -12,6 +13,7 @@ from std_srvs.srv import Trigger, TriggerResponse
 
 from hri_sync.msg import (CaptureData, ClockState, Decision, DpmState,
                           RoundStatus, SyncAck, SyncTime)
+from hri_sync.control.calibration import CalibrationRun
 from hri_sync.control.session import (ClientsWait, ControlSession, Log,
                                       Refused, RoundEnd, StatusUpdate,
                                       SyncOrder)
@@ -29,6 +31,7 @@ from hri_sync.clock.ros_clock_state import model_from_msg
 from hri_sync.ros.diagnostics import round_diagnostics
 from hri_sync.clock.ros_synced_clock import SyncedClock
 from hri_sync.wire.validate import Context, Limits
+from hri_sync.wire.vocabulary import CALIBRATION_NS
 
 LOG = {'debug': rospy.logdebug, 'info': rospy.loginfo,
        'warn': rospy.logwarn, 'error': rospy.logerr}
@@ -70,7 +73,16 @@ class ControlModule:
         self.participants = param('participants', '', csv_list) or \
             self.clients
         ack_timeout = param('ack_timeout', 3.0, float, positive, '> 0 s')
+        decision_timeout = param('decision_timeout', 5.0, float, positive,
+                                 '> 0 s')
+        # s of the calibration window before round 1 (0: none)
+        calibration = param('calibration', 5.0, float, lambda x: x >= 0,
+                            '>= 0 s (0: none)')
         try:
+            self.calibration = CalibrationRun(
+                self.participants, calibration,
+                param('calibration_lead', 1.0, float), decision_timeout) \
+                if calibration else None
             self.session = ControlSession(
                 self.clients, param('dur', 10.0, float, positive, '> 0 s'),
                 StrAftPolicy.parse(
@@ -78,8 +90,7 @@ class ControlModule:
                     param('str_aft_margin', 0.25, float, positive, '> 0 s')),
                 param('min_clients', 0, int, lambda n: n >= 0,
                       '0 (every client) or a quorum') or None,
-                ack_timeout,
-                param('decision_timeout', 5.0, float, positive, '> 0 s'),
+                ack_timeout, decision_timeout,
                 param('first_round', 1, int, lambda n: n >= 1, '>= 1'))
         except ProtocolError as e:
             raise ParamError(str(e))
@@ -103,6 +114,7 @@ class ControlModule:
         decision_topic = rospy.resolve_name('decision')
         self.inbox.subscribe(decision_topic, Decision, self.on_decision,
                              'dm', context=self.context)
+        self.calibration_pub = self.calibration_links()
         round_diagnostics('server', self.tally, self.synced_clock).rejections(
             self.inbox.summary, lambda: {
                 decision_topic + ' ' + why: n for why, n in
@@ -272,6 +284,57 @@ class ControlModule:
                           'after ~link_timeout %.0f s: starting without it',
                           ', '.join(sorted(dms)), self.link_timeout)
 
+    def calibration_links(self):
+        """The calibration's order publisher; the decision module's
+        answer subscribed."""
+        self.inbox.subscribe(
+            CALIBRATION_NS + '/decision', Decision,
+            lambda m: self.calibrate_event('on_decision', m.round), 'dm',
+            context=lambda: dataclasses.replace(self.context(), round=None,
+                                                calibration=True))
+        return Publisher(CALIBRATION_NS + '/capture_data', CaptureData,
+                         queue_size=10)
+
+    def calibrate_event(self, event, *args):
+        """Feed the calibration an event; log its lines, send its order."""
+        with self.lock:
+            outputs = getattr(self.calibration, event)(*args) \
+                if self.calibration else []
+        for out in outputs:
+            if isinstance(out, Log):
+                LOG[out.level](out.text)
+            elif isinstance(out, Capture):
+                self.calibration_pub.publish(CaptureData(
+                    header=header(out.cr_t), round=out.round,
+                    str_aft=out.str_aft, dur=out.dur, clients=out.clients))
+
+    def calibrate(self):
+        """The calibration window (~calibration s, nobody moving) before
+        the first round: ordered once the decision module and the
+        participants' DPMs are connected to calibration/capture_data (at
+        most ~link_timeout s), over when the decision module answered or
+        its deadline passed.  None on a respawn (after round 1) or
+        without this node's clock."""
+        clock = self.synced_clock.clock
+        if self.calibration is None or self.session.round != 0:
+            return
+        if not clock.ready:
+            rospy.logerr('calibration skipped: the server\'s clock is not '
+                         'synced (%s)', self.synced_clock.last_error)
+            return
+        wanted = [self.inbox.senders.names('dm')] + [
+            self.inbox.senders.names('dpm', c) for c in self.participants]
+        if not wait_for(lambda: all(names & {
+                t.endpoint_id for t in self.calibration_pub.impl.connections}
+                for names in wanted), self.link_timeout):
+            rospy.logwarn('calibration: not every participant\'s DPM and '
+                          'the decision module connected to its order '
+                          'after ~link_timeout %.0f s', self.link_timeout)
+        self.calibrate_event('start', clock.now())
+        while not (self.calibration.done or rospy.is_shutdown()):
+            time.sleep(POLL)
+            self.calibrate_event('poll', clock.now())
+
     def wait_for_recorder(self):
         """Wait, at most ~link_timeout s, until ~recorder is connected to
         every publisher of the topics it records: what is sent before a
@@ -294,12 +357,14 @@ class ControlModule:
 
     def run(self):
         if self.rounds == 0:
-            # The calls wait for the clients, not for this node's clock: a
+            # The calls wait for the clients (and the calibration, when
+            # this node's clock is synced by then), not for the clock: a
             # round without it aborts at once and says so.
             rospy.loginfo('waiting for ~start_round calls (next: round %d)',
                           self.session.round + 1)
             self.wait_for_clients()
             self.wait_for_recorder()
+            self.calibrate()
             self.clients_waited.set()
         if not self.synced_clock.wait_ready(self.connect_timeout):
             if rospy.is_shutdown():
@@ -313,6 +378,7 @@ class ControlModule:
         self.wait_for_clients()
         self.wait_for_dm()
         self.wait_for_recorder()
+        self.calibrate()
         self.clients_waited.set()
         rospy.sleep(self.start_delay)
         for n in range(self.rounds):

@@ -11,6 +11,7 @@ import rospkg
 import rospy
 from geometry_msgs.msg import Point, Quaternion
 
+from hri_sync.control.calibration import host_window
 from hri_sync.dance_off.joints import NUM_JOINTS
 from hri_sync.dance_off.motion import MODES, load_motion
 from hri_sync.msg import CaptureData, ClockState, Skeleton
@@ -24,6 +25,7 @@ from hri_sync.ros.params import ParamError, param, positive
 from hri_sync.ros.stamps import stamp
 from hri_sync.wire.protocol import Capture
 from hri_sync.wire.validate import Context
+from hri_sync.wire.vocabulary import CALIBRATION_NS
 from hri_sync.dance_off.skeleton_source import (Perturbation, SkeletonSource,
                                                 replay_schedule, tick_times)
 
@@ -105,6 +107,14 @@ class SkeletonSensor:
         self.shift = self.vector('bystander_shift')
         self.step_shift = self.vector('bystander_step_shift')
         self.step_after = param('bystander_step_after', -1.0, float)
+        # What a replayed bag shows in a calibration window (empty: the
+        # bag plays on): a recording of this sensor's still scene.
+        self.still = None
+        calibration_bag = param('calibration_bag', '', str)
+        if calibration_bag:
+            self.still = read_skeletons(calibration_bag,
+                                        param('bag_topic', '', str))[:2]
+        self.pauses = []      # host [t0, t1) of the calibration windows
         if bag:
             self.recorded, self.rel, bag_topic = read_skeletons(
                 bag, param('bag_topic', '', str))
@@ -149,6 +159,10 @@ class SkeletonSensor:
             self.inbox.subscribe(protocol_topic('capture_data'), CaptureData,
                                  self.on_capture, 'cm',
                                  context=self.global_context)
+        self.inbox.subscribe(
+            protocol_topic(CALIBRATION_NS + '/capture_data'), CaptureData,
+            self.on_calibration, 'cm', context=lambda: Context(
+                now=self.global_context().now, calibration=True))
         rospy.loginfo('%s: %s on %s at %.1f Hz, phase %.1f ms, start %.3f '
                       '(in %.1f s), noise %.1f mm, drop %.2f',
                       rospy.get_name(),
@@ -166,6 +180,25 @@ class SkeletonSensor:
         """This client's global now (unknown before its clock state)."""
         clock = self.clock
         return Context(now=clock.to_global(time.time()) if clock else None)
+
+    def on_calibration(self, msg):
+        """The CM's calibration window: the person stands still in it (a
+        motion pauses, a bag shows ~calibration_bag or plays on; a
+        bystander pauses)."""
+        order = Capture.from_msg(msg)
+        if self.client_id not in order.clients:
+            return
+        t0, t1 = host_window(order, time.time(), self.clock)
+        still = self.source is not None or self.still is not None
+        if self.source is not None:
+            self.source.pause(t0, t1)
+        elif self.still is not None:
+            self.pauses.append((t0, t1))
+        if self.bystander is not None:      # a motion of its own: still
+            self.bystander.pause(t0, t1)
+        rospy.loginfo('%s: calibration window in %.1f s: %s for %.1f s',
+                      rospy.get_name(), t0 - time.time(),
+                      'stands still' if still else 'plays on', t1 - t0)
 
     @staticmethod
     def vector(name):
@@ -255,24 +288,49 @@ class SkeletonSensor:
         now = time.time()
         for rel, index in replay_schedule(self.rel):
             t = origin + rel
+            for t0, t1 in [p for p in self.pauses if p[0] <= t]:
+                # a calibration window: the still recording, then the bag
+                # goes on from where it stopped
+                self.pauses.remove((t0, t1))
+                if not self.replay(self.still, t0, t1, max(t0, now)):
+                    return
+                origin += t1 - t0
+                t += t1 - t0
             if t < now:
                 continue
-            if not self.sleep_until(t):
+            if not self.replay_frame(self.recorded[index], t):
                 return
-            if self.silent(t):
-                rospy.logwarn('%s: stopped sending (~stop_after)',
-                              rospy.get_name())
-                rospy.spin()
-                return
-            if not self.perturb.kept(1)[0]:
-                continue
-            msg = self.recorded[index]
+
+    def replay(self, recording, t0, t1, first):
+        """Replay ``recording`` ((frames, times)) from host time ``t0``
+        until ``t1``, its frames before ``first`` left out; False once
+        the node stops."""
+        frames, rel = recording
+        for dt, index in replay_schedule(rel):
+            if t0 + dt >= t1:
+                return True
+            if t0 + dt >= first and not self.replay_frame(frames[index],
+                                                           t0 + dt):
+                return False
+        return True
+
+    def replay_frame(self, msg, t):
+        """Send recorded frame ``msg`` at host time ``t`` (perturbed);
+        False once the node stops or goes silent."""
+        if not self.sleep_until(t):
+            return False
+        if self.silent(t):
+            rospy.logwarn('%s: stopped sending (~stop_after)',
+                          rospy.get_name())
+            rospy.spin()
+            return False
+        if self.perturb.kept(1)[0]:
             pos = self.perturb.jitter([(p.x, p.y, p.z)
                                        for p in msg.positions])
-            out = Skeleton(positions=[Point(*p) for p in pos],
-                           orientations=list(msg.orientations),
-                           confidence=list(msg.confidence))
-            self.publish(t, out)
+            self.publish(t, Skeleton(positions=[Point(*p) for p in pos],
+                                     orientations=list(msg.orientations),
+                                     confidence=list(msg.confidence)))
+        return True
 
     def run(self):
         if self.source is None:

@@ -8,7 +8,9 @@ partners of one take dance together. At a tick at host time t the sensor
 shows the motion at clip time ``offset + (t - start) * speed`` (or the
 fixed clip time ``hold``: a person standing still), plus Gaussian tracker
 noise of ``noise`` m per axis (white: the worst case for a speed-based
-score), and drops the frame with probability ``drop``.
+score), and drops the frame with probability ``drop``.  ``pause(t0, t1)``
+holds the person still over [t0, t1) (a calibration window): the clip
+stops and goes on from the same pose at t1.
 """
 
 from __future__ import annotations
@@ -91,13 +93,23 @@ class SkeletonSource:
         self.offset = float(offset)
         self.mode = mode
         self.confidence = float(confidence)
+        self.pauses: list[tuple[float, float]] = []   # host [t0, t1)
+
+    def pause(self, t0: float, t1: float) -> None:
+        """Stand still over host times [t0, t1): the clip shows its pose
+        at t0 until t1, then goes on from it (two partners of a take,
+        paused alike, stay together)."""
+        if t1 > t0:
+            self.pauses.append((float(t0), float(t1)))
 
     def clip_times(self, stamps: np.ndarray, start: float) -> np.ndarray:
         """Motion time shown at host times ``stamps``."""
         stamps = np.asarray(stamps, dtype=float)
         if self.hold is not None:
             return np.full(stamps.shape, float(self.hold))
-        return self.offset + (stamps - start) * self.speed
+        held = sum((np.clip(stamps - a, 0.0, b - a) for a, b in self.pauses),
+                   np.zeros(stamps.shape))
+        return self.offset + (stamps - start - held) * self.speed
 
     def frames(self, stamps: np.ndarray | list[float],
                start: float) -> SensorFrames:

@@ -110,9 +110,11 @@ def check_round(decision: Any, results: dict[str, Any],
     {client_id: [(stamp, msg)]}; ``config``: the decision module's
     ``min_expressiveness``, ``tie_margin``, ``on_missing`` and, when
     recorded, ``decision_rule``, ``noise_factor`` (the noise rule takes
-    each result's recorded ``noise_floor``: its quiet baseline covers the
-    sensor's stream outside the window, which the bag need not hold; a
-    result without one, an older message, has it unknown);
+    each result's recorded ``noise_floor`` and ``noise_source``: its
+    quiet level comes from the sensor's stream outside the window, which
+    the bag need not hold; a result without a floor, an older message,
+    has it unknown, one without a source has it trusted, as the decision
+    module that recorded it did);
     ``aborted_reason``: set when the control module aborted the round.
     """
     participants = list(decision.clients)
@@ -128,7 +130,8 @@ def check_round(decision: Any, results: dict[str, Any],
         value = c.value_recomputed if result.status in USABLE \
             else math.nan
         recomputed[client] = (result.status, value,
-                              getattr(result, 'noise_floor', math.nan))
+                              getattr(result, 'noise_floor', math.nan),
+                              getattr(result, 'noise_source', ''))
     for client, score in zip(participants, decision.scores):
         result = results.get(client)
         recorded = result.value if result is not None and \

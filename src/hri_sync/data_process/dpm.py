@@ -23,13 +23,14 @@ from hri_sync.clock.model import ClockModel
 from hri_sync.data_process.mapping import (ArrivalStamps, DeviceClockMapper,
                                            TimeMapping)
 from hri_sync.data_process.noise_floor import (DEFAULT_CHUNK, DEFAULT_SPAN,
-                                               QuietBaseline, combine)
+                                               Calibration, QuietBaseline)
 from hri_sync.data_process.processors import Processor
 from hri_sync.wire.rounds import RoundWindows
 from hri_sync.wire.times import DeviceTime, GlobalTime, LocalTime
 from hri_sync.wire.validate import Rejected
-from hri_sync.wire.vocabulary import (COMPLETION_MARGIN, DRIFT_BOUND,
-                                      MIN_COVERAGE)
+from hri_sync.wire.vocabulary import (CALIBRATION_ROUND, COMPLETION_MARGIN,
+                                      DRIFT_BOUND, MIN_COVERAGE,
+                                      ResultStatus)
 
 STAMP_SOURCES = ('auto', 'arrival', 'device', 'host')
 
@@ -52,6 +53,12 @@ class WindowResult:
     timing_uncertainty: float = math.nan
     noise_floor: float = math.nan   # in the value's unit; NaN: unknown
     diagnostics: dict = field(default_factory=dict)
+    noise_source: str = ''          # a NoiseSource value; '': no floor
+
+    @property
+    def calibration(self) -> bool:
+        """True for the result of a calibration window (``calibrate``)."""
+        return self.round == CALIBRATION_ROUND
 
 
 @dataclass
@@ -117,8 +124,11 @@ class DataProcess:
     Each result carries the value's noise floor on this sensor
     (``hri_sync.data_process.noise_floor``): the larger of the window's own
     estimate (the processor's ``noise_floor``) and, for a processor with
-    ``quiet_baseline``, the lowest value of its ``noise_chunk`` s
-    stretches of every stamped sample of the last ``noise_span`` s.
+    ``quiet_baseline``, the quiet level: the score of the last calibration
+    window (``calibrate``: the CM's, nobody moving) with status ok, or
+    without one the lowest value of its ``noise_chunk`` s stretches of
+    every stamped sample of the last ``noise_span`` s (``noise_source``
+    says which).
     """
 
     def __init__(
@@ -144,9 +154,15 @@ class DataProcess:
                             if type(probe).device_stamp
                             is Processor.device_stamp else 'device')
         self.stamp_error = probe.stamp_error
+        # the global [start, end) of the rounds' windows (not the
+        # calibration's), for the quiet baseline to tell its stretches in
+        # them (a participant's pause) from the others
+        self._spans: deque[tuple[float, float]] = deque(maxlen=256)
         self.baseline = QuietBaseline(
-            make_processor, noise_chunk, noise_chunk / 4.0, noise_span) \
+            make_processor, noise_chunk, noise_chunk / 4.0, noise_span,
+            busy=lambda a, b: any(s < b and a < e for s, e in self._spans)) \
             if probe.quiet_baseline else None
+        self.calibration = Calibration()
         self.stamp_source = stamp_source
         self.mapping: TimeMapping[Any] = ArrivalStamps()
         if stamp_source == 'device':
@@ -365,7 +381,8 @@ class DataProcess:
         self.history.add(stamp, (msg, raw, arrival, bound))
         captured = False
         for w in list(self.windows.values()):
-            captured |= w.offer(stamp, msg, arrival, bound)
+            took = w.offer(stamp, msg, arrival, bound)
+            captured |= took and w.round != CALIBRATION_ROUND
             if w.complete:
                 step.results.append(self._close(w))
         if captured:
@@ -407,14 +424,26 @@ class DataProcess:
         w = CaptureWindow(round_id, start, end, self.make_processor(),
                           self.reorder, self.margin, self.max_period)
         self.windows[round_id] = w
+        if round_id != CALIBRATION_ROUND:
+            self._spans.append((start, end))
         for f in self.history.take(start, GlobalTime(math.inf)):
             msg, raw, arrival, bound = f.msg
-            if w.offer(GlobalTime(f.stamp), msg, arrival, bound):
+            if w.offer(GlobalTime(f.stamp), msg, arrival, bound) and \
+                    round_id != CALIBRATION_ROUND:
                 step.captured.append((f.stamp, msg, raw))
             if w.complete:
                 step.results.append(self._close(w))
                 break
         return step
+
+    def calibrate(self, start: GlobalTime, end: GlobalTime) -> Step:
+        """The CM's calibration window [start, end) (global; nobody
+        moves): captured as a window of round ``CALIBRATION_ROUND``, whose
+        result (``WindowResult.calibration``), when ok, sets the quiet
+        level of every later result's noise floor.  Its samples are not
+        among a Step's ``captured``: the republished samples are the
+        rounds'."""
+        return self.open(CALIBRATION_ROUND, start, end)
 
     def started(self, round_id: int, local: LocalTime) -> None:
         """The shell's wake-up at the window start came at ``local``."""
@@ -504,14 +533,11 @@ class DataProcess:
             diagnostics['invalid_' + reason] = n
         if invalid:
             diagnostics['invalid_example'] = self.last_invalid
-        own = res.noise_floor if res else math.nan
-        quiet, stretches = (self.baseline.level() if self.baseline
-                            else (math.nan, 0))
-        diagnostics.update({'noise_window': own, 'noise_quiet': quiet,
-                            'noise_quiet_stretches': stretches})
         silent = self._silence(w.end, stats['period'])
         if silent:
             diagnostics['sensor_silent'] = silent
+        value = res.value if res else math.nan
+        floor, source = self._noise(w, status, value, res, diagnostics)
         return WindowResult(
             w.round, status, w.start, w.end,
             frames=res.frames_used if res else 0,
@@ -519,7 +545,32 @@ class DataProcess:
             + sum(invalid.values()),
             frames_dropped=stats['dropped'], coverage=stats['coverage'],
             first_frame_offset=stats['first_frame_offset'],
-            wake_lateness=w.wake_lateness,
-            value=res.value if res else math.nan,
-            timing_uncertainty=bound, noise_floor=combine(own, quiet),
-            diagnostics=diagnostics)
+            wake_lateness=w.wake_lateness, value=value,
+            timing_uncertainty=bound, noise_floor=floor,
+            diagnostics=diagnostics, noise_source=source)
+
+    def _noise(self, w: CaptureWindow, status: str, value: float, res: Any,
+               diagnostics: dict) -> tuple[float, str]:
+        """The window's (noise floor, NoiseSource), a calibration window
+        taken first; how they were made goes into ``diagnostics``."""
+        cal = self.calibration
+        if w.round == CALIBRATION_ROUND and self.baseline is not None:
+            # (a processor without a quiet level, whose value is not a
+            # level of activity, calibrates nothing)
+            cal.take(status == ResultStatus.OK, value, w.start, w.end,
+                     diagnostics.get('error') or 'its status is %s%s' % (
+                         status, ': ' + diagnostics['sensor_silent']
+                         if 'sensor_silent' in diagnostics else ''))
+        own = res.noise_floor if res else math.nan
+        quiet, stretches = (self.baseline.level() if self.baseline
+                            else (math.nan, 0))
+        diagnostics.update({
+            'noise_window': own, 'noise_quiet': quiet,
+            'noise_quiet_stretches': stretches,
+            'noise_quiet_in_window': bool(self.baseline
+                                          and self.baseline.in_window()),
+            'noise_calibration': cal.level,
+            'noise_calibrated_at': cal.start})
+        if cal.failed:
+            diagnostics['noise_calibration_failed'] = cal.failed
+        return cal.floor(own, quiet, self.baseline is not None)

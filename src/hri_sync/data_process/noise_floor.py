@@ -20,6 +20,13 @@ DPM (``combine``) into the ``noise_floor`` of each ClientResult:
 
 The floor is the larger of the two: each is a lower bound of what a still
 person would score on this sensor.
+
+A calibration window (the CM's, before the first round, with nobody
+moving) measures the quiet level directly: once one is in, its score
+replaces the quiet baseline (``Calibration``), and the floor is
+``NOISE_CALIBRATION``.  Without one the quiet baseline is the quietest
+second the DPM saw, maybe a participant's pause: ``NOISE_UNCALIBRATED``
+(``source``), which the decision module does not trust.
 """
 
 from __future__ import annotations
@@ -29,6 +36,7 @@ from collections import deque
 from typing import Any, Callable
 
 from hri_sync.data_process.processors import Frame, Processor
+from hri_sync.wire.vocabulary import NoiseSource
 
 DEFAULT_CHUNK = 1.0       # s
 DEFAULT_STEP = 0.25       # s
@@ -45,12 +53,15 @@ class QuietBaseline:
     or past its end arrives; it counts when its samples span at least
     ``MIN_FILL`` of it (a silent sensor's stretch does not) and its value
     is finite.  ``level()`` is (lowest value of the stretches that ended
-    in the last ``span`` s, how many), (NaN, 0) before the first.
+    in the last ``span`` s, how many), (NaN, 0) before the first;
+    ``in_window()`` whether that lowest stretch overlaps a capture window
+    (``busy(start, end)``, when given, says so of a stretch).
     """
 
     def __init__(self, make_processor: Callable[[], Processor],
                  chunk: float = DEFAULT_CHUNK, step: float = DEFAULT_STEP,
-                 span: float = DEFAULT_SPAN) -> None:
+                 span: float = DEFAULT_SPAN,
+                 busy: Callable[[float, float], bool] | None = None) -> None:
         for name, v in (('chunk', chunk), ('step', step), ('span', span)):
             if not (math.isfinite(v) and v > 0):
                 raise ValueError('noise floor %s must be > 0 s, got %r'
@@ -59,7 +70,9 @@ class QuietBaseline:
         self.chunk, self.step, self.span = chunk, step, span
         # start -> [processor, first stamp, last stamp]
         self._open: dict[int, list[Any]] = {}
-        self._values: deque[tuple[float, float]] = deque()  # (end, value)
+        # (end, value, in a capture window)
+        self._values: deque[tuple[float, float, bool]] = deque()
+        self.busy = busy or (lambda start, end: False)
         self._last = -math.inf
         self.errors = 0
 
@@ -100,13 +113,63 @@ class QuietBaseline:
             self.errors += 1
             return
         if math.isfinite(value):
-            self._values.append((k * self.step + self.chunk, value))
+            start = k * self.step
+            self._values.append((start + self.chunk, value,
+                                 self.busy(start, start + self.chunk)))
 
     def level(self) -> tuple[float, int]:
         """(lowest value over the span, stretches it is the lowest of)."""
         if not self._values:
             return math.nan, 0
-        return min(v for _, v in self._values), len(self._values)
+        return min(v[1] for v in self._values), len(self._values)
+
+    def in_window(self) -> bool:
+        """True when the lowest stretch of the span overlaps a capture
+        window (False without stretches)."""
+        if not self._values:
+            return False
+        return min(self._values, key=lambda v: v[1])[2]
+
+
+class Calibration:
+    """A DPM's calibration: the score of its last calibration window
+    (global [start, end), nobody moving) with status ok, if any; or why
+    the last one did not calibrate (``failed``)."""
+
+    def __init__(self) -> None:
+        self.level = math.nan
+        self.start = self.end = math.nan
+        self.failed = ''
+
+    @property
+    def done(self) -> bool:
+        return valid_floor(self.level)
+
+    def take(self, status_ok: bool, value: float, start: float,
+             end: float, why: str = '') -> None:
+        """A calibration window's result; one that is not ok, or whose
+        value is not a finite number >= 0, keeps an earlier calibration
+        and says why in ``failed``."""
+        if status_ok and valid_floor(value):
+            self.level, self.start, self.end = float(value), start, end
+            self.failed = ''
+        else:
+            self.failed = why or 'its value %r is not a noise level' % (
+                value,)
+
+    def floor(self, own: float, quiet: float,
+              has_baseline: bool) -> tuple[float, str]:
+        """(noise floor, NoiseSource) of a window whose own estimate is
+        ``own`` and whose quiet baseline is ``quiet`` (NaN: none yet;
+        ``has_baseline`` False: the processor has none)."""
+        if self.done and has_baseline:
+            return combine(own, self.level), NoiseSource.NOISE_CALIBRATION
+        floor = combine(own, quiet)
+        if not valid_floor(floor):
+            return floor, ''
+        if has_baseline:
+            return floor, NoiseSource.NOISE_UNCALIBRATED
+        return floor, NoiseSource.NOISE_ESTIMATE
 
 
 def valid_floor(x: Any) -> bool:

@@ -2,6 +2,7 @@
 
 The executable is ``nodes/data_process_module``.
 """
+import dataclasses
 import struct
 import threading
 import time
@@ -28,11 +29,13 @@ from hri_sync.wire.vocabulary import (COMPLETION_MARGIN, DRIFT_BOUND,
                                       MIN_COVERAGE)
 from hri_sync.data_process.dpm import STAMP_SOURCES, DataProcess
 from hri_sync.client_process.liveness import SampleMeter
+from hri_sync.data_process.health import noise_health
 from hri_sync.data_process.orders import CommandGate
 from hri_sync.data_process.processors import load_processor
 from hri_sync.data_process.republish import a_time
 from hri_sync.wire.protocol import Capture
 from hri_sync.wire.validate import Context
+from hri_sync.wire.vocabulary import CALIBRATION_NS, CALIBRATION_ROUND
 
 
 class DataProcessModule:
@@ -62,6 +65,9 @@ class DataProcessModule:
             if param('republish', True, bool) else None
         self.result_pub = Publisher(protocol_topic('client_result'),
                                     ClientResult, queue_size=10)
+        self.calibration_pub = Publisher(
+            protocol_topic(CALIBRATION_NS + '/client_result'), ClientResult,
+            queue_size=10)
         # Clock states and capture orders only from this client's CPM,
         # validated (a forged far-off window would schedule a wake-up
         # beyond what a timer can sleep).
@@ -75,6 +81,7 @@ class DataProcessModule:
         command_topic = rospy.resolve_name('capture_command')
         self.diagnostics = ProcessDiagnostics(
             self.client_id, clock_topic, input_topic, command_topic,
+            self.noise_health,
             lambda: dict(self.core.counts + self.gate.counts),
             self.inbox.summary)
         self.inbox.subscribe(clock_topic, ClockState, self.on_clock,
@@ -88,6 +95,11 @@ class DataProcessModule:
         self.inbox.subscribe(protocol_topic('capture_data'), CaptureData,
                              self.on_order, 'cm', context=self.context,
                              queue_size=1000)
+        # The CM's calibration window (nobody moving): this sensor's noise.
+        self.inbox.subscribe(
+            protocol_topic(CALIBRATION_NS + '/capture_data'), CaptureData,
+            self.on_calibration, 'cm', context=lambda: dataclasses.replace(
+                self.context(), calibration=True))
         self.msg_class = msg_class
         self.meter = SampleMeter()
         self.input_topic = input_topic
@@ -196,6 +208,25 @@ class DataProcessModule:
         for cmd in confirmed:
             self.open(cmd)
 
+    def on_calibration(self, msg):
+        """The CM's calibration window: captured when it names this
+        client, its result on calibration/client_result."""
+        order = Capture.from_msg(msg)
+        if self.client_id not in order.clients:
+            return
+        rospy.loginfo('%s: calibration window [%.3f, %.3f): measuring the '
+                      'sensor\'s noise', self.client_id, order.start,
+                      order.end)
+        self.open(order, self.core.calibrate)
+
+    def noise_health(self):
+        """The ``noise floor`` status of /diagnostics."""
+        with self.lock:
+            cal, base = self.core.calibration, self.core.baseline
+            return noise_health(base is not None, cal.level, cal.start,
+                                cal.failed, base.level()[0] if base
+                                else float('nan'))
+
     def on_command(self, msg):
         with self.lock:
             confirmed = self.gate.command(msg.round, secs(msg.start),
@@ -203,13 +234,15 @@ class DataProcessModule:
         for cmd in confirmed:
             self.open(cmd)
 
-    def open(self, cmd):
-        """A command the CM's order confirmed: its window opens."""
+    def open(self, cmd, calibrate=None):
+        """A command the CM's order confirmed (or, with ``calibrate``,
+        the calibration's order): its window opens."""
         with self.lock:
-            step = self.core.open(cmd.round, cmd.start, cmd.end)
+            step = calibrate(cmd.start, cmd.end) if calibrate else \
+                self.core.open(cmd.round, cmd.start, cmd.end)
             clock = self.core.clock
             opened = cmd.round in self.core.windows
-            if opened and self.republisher:
+            if opened and self.republisher and not calibrate:
                 self.republisher.hold(cmd.start, cmd.end)
         self.handle(step)
         if opened:
@@ -232,8 +265,9 @@ class DataProcessModule:
         local = time.time()
         with self.lock:
             self.core.started(round_id, local)
-        rospy.loginfo('%s: round %d capture started', self.client_id,
-                      round_id)
+        rospy.loginfo('%s: %s capture started', self.client_id,
+                      'calibration' if round_id == CALIBRATION_ROUND
+                      else 'round %d' % round_id)
 
     def poll(self):
         """Windows complete for lack of samples: checked every 5 ms from
@@ -276,7 +310,8 @@ class DataProcessModule:
     def publish(self, r):
         """The result, then its window's captured samples."""
         clock = self.core.clock     # made now (0: no clock model yet)
-        self.result_pub.publish(ClientResult(
+        pub = self.calibration_pub if r.calibration else self.result_pub
+        pub.publish(ClientResult(
             header=header(clock.to_global(time.time()) if clock else None),
             round=r.round, client_id=self.client_id, status=r.status,
             capture_start=stamp(a_time(r.start)),
@@ -286,24 +321,28 @@ class DataProcessModule:
             first_frame_offset=r.first_frame_offset,
             wake_lateness=r.wake_lateness, value=r.value,
             timing_uncertainty=r.timing_uncertainty,
-            noise_floor=r.noise_floor,
+            noise_floor=r.noise_floor, noise_source=r.noise_source,
             diagnostics=[KeyValue(str(k), str(v))
                          for k, v in sorted(r.diagnostics.items())]))
         if self.republisher:
             self.republisher.release(r.start, r.end)
         d = r.diagnostics
         people = summary_text(d)
-        self.diagnostics.results.record(r.round, r.status, d.get('error') or (
-            '%d frames, coverage %.2f' % (r.frames, r.coverage))
-            + ('; ' + people if people else ''))
+        if not r.calibration:
+            self.diagnostics.results.record(
+                r.round, r.status, d.get('error') or (
+                    '%d frames, coverage %.2f' % (r.frames, r.coverage))
+                + ('; ' + people if people else ''))
         log = rospy.logerr if r.status == ClientResult.ERROR else \
             rospy.loginfo
-        log('%s: round %d %s: %d frames (%d rejected, %d dropped, %s not '
+        log('%s: %s %s: %d frames (%d rejected, %d dropped, %s not '
             'stamped, %s late), coverage %.2f, value %.6g%s (noise floor '
-            '%.4g), timing uncertainty %.3f ms (%s)', self.client_id,
-            r.round, r.status, r.frames, r.frames_rejected, r.frames_dropped,
+            '%.4g %s), timing uncertainty %.3f ms (%s)', self.client_id,
+            'calibration' if r.calibration else 'round %d' % r.round,
+            r.status, r.frames, r.frames_rejected, r.frames_dropped,
             d.get('unstamped', 0), d.get('late_samples', 0), r.coverage,
-            r.value, ' ' + d['unit'] if d.get('unit') else '', r.noise_floor, r.timing_uncertainty * 1e3,
+            r.value, ' ' + d['unit'] if d.get('unit') else '', r.noise_floor,
+            r.noise_source or 'unknown', r.timing_uncertainty * 1e3,
             d.get('error') or 'complete by %s' % d.get('completed_by'))
         if people:
             rospy.loginfo('%s: round %d %s (%s)', self.client_id, r.round,

@@ -14,7 +14,8 @@ from typing import Any
 
 from hri_sync.data_process.noise_floor import valid_floor
 from hri_sync.wire.rounds import RoundWindows
-from hri_sync.wire.vocabulary import ON_MISSING, Outcome, ResultStatus
+from hri_sync.wire.vocabulary import (ON_MISSING, NoiseSource, Outcome,
+                                      ResultStatus)
 
 WINNER, NO_WINNER, TIE, ABORTED = Outcome.ALL
 USABLE = ResultStatus.USABLE
@@ -43,8 +44,9 @@ def decide(participants: list[str], results: dict[str, tuple],
            noise_factor: float = DEFAULT_NOISE_FACTOR) -> Verdict:
     """Decide a round.
 
-    ``results`` maps client_id -> (status, value) or (status, value,
-    noise_floor).  A participant without a usable result (missing, late,
+    ``results`` maps client_id -> (status, value), (status, value,
+    noise_floor) or (status, value, noise_floor, noise_source).  A
+    participant without a usable result (missing, late,
     no data, error, non-finite value) is left out of the comparison;
     ``on_missing`` is 'partial' (decide over those present, saying so in
     the reason) or 'abort'.  The largest score wins, unless:
@@ -56,7 +58,9 @@ def decide(participants: list[str], results: dict[str, tuple],
       above the runner-up by more than their combined noise, the square
       root of the sum of the two noise floors squared; then ``tie`` when
       the best two are within ``tie_margin``.  A noise floor that is not
-      a finite number >= 0 is unknown: that comparison falls back to the
+      a finite number >= 0 is unknown, and one whose ``noise_source`` is
+      not trusted (``NoiseSource.TRUSTED``: a floor no calibration window
+      measured) is not taken: that comparison falls back to the
       threshold rule's (``min_value``, ``tie_margin``), said in the
       reason.
     """
@@ -69,19 +73,7 @@ def decide(participants: list[str], results: dict[str, tuple],
     if not (math.isfinite(noise_factor) and noise_factor >= 0):
         raise ValueError('~noise_factor must be >= 0, got %r'
                          % (noise_factor,))
-    scores, floors, problems = [], [], []
-    for c in participants:
-        status, value, *rest = results.get(c, ('missing', math.nan))
-        floor = rest[0] if rest and valid_floor(rest[0]) else math.nan
-        if status in USABLE and math.isfinite(value):
-            scores.append(float(value))
-            floors.append(float(floor))
-            if status != ResultStatus.OK:
-                problems.append('%s result is %s' % (c, status))
-        else:
-            scores.append(math.nan)
-            floors.append(math.nan)
-            problems.append('%s has no usable result (%s)' % (c, status))
+    scores, floors, problems, untrusted = _taken(participants, results)
     present = [(s, i) for i, s in enumerate(scores) if math.isfinite(s)]
     note = ('; '.join(problems) + ': decided over the clients present'
             if problems else '')
@@ -101,7 +93,7 @@ def decide(participants: list[str], results: dict[str, tuple],
     said: list[str] = []    # what the noise rule checked, for a winner
     if rule == NOISE:
         within, said = _noise_rule(participants, ranked, floors, min_value,
-                                   noise_factor)
+                                   noise_factor, untrusted)
         if within:
             return verdict(NO_WINNER, 0, within)
     elif best < min_value:
@@ -114,6 +106,33 @@ def decide(participants: list[str], results: dict[str, tuple],
                    _winner_reason(participants, best_i, best, said))
 
 
+def _taken(participants: list[str], results: dict[str, tuple]
+           ) -> tuple[list[float], list[float], list[str], set[str]]:
+    """``decide``'s scores and noise floors per participant (NaN: no
+    usable result, or a floor unknown or not trusted), the problems with
+    the results, and the participants whose floor was given but not
+    calibrated."""
+    scores, floors, problems = [], [], []
+    untrusted: set[str] = set()
+    for c in participants:
+        status, value, *rest = results.get(c, ('missing', math.nan))
+        floor = rest[0] if rest and valid_floor(rest[0]) else math.nan
+        if len(rest) > 1 and rest[1] not in NoiseSource.TRUSTED and \
+                math.isfinite(floor):
+            untrusted.add(c)
+            floor = math.nan
+        if status in USABLE and math.isfinite(value):
+            scores.append(float(value))
+            floors.append(float(floor))
+            if status != ResultStatus.OK:
+                problems.append('%s result is %s' % (c, status))
+        else:
+            scores.append(math.nan)
+            floors.append(math.nan)
+            problems.append('%s has no usable result (%s)' % (c, status))
+    return scores, floors, problems, untrusted
+
+
 def _winner_reason(participants: list[str], best_i: int, best: float,
                    said: list[str]) -> str:
     """Why participant ``best_i`` wins (alone: nothing compared)."""
@@ -124,17 +143,25 @@ def _winner_reason(participants: list[str], best_i: int, best: float,
         participants[best_i], best, ': ' + '; '.join(said) if said else '')
 
 
+def _unknown(name: str, untrusted: set[str]) -> str:
+    """Why the noise floor of ``name`` is not taken."""
+    return 'noise floor of %s %s' % (
+        name, 'not calibrated' if name in untrusted else 'unknown')
+
+
 def _noise_rule(participants: list[str], ranked: list[tuple[float, int]],
                 floors: list[float], min_value: float,
-                noise_factor: float) -> tuple[str, list[str]]:
+                noise_factor: float,
+                untrusted: set[str]) -> tuple[str, list[str]]:
     """The noise rule on scores ``ranked`` (best first): (the reason of a
-    ``no_winner``, or '' and what was checked)."""
+    ``no_winner``, or '' and what was checked); ``untrusted``: the
+    participants whose floor was given but not calibrated."""
     best, best_i = ranked[0]
     name, floor = participants[best_i], floors[best_i]
     said = []
     if not math.isfinite(floor):
-        said.append('noise floor of %s unknown: min_expressiveness rule'
-                    % name)
+        said.append('%s: min_expressiveness rule'
+                    % _unknown(name, untrusted))
         if best < min_value:
             return ('%s; every score is below min_expressiveness %.4g'
                     % (said[0], min_value)), said
@@ -158,9 +185,32 @@ def _noise_rule(participants: list[str], ranked: list[tuple[float, int]],
             said.append('%.4g above the runner-up, combined noise %.4g'
                         % (best - second, combined))
         elif math.isfinite(floor):
-            said.append('noise floor of %s unknown: tie_margin rule'
-                        % participants[second_i])
+            said.append('%s: tie_margin rule'
+                        % _unknown(participants[second_i], untrusted))
     return '', said
+
+
+def calibration_verdict(participants: list[str],
+                        results: dict[str, tuple]) -> Verdict:
+    """The calibration window's "decision": never a winner (nobody
+    moves); the reason gives each participant's still score and the noise
+    floor its DPM calibrated, or why it did not.  ``results`` as
+    ``decide``'s."""
+    scores, floors, parts = [], [], []
+    for c in participants:
+        status, value, *rest = results.get(c, ('missing', math.nan))
+        floor = rest[0] if rest and valid_floor(rest[0]) else math.nan
+        source = rest[1] if len(rest) > 1 else ''
+        ok = status == ResultStatus.OK and math.isfinite(value)
+        scores.append(float(value) if ok else math.nan)
+        floors.append(float(floor) if ok else math.nan)
+        if not ok:
+            parts.append('%s not calibrated (%s)' % (c, status))
+        else:
+            parts.append('%s still score %.4g, noise floor %.4g (%s)'
+                         % (c, value, floor, source or 'no source'))
+    return Verdict(NO_WINNER, 0, scores, 'calibration window, nobody '
+                   'moving: no winner; ' + '; '.join(parts), floors)
 
 
 @dataclass
@@ -183,14 +233,17 @@ class RoundCollector:
     whenever the order arrived.  ``due(now)`` closes the rounds past their
     deadline.  A result for a closed, unknown or future round, from an
     unknown client, or a second one from a client, is never merged:
-    ``add`` says why and counts it in ``ignored``.
+    ``add`` says why and counts it in ``ignored``.  With ``calibration``
+    it collects the calibration window (round 0, ``CALIBRATION_ROUND``),
+    closed by ``calibration_verdict``.
     """
 
     def __init__(self, participants: list[Any], result_timeout: float,
                  min_value: float = 0.0, tie_margin: float = 0.0,
                  on_missing: str = 'partial', remember: int = 100,
                  rule: str = THRESHOLD,
-                 noise_factor: float = DEFAULT_NOISE_FACTOR) -> None:
+                 noise_factor: float = DEFAULT_NOISE_FACTOR,
+                 calibration: bool = False) -> None:
         if not participants:
             raise ValueError('no participants')
         if not (math.isfinite(result_timeout) and result_timeout > 0):
@@ -201,13 +254,16 @@ class RoundCollector:
         self.participants = list(participants)
         self.result_timeout = result_timeout
         self.rule = (min_value, tie_margin, on_missing, rule, noise_factor)
-        # round -> (window end, {client: result})
-        self.open_rounds: dict[
-            int, tuple[float, dict[str, tuple[str, float, float, float]]]
-        ] = {}
+        self.calibration = calibration
+        # round -> (window end, {client: (status, value, timing
+        # uncertainty, noise floor, noise source)})
+        self.open_rounds: dict[int, tuple[float, dict[str, tuple]]] = {}
         # results whose noise floor was not a finite number >= 0 (NaN:
-        # unknown, e.g. an older client; negative or infinite: invalid)
+        # unknown, e.g. a processor without one; negative or infinite:
+        # invalid), and those whose floor no calibration measured
         self.noise_unknown: Counter[str] = Counter()
+        self.noise_uncalibrated: Counter[str] = Counter()
+        self.noise_sources: dict[str, str] = {}   # client -> the last
         # the rounds closed, the last ``remember``
         self.closed: set[int] = set()
         self.remember = remember
@@ -245,11 +301,13 @@ class RoundCollector:
     def add(
             self, round_id: int, client_id: str, status: str, value: float,
             timing_uncertainty: float = math.nan,
-            noise_floor: float = math.nan
+            noise_floor: float = math.nan, noise_source: str = ''
             ) -> tuple[Closed | None, str]:
         """A ClientResult.  Returns (Closed or None, why ignored or '').
         A ``noise_floor`` that is not a finite number >= 0 is taken as
-        unknown and counted in ``noise_unknown`` (by client)."""
+        unknown and counted in ``noise_unknown`` (by client), one whose
+        ``noise_source`` says no calibration measured it in
+        ``noise_uncalibrated``."""
         why = ''
         if round_id in self.closed:
             why = 'closed_round'
@@ -266,7 +324,12 @@ class RoundCollector:
         if status in USABLE and not valid_floor(noise_floor):
             self.noise_unknown[client_id] += 1
             noise_floor = math.nan
-        results[client_id] = (status, value, timing_uncertainty, noise_floor)
+        elif status in USABLE and noise_source not in NoiseSource.TRUSTED:
+            self.noise_uncalibrated[client_id] += 1
+        if status in USABLE:
+            self.noise_sources[client_id] = noise_source
+        results[client_id] = (status, value, timing_uncertainty, noise_floor,
+                              noise_source)
         if all(c in results for c in self.participants):
             return self._close(round_id, 'all results'), ''
         return None, ''
@@ -302,10 +365,12 @@ class RoundCollector:
     def _close(self, round_id: int, why: str) -> Closed:
         end, results = self.open_rounds.pop(round_id)
         self._remember(round_id)
-        verdict = decide(self.participants,
-                         {c: (r[0], r[1], r[3]) for c, r in results.items()},
-                         *self.rule[:3], rule=self.rule[3],
-                         noise_factor=self.rule[4])
+        taken: dict[str, tuple] = {c: (r[0], r[1], r[3], r[4])
+                                   for c, r in results.items()}
+        verdict = calibration_verdict(self.participants, taken) \
+            if self.calibration else \
+            decide(self.participants, taken, *self.rule[:3],
+                   rule=self.rule[3], noise_factor=self.rule[4])
         bounds = [r[2] for r in results.values()
                   if r[0] in USABLE and math.isfinite(r[2])]
         return Closed(round_id, verdict, end, why,

@@ -200,14 +200,15 @@ class ProcessDiagnostics:
     """A DPM's statuses: ``clock`` (its CPM's ClockState: call
     ``clock.on_state``), ``sensor`` (the rate samples arrive at on
     ``input_topic``: call ``on_sample``), ``results`` (its ClientResults
-    by status: ``results.record``) and ``input`` (``counts()``, the
+    by status: ``results.record``), ``noise floor`` (``noise()``, a
+    ``data_process.health.noise_health``) and ``input`` (``counts()``, the
     DataProcess's {reason: n}: samples refused, and capture commands
     ignored or rejected, ``COMMAND_REASONS``; samples held while a device
     clock map settles are not refused), with the other ``sources`` of
     rejections (an inbox's ``summary``)."""
 
     def __init__(self, client_id, clock_topic, input_topic, command_topic,
-                 counts, *sources):
+                 noise, counts, *sources):
         self.clock = ClockStateWatch(clock_topic)
         self.sensor = RateMeter(input_topic)
         self.results = result_tally()
@@ -216,6 +217,7 @@ class ProcessDiagnostics:
         diagnostics.add('sensor', lambda: self.sensor.health(
             time.monotonic()))
         diagnostics.add_tally('results', self.results)
+        diagnostics.add('noise floor', noise)
         diagnostics.rejections(lambda: {
             '%s %s' % (command_topic if why in COMMAND_REASONS
                        else input_topic, why): n
@@ -229,19 +231,22 @@ class ProcessDiagnostics:
 class DecisionDiagnostics:
     """The DM's statuses: ``clock`` (the server's ClockState: call
     ``clock.on_state``), ``decisions`` (``tally``, a
-    ``health.DecisionTally``) and ``input`` (``counts()``, the
-    RoundCollector's {reason: n}: capture orders and results not
+    ``health.DecisionTally``), ``noise floors`` (``noise()``, a
+    ``health.noise_health``) and ``input`` (``counts()``,
+    the RoundCollector's {reason: n}: capture orders and results not
     taken), with the other ``sources`` of rejections (an inbox's
     ``summary``)."""
 
     CAPTURE_REASONS = ('duplicate_round', 'conflicting_round', 'bad_window')
 
-    def __init__(self, participants, clock_topic, counts, *sources):
+    def __init__(self, participants, clock_topic, noise, counts,
+                 *sources):
         self.clock = ClockStateWatch(clock_topic)
         self.tally = DecisionTally(participants)
         diagnostics = NodeDiagnostics('server')
         diagnostics.add('clock', self.clock.health)
         diagnostics.add_tally('decisions', self.tally)
+        diagnostics.add('noise floors', noise)
         capture, result = (protocol_topic(t) for t in
                            ('capture_data', 'client_result'))
         diagnostics.rejections(lambda: {

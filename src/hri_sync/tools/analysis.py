@@ -190,6 +190,7 @@ def _result_row(res, frames, truth):
            'first_frame_offset_ms': ms(m.first_frame_offset),
            'wake_lateness_ms': ms(m.wake_lateness), 'value': m.value,
            'noise_floor': _none_if_nan(field_or_nan(m, 'noise_floor')),
+           'noise_source': getattr(m, 'noise_source', '') or None,
            'error_bound_ms': ms(error_bound(m)),
            'captured': len(frames), 'clock_error_ms': math.nan}
     if truth and frames:
@@ -477,7 +478,7 @@ def summarize(session, rule_overrides=None, tolerance=10.0):
                               'bag time taken as global time (no '
                               '/server/clock_state recorded)'),
            'clocks': clock_series(session, t0),
-           'rounds': rounds,
+           'rounds': rounds, 'calibration': calibration(session),
            'missing': missing_sections(session)}
     if session.config_error:
         out['missing'].append({'section': 'configuration',
@@ -489,6 +490,39 @@ def summarize(session, rule_overrides=None, tolerance=10.0):
             'deg': [deg(p.yaw) for p in pose_list[::step]]}
     out['totals'] = totals(rounds)
     return out
+
+
+def calibration(session):
+    """The calibration window before round 1 (None when the recording has
+    none): its global window, each participant's calibration result
+    (status, still score, the noise floor it set and its source) and the
+    decision module's answer."""
+    cal = session.calibration
+    if cal is None:
+        return None
+    return {'start': cal.start, 'dur_s': cal.end - cal.start,
+            'clients': {c: {'status': r.msg.status, 'value': r.msg.value,
+                            'noise_floor': _none_if_nan(field_or_nan(
+                                r.msg, 'noise_floor')),
+                            'noise_source': getattr(
+                                r.msg, 'noise_source', '') or None}
+                        for c, r in sorted(cal.results.items())},
+            'outcome': cal.decision.msg.outcome if cal.decision else None,
+            'reason': cal.decision.msg.reason if cal.decision else None}
+
+
+def calibration_text(summary):
+    """One line of ``calibration``'s summary (None: none recorded)."""
+    if summary is None:
+        return 'calibration: none recorded (the noise rule trusts no ' \
+            'uncalibrated floor)'
+    clients = '; '.join(
+        '%s %s, still score %.4g, noise floor %s (%s)' % (
+            c, r['status'], r['value'], 'n/a' if r['noise_floor'] is None
+            else '%.4g' % r['noise_floor'], r['noise_source'] or 'n/a')
+        for c, r in summary['clients'].items()) or 'no result recorded'
+    return 'calibration: %.1f s window; %s; answer: %s' % (
+        summary['dur_s'], clients, summary['outcome'] or 'none recorded')
 
 
 def totals(rounds):

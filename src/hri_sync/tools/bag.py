@@ -43,14 +43,16 @@ PRE_HEADER = {
 }
 
 # md5sums of definitions today's only extend with fields at the end
-# (ActionStart's kind, event, status, ...; ClientResult's noise_floor,
-# Decision's noise_floors; Skeleton's frame_index, frames_skipped and
-# sources): read as they are, without the appended fields.
+# (ActionStart's kind, event, status, ...; ClientResult's noise_floor, then
+# noise_source; Decision's noise_floors; Skeleton's frame_index,
+# frames_skipped and sources), oldest first: read as they are, without the
+# appended fields.
 APPENDED = {
-    'hri_sync/ActionStart': 'afa9bd87c199ede36d50d1488f2c8ff8',
-    'hri_sync/ClientResult': '4be20d7e3c87c82059393adb83f3435f',
-    'hri_sync/Decision': 'f79083d8878f6b9e5010c20090402872',
-    'hri_sync/Skeleton': '8c168feb7dcf11c4819ee7ddd6080a4b',
+    'hri_sync/ActionStart': ('afa9bd87c199ede36d50d1488f2c8ff8',),
+    'hri_sync/ClientResult': ('4be20d7e3c87c82059393adb83f3435f',
+                              '8ed9e139336825069cfc0365383a0d62'),
+    'hri_sync/Decision': ('f79083d8878f6b9e5010c20090402872',),
+    'hri_sync/Skeleton': ('8c168feb7dcf11c4819ee7ddd6080a4b',),
 }
 
 
@@ -221,7 +223,8 @@ def read_bag(path, allow_old=False, md5sums=None):
                 kind = conn.msgtype.replace('/msg/', '/')
                 contents.topics[_absolute(conn.topic)] = kind
                 want = ours.get(kind)
-                if want is None or conn.digest in (want, APPENDED.get(kind)):
+                if want is None or conn.digest == want or \
+                        conn.digest in APPENDED.get(kind, ()):
                     pass
                 elif PRE_HEADER.get(kind) == conn.digest:
                     if kind not in contents.pre_header:

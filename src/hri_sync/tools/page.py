@@ -9,7 +9,7 @@ import base64
 import html
 import math
 
-from hri_sync.tools.analysis import reproduced_text
+from hri_sync.tools.analysis import calibration_text, reproduced_text
 
 CSS = """
 body { font-family: sans-serif; margin: 1.5em; color: #222; max-width: 1300px }
@@ -248,6 +248,8 @@ def _session(s, images):
             out.append(_img(fig['id'], images, fig['title']))
             if fig['kind'] == 'clocks':
                 out.append(_clock_table(s['clocks']))
+    if 'calibration' in s:
+        out.append('<p>%s</p>' % _e(calibration_text(s['calibration'])))
     if s['rounds']:
         out.append('<h3>Rounds</h3>')
         out.append(_rounds_table(s['rounds']))

@@ -5,7 +5,9 @@
 and files every message under its round and client: the protocol
 (SyncTime, SyncAck, CaptureData, RoundStatus, CaptureCommand,
 ClientResult, Decision), each client's clock states, the captured frames,
-and what DJ Rob and the music did. Messages are duck-typed (rosbags
+and what DJ Rob and the music did.  The calibration window (its order,
+results and answer on the ``calibration/`` topics) is the session's
+``calibration``, not a round.  Messages are duck-typed (rosbags
 dataclasses or stand-ins with the same fields).
 """
 import math
@@ -13,7 +15,7 @@ from dataclasses import dataclass, field
 
 import yaml
 
-from hri_sync.wire.vocabulary import RoundState
+from hri_sync.wire.vocabulary import CALIBRATION_NS, RoundState
 
 ROUND_ABORTED = RoundState.ABORTED
 
@@ -54,6 +56,13 @@ def field_or_nan(msg, name):
         return float(value)
     except (TypeError, ValueError):
         return math.nan
+
+
+def is_calibration(topic):
+    """True for a topic of the calibration window:
+    ``[NS]/calibration/<protocol topic>``."""
+    parts = [p for p in topic.split('/') if p]
+    return len(parts) >= 2 and parts[-2] == CALIBRATION_NS
 
 
 def client_of(topic, suffix):
@@ -125,6 +134,7 @@ class Session:
     path: str
     topics: dict                    # topic -> type
     rounds: dict = field(default_factory=dict)      # n -> Round
+    calibration: object = None      # Round 0 of the calibration/ topics
     config: dict = field(default_factory=dict)
     config_error: str = ''
     clock_states: dict = field(default_factory=dict)  # client -> [Recorded]
@@ -185,8 +195,10 @@ def build_session(contents):
                 start=contents.start, end=contents.end)
 
     def each(kind, suffix=''):
-        return contents.of_type('hri_sync/' + kind, suffix)
+        return [r for r in contents.of_type('hri_sync/' + kind, suffix)
+                if not is_calibration(r.topic)]
 
+    _calibration(s, contents)
     for r in each('SyncTime'):
         _first(s.round(r.msg.round), 'sync', r, 'SyncTime')
     for r in each('SyncAck'):
@@ -241,6 +253,24 @@ def build_session(contents):
             s.config_error = ('/dance_off/config is not a mapping: %r'
                               % (config,))
     return s
+
+
+def _calibration(s, contents):
+    """The calibration window's order, results and answer into
+    ``s.calibration`` (None when the recording has none)."""
+    def each(kind):
+        return [r for r in contents.of_type('hri_sync/' + kind)
+                if is_calibration(r.topic)]
+    cal = Round(0)
+    for r in each('CaptureData'):
+        _first(cal, 'capture', r, 'calibration CaptureData')
+    for r in each('ClientResult'):
+        _keyed(cal.results, r.msg.client_id, r, 'calibration ClientResult',
+               cal)
+    for r in each('Decision'):
+        _first(cal, 'decision', r, 'calibration Decision')
+    if cal.capture or cal.results or cal.decision:
+        s.calibration = cal
 
 
 class BagClock:

@@ -30,7 +30,8 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Collection, Optional
 
 from hri_sync.wire.times import TIME_LIMIT, fits_ros_time
-from hri_sync.wire.vocabulary import (NUM_JOINTS, Action, ActionEnd, Outcome,
+from hri_sync.wire.vocabulary import (CALIBRATION_ROUND, NUM_JOINTS, Action,
+                                      ActionEnd, NoiseSource, Outcome,
                                       ResultStatus, RoundState)
 
 NAME_RE = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
@@ -84,7 +85,8 @@ class Context:
     ``round``: the round in progress (None: any round >= 1); ``client``:
     the client id a message must name (None: any); ``sync_sent``: the
     stamp of the round's SyncTime, for an ACK's dispatch latency (None:
-    unknown).
+    unknown); ``calibration``: a message of the calibration window (the
+    calibration/ topics), whose round is ``CALIBRATION_ROUND``.
     """
 
     now: Optional[float] = None
@@ -92,6 +94,7 @@ class Context:
     round: Optional[int] = None
     client: Optional[str] = None
     sync_sent: Optional[float] = None
+    calibration: bool = False
     limits: Limits = field(default_factory=Limits)
 
 
@@ -162,10 +165,17 @@ def duration(d: float, what: str, ctx: Context) -> float:
 
 
 def round_number(r: int, ctx: Context, what: str = 'round') -> int:
-    """A round number >= 1, near the round in progress."""
+    """A round number >= 1, near the round in progress; on a calibration
+    topic, ``CALIBRATION_ROUND``."""
     if isinstance(r, bool) or not isinstance(r, int):
         raise Rejected('not_a_number', '%s=%r is not a round number'
                        % (what, r), what)
+    if ctx.calibration:
+        if r != CALIBRATION_ROUND:
+            raise Rejected('round_invalid', '%s=%d: the calibration window '
+                           'is round %d' % (what, r, CALIBRATION_ROUND),
+                           what)
+        return r
     if r < 1:
         raise Rejected('round_invalid', '%s=%d: rounds count from 1'
                        % (what, r), what)
@@ -437,11 +447,13 @@ def client_result(*, header: Any, round: Any, client_id: Any, status: Any,
                   frames_rejected: Any, frames_dropped: Any, coverage: Any,
                   first_frame_offset: Any, wake_lateness: Any, value: Any,
                   timing_uncertainty: Any, noise_floor: Any,
-                  diagnostics: Any, ctx: Context) -> None:
+                  diagnostics: Any, noise_source: Any,
+                  ctx: Context) -> None:
     """/client_result: a client's result of one window (header.stamp:
     when it was made, 0 when the client had no clock model).  A
     ``noise_floor`` that is not a finite number >= 0 does not reject the
-    result: the decision module takes it as unknown and counts it."""
+    result: the decision module takes it as unknown and counts it;
+    ``noise_source`` is '' or one of ``NoiseSource.ALL``."""
     lim = ctx.limits
     header_time(header, ctx, optional=True)
     round_number(round, ctx)
@@ -467,6 +479,8 @@ def client_result(*, header: Any, round: Any, client_id: Any, status: Any,
     if usable and frames == 0:
         raise Rejected('inconsistent', 'status %s with no frames' % status,
                        'frames')
+    if noise_source:
+        choice(noise_source, 'noise_source', NoiseSource.ALL)
     diagnostics = list(diagnostics)
     if len(diagnostics) > lim.max_diagnostics:
         raise Rejected('list_too_long', 'diagnostics has %d entries (limit '

@@ -22,6 +22,19 @@ class ResultStatus:
     USABLE = (OK, PARTIAL)          # statuses whose value is a score
 
 
+class NoiseSource:
+    """``ClientResult.noise_source``: where a noise floor's quiet level
+    came from (its ``NOISE_`` constants); '' when there is no floor."""
+
+    NOISE_CALIBRATION = 'calibration'
+    NOISE_UNCALIBRATED = 'uncalibrated'
+    NOISE_ESTIMATE = 'estimate'
+    ALL = (NOISE_CALIBRATION, NOISE_UNCALIBRATED, NOISE_ESTIMATE)
+    # what the decision module's noise rule trusts ('' : a recording made
+    # before the field, decided as it was)
+    TRUSTED = (NOISE_CALIBRATION, NOISE_ESTIMATE, '')
+
+
 class Outcome:
     """``Decision.outcome``."""
 
@@ -71,6 +84,11 @@ class ActionEnd:
     STATUSES = (OK, FAILED, TIMEOUT)
     ALL = STATUSES
 
+
+# The calibration window's round number on the calibration/ topics (the
+# rounds count from 1): not a round, nobody moves, no winner.
+CALIBRATION_ROUND = 0
+CALIBRATION_NS = 'calibration'     # its topics: calibration/capture_data, ...
 
 # The DM's ~on_missing: decide over the results present, or abort.
 ON_MISSING = ('partial', 'abort')
