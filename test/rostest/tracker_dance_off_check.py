@@ -279,11 +279,13 @@ class TrackerDanceOffTest(unittest.TestCase):
         self.assertAlmostEqual(n['frames_expected'], 30.0 * dur, delta=2)
         self.assertGreaterEqual(n['frames_skipped'],
                                 0.8 * self.frozen[0] * n['sensor_rate'])
+        # A window holds its length x rate frames +/- 1 by its phase, and
+        # the rate is estimated from the frames: within 2 frames.
         self.assertLessEqual(n['frames_published'] + n['frames_skipped'],
-                             n['frames_expected'] + 1)
+                             n['frames_expected'] + 2)
         self.assertAlmostEqual(n['frames_published'] + n['frames_skipped']
                                + n['frames_unpublished'],
-                               n['frames_expected'], delta=1)
+                               n['frames_expected'], delta=2)
         self.assertGreaterEqual(n['frames_published'], r.frames)
         # The tracker's own count (all it skipped since it started).
         dropped = [d for _, d in self.tracker_diags.get(tracker, [])]
