@@ -7,6 +7,7 @@ from hri_sync.dance_off.expressiveness import SkeletonExpressiveness
 from hri_sync.dance_off.joints import NUM_JOINTS
 from hri_sync.dance_off.sensor_frames import SensorFrames
 from hri_sync.data_process.dpm import DataProcess
+from hri_sync.data_process.processors import Frame
 
 RATE = 30.0
 
@@ -116,3 +117,18 @@ def test_the_window_result_says_what_the_tracker_skipped():
     assert r.diagnostics['frames_unpublished'] == 15
     assert r.diagnostics['frames_published'] == r.frames == 135
     assert r.frames_dropped == 45
+
+
+def test_a_recording_read_back_scores_its_tracker_frames():
+    # verify_decisions reads a bag with rosbags, whose times are (sec,
+    # nanosec): a tracker's frames (frame_index > 0) are scored, not
+    # counted as malformed.
+    def frame(k):
+        msg = skeleton(NS(sec=10 + k // 30, nanosec=(k % 30) * 33333333),
+                       k + 1, 0)
+        msg.positions = [NS(x=0.01 * k, y=0.0, z=2.0)] * NUM_JOINTS
+        return Frame(100.0 + k / 30.0, msg)
+    res = SkeletonExpressiveness().process([frame(k) for k in range(30)],
+                                           100.0, 101.0)
+    assert res.frames_used == 30 and res.frames_rejected == 0
+    assert res.value > 0

@@ -274,8 +274,13 @@ def expressiveness(
 
 
 def _seconds(stamp: Any) -> float:
-    """A rospy.Time/Duration-like or a number, in seconds."""
-    return stamp.to_sec() if hasattr(stamp, 'to_sec') else float(stamp)
+    """A rospy.Time/Duration-like, a rosbags Time (sec, nanosec, as a
+    recording is read back) or a number, in seconds."""
+    if hasattr(stamp, 'to_sec'):
+        return stamp.to_sec()
+    if hasattr(stamp, 'nanosec'):
+        return stamp.sec + stamp.nanosec * 1e-9
+    return float(stamp)
 
 
 class SkeletonExpressiveness(Processor):
