@@ -351,7 +351,7 @@ TEST(StillPerson, StaysApartFromAWallAtTheSensorsRange) {
 // wall hides all but a strip of the floor) and 0.3 m behind at 3.5 m, Kinect
 // v1 noise. Once the bone lengths are known (the last 5 s of 15), the head
 // joint to the feet joints' midpoint is within 5 % of the truth's (measured
-// -0.2 and -2.2 %; 7-10 % short before the head ball, the soles and the
+// -2.2 and -1.7 %; 7-10 % short before the head ball, the soles and the
 // floor cue of the length search), and the torso within 0.1 m after the
 // first second.
 TEST(StillPerson, HeadToFootNearAWall) {
