@@ -557,22 +557,28 @@ class VirtualKinectDriver : public ::testing::Test {
   std::string track_path_;
 };
 
-TEST_F(VirtualKinectDriver, RendersAStillPersonBeforeAWallWithKinectNoise) {
-  const std::string query = "body=tall_slim&wall=0.5&noise=kinect1&seed=7";
+// The first depth frame (320x240) of a virtual Kinect opened at uri, and its index.
+void readFirstFrame(const std::string& uri, std::vector<uint16_t>* got, int* index) {
   openni::Device dev;
-  ASSERT_EQ(dev.open(("virtual://" + track_path_ + "?" + query).c_str()), openni::STATUS_OK)
-      << openni::OpenNI::getExtendedError();
+  ASSERT_EQ(dev.open(uri.c_str()), openni::STATUS_OK) << openni::OpenNI::getExtendedError();
   openni::VideoStream depth;
   ASSERT_EQ(depth.create(dev, openni::SENSOR_DEPTH), openni::STATUS_OK);
   ASSERT_EQ(depth.start(), openni::STATUS_OK);
   openni::VideoFrameRef frame;
   ASSERT_EQ(depth.readFrame(&frame), openni::STATUS_OK);
-  const int index = frame.getFrameIndex();
-  std::vector<uint16_t> got(static_cast<const uint16_t*>(frame.getData()),
-                            static_cast<const uint16_t*>(frame.getData()) + 320 * 240);
+  *index = frame.getFrameIndex();
+  got->assign(static_cast<const uint16_t*>(frame.getData()),
+              static_cast<const uint16_t*>(frame.getData()) + 320 * 240);
   depth.stop();
   depth.destroy();
   dev.close();
+}
+
+TEST_F(VirtualKinectDriver, RendersAStillPersonBeforeAWallWithKinectNoise) {
+  const std::string query = "body=tall_slim&wall=0.5&noise=kinect1&seed=7";
+  std::vector<uint16_t> got;
+  int index = -1;
+  ASSERT_NO_FATAL_FAILURE(readFirstFrame("virtual://" + track_path_ + "?" + query, &got, &index));
 
   // The same scene in-process, parsed from the same keys: the driver's frame is its render.
   SceneSpec spec;
@@ -631,20 +637,9 @@ TEST_F(VirtualKinectDriver, RendersAStillPersonBeforeAWallWithKinectNoise) {
 // nothing person-sized in view).
 TEST_F(VirtualKinectDriver, HeldPoseIsPlacedAsAStillTrack) {
   const std::string query = "distance=3.5&wall=0.3&noise=kinect1";
-  openni::Device dev;
-  ASSERT_EQ(dev.open(("virtual://" + kMotion + "?hold=0&" + query).c_str()), openni::STATUS_OK)
-      << openni::OpenNI::getExtendedError();
-  openni::VideoStream depth;
-  ASSERT_EQ(depth.create(dev, openni::SENSOR_DEPTH), openni::STATUS_OK);
-  ASSERT_EQ(depth.start(), openni::STATUS_OK);
-  openni::VideoFrameRef frame;
-  ASSERT_EQ(depth.readFrame(&frame), openni::STATUS_OK);
-  const int index = frame.getFrameIndex();
-  std::vector<uint16_t> got(static_cast<const uint16_t*>(frame.getData()),
-                            static_cast<const uint16_t*>(frame.getData()) + 320 * 240);
-  depth.stop();
-  depth.destroy();
-  dev.close();
+  std::vector<uint16_t> got;
+  int index = -1;
+  ASSERT_NO_FATAL_FAILURE(readFirstFrame("virtual://" + kMotion + "?hold=0&" + query, &got, &index));
 
   SceneSpec spec = parseSceneQuery(query);
   Scene scene(stillTrack(), spec.body, spec.scene, spec.noise, nullptr, spec.seed);
