@@ -30,11 +30,11 @@ sys.path.insert(0, os.path.join(ROOT, 'src'))
 from hri_sync.dance_off.expressiveness import expressiveness  # noqa: E402
 
 _spec = importlib.util.spec_from_file_location(
-    'tracker_accuracy', os.path.join(ROOT, 'bench', 'tracker_accuracy.py'))
-accuracy = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(accuracy)
+    'tracker_still', os.path.join(ROOT, 'bench', 'tracker_still.py'))
+still = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(still)
+accuracy = still.accuracy
 
-RATE = 30.0
 WINDOW = 10.0
 # clip:body; cmu_61_04 and cmu_60_07 are kept out of tuning (checking only)
 CLIPS = ('cmu_60_01_salsa:average', 'cmu_61_01_salsa:tall_slim',
@@ -64,12 +64,7 @@ def run_clip(exe, spec, scene, tmp):
     subprocess.run([exe, '--track', track, '--direct', '--seconds',
                     str(seconds), '--scene', 'body=%s&%s' % (body, scene),
                     '--dump', dump], check=True, capture_output=True)
-    d = np.loadtxt(dump, usecols=range(0, 107), ndmin=2)
-    tracked = d[:, 1] == 1
-    stamps = d[:, 0] / RATE
-    est = d[:, 2:47].reshape(-1, 15, 3)
-    truth = d[:, 47:92].reshape(-1, 15, 3)
-    conf = d[:, 92:107]
+    stamps, tracked, est, truth, conf = still.read_dump(dump)
     windows = []
     for start in (2.0, seconds - 0.2 - WINDOW):
         sel = tracked & (stamps >= start) & (stamps < start + WINDOW)

@@ -62,19 +62,24 @@ def head_to_foot(joints):
     return np.linalg.norm(joints[:, HEAD] - feet, axis=1)
 
 
+def read_dump(path):
+    """tracker_eval --dump columns: the frames' times (s), whether each was
+    tracked, and the estimated joints, true joints and confidences."""
+    d = np.loadtxt(path, usecols=range(0, 107), ndmin=2)
+    return (d[:, 0] / RATE, d[:, 1] == 1, d[:, 2:47].reshape(-1, 15, 3),
+            d[:, 47:92].reshape(-1, 15, 3), d[:, 92:107])
+
+
 def figures(dump):
     """One row's figures from a tracker_eval --dump."""
-    d = np.loadtxt(dump, usecols=range(0, 107), ndmin=2)
-    tracked = d[:, 1] == 1
+    times, tracked, est_all, truth_all, conf_all = read_dump(dump)
     row = {'tracked_share': round(float(tracked.mean()), 3)}
     if not tracked.any():
         return row
     first = int(np.argmax(tracked))
-    keep = tracked & (np.arange(len(d)) >= first + int(RATE))
-    stamps = d[keep, 0] / RATE
-    est = d[keep, 2:47].reshape(-1, 15, 3)
-    truth = d[keep, 47:92].reshape(-1, 15, 3)
-    conf = d[keep, 92:107]
+    keep = tracked & (np.arange(len(times)) >= first + int(RATE))
+    stamps, est, truth, conf = (times[keep], est_all[keep], truth_all[keep],
+                                conf_all[keep])
     steps = np.linalg.norm(np.diff(est, axis=0), axis=2)
     windows = [expressiveness(stamps[k:k + 60], est[k:k + 60],
                               conf[k:k + 60]).value
