@@ -54,6 +54,14 @@ Plane followWall(const PointGrid& g, const Plane& floor, const Plane& wall);
 /// and fewer cells behind it (more than two margins) than on it.
 bool wallStands(const PointGrid& g, const Plane& floor, const Plane& wall);
 
+/// The cells on a wall (1) and off it (0): within planeMargin of one of walls,
+/// off the floor. With before (last frame's cells, same grid) a cell that was
+/// on a wall stays on it while within hold margins: a hand or a back held
+/// against a wall, read through a Kinect's noise, would otherwise come and go
+/// at the margin from frame to frame. A cell with no reading keeps its state.
+std::vector<uint8_t> wallCells(const PointGrid& g, const Plane& floor, const std::vector<Plane>& walls,
+                               const std::vector<uint8_t>* before = nullptr, double hold = 1.0);
+
 /// The room: the floor and the background planes, kept steady from frame to
 /// frame. Both are refitted every 30 frames. Each frame, every wall follows the
 /// frame's depth (a Kinect v1 shifts the depth of a whole frame now and then,
@@ -62,15 +70,18 @@ bool wallStands(const PointGrid& g, const Plane& floor, const Plane& wall);
 /// frame still shows it (wallStands).
 class Room {
  public:
-  /// The room on this frame's grid.
-  void update(const PointGrid& g);
+  /// The room on this frame's grid; wall_hold: wallCells' hold.
+  void update(const PointGrid& g, double wall_hold);
   void reset() { *this = Room(); }
   const Plane& floor() const { return floor_; }
   const std::vector<Plane>& walls() const { return walls_; }
+  /// This frame's wall cells, held from frame to frame (wallCells).
+  const std::vector<uint8_t>& wallCells() const { return wall_cells_; }
 
  private:
   Plane floor_;
   std::vector<Plane> walls_;
+  std::vector<uint8_t> wall_cells_;
   int frames_ = 0;
 };
 
@@ -109,7 +120,7 @@ struct Blob {
   Vec3 centroid;
   double lo = 1e9, hi = -1e9, xmin = 1e9, xmax = -1e9, zmin = 1e9, zmax = -1e9;
 };
-std::vector<Blob> blobs(const PointGrid& g, const Plane& floor, const std::vector<Plane>& walls);
+std::vector<Blob> blobs(const PointGrid& g, const Plane& floor, const std::vector<uint8_t>& wall_cells);
 /// Whether a part may be a person: 0.5-2.5 m tall, at most 2.2 m wide and 1.6 m
 /// deep, at least 40 cells, and not flat (walls, cabinets, doors are).
 bool personSized(const PointGrid& g, const Blob& p);
@@ -137,7 +148,10 @@ Segmentation partSegmentation(int n, const std::vector<Blob>& parts, int user, c
 
 /// The user: the connected body of points off the floor that looks most like a
 /// standing person (or lies nearest prev_centroid when given).
-/// walls: background planes (fitWalls) whose points are removed first.
+/// walls: background planes (fitWalls) whose points are removed first;
+/// wall_cells: the same given as cells (Room::wallCells).
+Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* prev_centroid,
+                         const std::vector<uint8_t>& wall_cells);
 Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* prev_centroid,
                          const std::vector<Plane>& walls = {});
 
@@ -255,6 +269,7 @@ struct TrackerParams {
   int hold_frames = 10;       ///< how long a lost extremity is held
   JointFilterParams filter;   ///< each joint's filter (joint_filter.h)
   bool steady_depth = true;   ///< take each frame's depth shift out (DepthSteadier)
+  double wall_hold = 2.0;     ///< margins a cell on a wall stays on it (wallCells; 1: no hold)
 };
 
 struct SkeletonEstimate {

@@ -397,7 +397,7 @@ double DepthSteadier::correct(PointGrid* g) {
   return shift - mean_shift_;
 }
 
-void Room::update(const PointGrid& g) {
+void Room::update(const PointGrid& g, double wall_hold) {
   const bool refit = frames_ % 30 == 0;
   if (!floor_.found || refit) {
     Plane f = fitFloor(g, 7 + frames_);
@@ -417,18 +417,33 @@ void Room::update(const PointGrid& g) {
     if (!again && (!refit || wallStands(g, floor_, w))) walls.push_back(w);
   }
   walls_.swap(walls);
+  const bool same_grid = wall_cells_.size() == g.points.size();
+  wall_cells_ = hri_sync::wallCells(g, floor_, walls_, same_grid ? &wall_cells_ : nullptr, wall_hold);
 }
 
-std::vector<Blob> blobs(const PointGrid& g, const Plane& floor, const std::vector<Plane>& walls) {
+std::vector<uint8_t> wallCells(const PointGrid& g, const Plane& floor, const std::vector<Plane>& walls,
+                               const std::vector<uint8_t>* before, double hold) {
+  const int n = g.width * g.height;
+  std::vector<uint8_t> out(n, 0);
+  for (int i = 0; i < n; ++i) {
+    if (!g.ok(i)) {
+      if (before) out[i] = (*before)[i];
+      continue;
+    }
+    if (floor.found && floor.height(g.points[i]) < 0.05) continue;
+    const double m = (before && (*before)[i] ? hold : 1.0) * planeMargin(g.points[i].z);
+    for (const Plane& w : walls) out[i] |= std::fabs(w.height(g.points[i])) < m;
+  }
+  return out;
+}
+
+std::vector<Blob> blobs(const PointGrid& g, const Plane& floor, const std::vector<uint8_t>& wall_cells) {
   const int n = g.width * g.height;
   std::vector<int> comp(n, -1);
   std::vector<uint8_t> cand(n, 0);
   for (int i = 0; i < n; ++i) {
-    if (!g.ok(i)) continue;
+    if (!g.ok(i) || wall_cells[i]) continue;
     if (floor.found && floor.height(g.points[i]) < 0.05) continue;
-    bool wall = false;
-    for (const Plane& w : walls) wall |= std::fabs(w.height(g.points[i])) < planeMargin(g.points[i].z);
-    if (wall) continue;
     cand[i] = 1;
   }
   std::vector<Blob> parts;
@@ -526,7 +541,12 @@ Segmentation partSegmentation(int n, const std::vector<Blob>& parts, int user,
 
 Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* prev_centroid,
                          const std::vector<Plane>& walls) {
-  const std::vector<Blob> parts = blobs(g, floor, walls);
+  return segmentUser(g, floor, prev_centroid, wallCells(g, floor, walls));
+}
+
+Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* prev_centroid,
+                         const std::vector<uint8_t>& wall_cells) {
+  const std::vector<Blob> parts = blobs(g, floor, wall_cells);
   int best = -1;
   double best_score = 0;
   for (size_t k = 0; k < parts.size(); ++k) {
@@ -929,9 +949,9 @@ BodyPose placeJoints(TrunkFrame tf, const std::array<std::vector<Vec3>, NUM_LABE
 }
 
 Segmentation DepthTracker::segment(const PointGrid& g) {
-  room_.update(g);
+  room_.update(g, params_.wall_hold);
   floor_ = room_.floor();
-  return segmentUser(g, floor_, have_prev_ ? &prev_centroid_ : nullptr, room_.walls());
+  return segmentUser(g, floor_, have_prev_ ? &prev_centroid_ : nullptr, room_.wallCells());
 }
 
 LabelMemory DepthTracker::memory() const {
@@ -991,6 +1011,16 @@ void DepthTracker::fit(const PointGrid& g, const Segmentation& seg, Joints* j,
       swapped[b] = best.joints[a] - best.joints[L_SHOULDER] + best.joints[R_SHOULDER];
     }
     best = fitter.fitMixed(best.joints, {j, &prev_fit_, &swapped});
+  }
+  // An arm that explains no depth point keeps last frame's fitted pose on
+  // its shoulder, and an unseen elbow last frame's bend: with nothing to
+  // hold them, the fit would let them drift (an elbow turns freely about the
+  // shoulder-hand line).
+  for (auto [root, mid, end] : {std::array<int, 3>{L_SHOULDER, L_ELBOW, L_HAND}, {R_SHOULDER, R_ELBOW, R_HAND}}) {
+    if (!have_fit_ || best.support[mid] >= kSeenPoints) continue;
+    Joints& b = best.joints;
+    if (best.support[end] < kSeenPoints) b[end] = prev_fit_[end] - prev_fit_[root] + b[root];
+    b[mid] = twoBone(b[root], b[end], model_.upper_arm, model_.forearm, prev_fit_[mid] - prev_fit_[root]);
   }
   *j = best.joints;
   prev_fit_ = *j;

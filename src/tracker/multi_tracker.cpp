@@ -123,11 +123,11 @@ MultiEstimate MultiTracker::update(const uint16_t* depth_mm, double t) {
   MultiEstimate out;
   PointGrid g = makeGrid(depth_mm, cam_, params_.grid_step);
   if (params_.steady_depth) steadier_.correct(&g);
-  room_.update(g);
+  room_.update(g, params_.wall_hold);
   users_.erase(std::remove_if(users_.begin(), users_.end(), [&](const User& u) {
                  return !u.seen && (t - u.last_seen > multi_.lost_timeout || t < u.last_seen);
                }), users_.end());
-  const std::vector<Blob> parts = blobs(g, room_.floor(), room_.walls());
+  const std::vector<Blob> parts = blobs(g, room_.floor(), room_.wallCells());
   std::vector<int> people;
   for (size_t k = 0; k < parts.size(); ++k) if (personSized(g, parts[k])) people.push_back(static_cast<int>(k));
   std::vector<int> taken_by = associate(parts, people, t);
