@@ -154,6 +154,14 @@ class FakeClock:
         """The same clock, its drift referred to ``t0``."""
         return replace(self, t0=t0)
 
+    def through(self, true, local):
+        """The same clock, its drift referred to the instant it read
+        ``local`` at true time ``true`` (a reading of the clock itself)."""
+        if self.rate == 1.0:
+            return self
+        return self.started(true - (local - true - self.offset)
+                            / (self.rate - 1.0))
+
 
 TRUE_CLOCK = FakeClock(0.0, 1.0, 0.0)
 
@@ -181,6 +189,60 @@ def faketime_start(parent):
         if info.ppid == parent and cmdline(pid).startswith('faketime'):
             return start_time(info)
     return None
+
+
+# Reads the true CLOCK_REALTIME (a raw syscall, which libfaketime does not
+# see) around the faked one, 20 times; prints the tightest pair.
+_CLOCK_PROBE = """
+import ctypes, time
+libc = ctypes.CDLL('libc.so.6', use_errno=True)
+class Ts(ctypes.Structure):
+    _fields_ = [('s', ctypes.c_long), ('ns', ctypes.c_long)]
+def true():
+    ts = Ts()
+    libc.syscall(228, 0, ctypes.byref(ts))
+    return ts.s + ts.ns * 1e-9
+pairs = []
+for _ in range(20):
+    a = true(); faked = time.time(); b = true()
+    pairs.append((b - a, (a + b) / 2, faked))
+_, t, faked = min(pairs)
+print('%.9f %.9f' % (t, faked))
+"""
+
+
+def faketime_reading(parent):
+    """(true, faked) CLOCK_REALTIME read at one instant (within a few us)
+    on the clock of the ``faketime`` child of ``parent``: a probe joins
+    that faketime's clock (its environment: the preload and the shared
+    memory that holds the clock's start), or None when there is no such
+    process. The start time of the faketime process (``faketime_start``)
+    is only the drift's start within the time libfaketime takes to start
+    up, hundreds of ms on a loaded host: ~0.04 ms of error at 200 ppm."""
+    table = proc_table()
+    fake = [pid for pid, info in table.items() if info.ppid == parent
+            and cmdline(pid).startswith('faketime')]
+    under = [pid for pid, info in table.items() if fake
+             and info.ppid == fake[0]]
+    if not under:
+        return None
+    env = dict(os.environ)
+    try:
+        with open('/proc/%d/environ' % under[0], 'rb') as f:
+            for item in f.read().split(b'\0'):
+                key, _, value = item.decode(errors='replace').partition('=')
+                if key.startswith('FAKETIME') or key == 'LD_PRELOAD':
+                    env[key] = value
+    except OSError:
+        return None
+    if 'FAKETIME_SHARED' not in env:
+        return None
+    out = subprocess.run([sys.executable, '-c', _CLOCK_PROBE], env=env,
+                         capture_output=True, text=True, timeout=30)
+    if out.returncode != 0:
+        return None
+    true, faked = map(float, out.stdout.split())
+    return true, faked
 
 
 # ------------------------------------------------ the true-clock reference

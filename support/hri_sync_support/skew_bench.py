@@ -297,19 +297,26 @@ class SkewBench:
 
     def wait_clients(self):
         """Wait until the clients are ready, then refer the FakeClock of
-        each faked client to its faketime process's start."""
+        each faked client to a reading of its clock (faketime_reading;
+        its faketime process's start when it cannot be read)."""
         harness.wait_until(
             '%d clients (CPM synced, DPM reading its sensor)'
             % len(self.clients), self._clients_ready,
             SETUP_TIME + SETUP_PER_CLIENT * len(self.clients), self.started)
         for name, p in self.started:
             if name in self.clocks and self.clocks[name].rate != 1.0:
+                reading = harness.faketime_reading(p.pid)
                 t0 = harness.faketime_start(p.pid)
-                if t0 is None:
+                if reading is not None:
+                    self.clocks[name] = self.clocks[name].through(*reading)
+                elif t0 is None:
                     self.log('WARNING: no faketime process of %s found: the'
                              ' injected offset is referred to its launch '
                              'time', name)
                 else:
+                    self.log('WARNING: %s\'s clock could not be read: its'
+                             ' drift is referred to its faketime\'s start',
+                             name)
                     self.clocks[name] = self.clocks[name].started(t0)
         if self.same_sensor:
             self.result['reference_delivery_order'] = self._delivery_order()

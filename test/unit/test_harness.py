@@ -197,6 +197,31 @@ def test_faketime_start_reads_when_the_faketime_process_started():
     eventually(lambda: not live_group(child.pid), 'the group to end')
 
 
+@pytest.mark.skipif(shutil.which('faketime') is None,
+                    reason='faketime is not installed')
+def test_a_reading_of_a_faketime_clock_refers_its_drift_to_its_start():
+    clock = harness.FakeClock(10.0, 1.01, 0.0)
+    child = subprocess.Popen(['faketime', '-f', clock.spec, 'sleep', '60'],
+                             start_new_session=True)
+    try:
+        eventually(lambda: any(
+            info.ppid == child.pid for info in procs.proc_table().values()),
+            'faketime to start sleep')
+        first = harness.faketime_reading(os.getpid())
+        assert first is not None
+        referred = clock.through(*first)
+        time.sleep(0.5)
+        true, faked = harness.faketime_reading(os.getpid())
+        # 1 % drift: a start off by 1 ms would be 10 us off here.
+        assert abs(referred.local(true) - faked) < 5e-5
+        assert abs(clock.started(referred.t0 + 0.01).local(true)
+                   - faked) > 5e-5
+    finally:
+        os.killpg(child.pid, signal.SIGKILL)
+        child.wait()
+    assert harness.faketime_reading(child.pid) is None
+
+
 # ------------------------------------------------- reference and a run
 
 def test_sensor_argv_is_a_true_clock_synthetic_sensor():
