@@ -124,12 +124,15 @@ def capture_times(i, n):
 
 
 def render(i, motions, cache, scene, eval_path):
-    """View ``i``'s tracker dump file (rendered once, then cached): the
-    first motion is the person (tracked alone, ``--dump``); more are the
-    crowd (``crowd_tracks``), every user tracked (``--dump-users``)."""
+    """View ``i``'s tracker dump file (rendered once, then cached for this
+    build of tracker_eval): the first motion is the person (tracked alone,
+    ``--dump``); more are the crowd (``crowd_tracks``), every user tracked
+    (``--dump-users``)."""
     world = motions[0]
     n = int(world.duration * FPS) - 2
-    ident = (world.name, world.positions.shape, VIEWS[i], scene, n)
+    with open(eval_path, 'rb') as f:
+        build = hashlib.sha1(f.read()).hexdigest()
+    ident = (world.name, world.positions.shape, VIEWS[i], scene, n, build)
     if len(motions) > 1:
         ident += (USERS, hashlib.sha1(np.round(np.concatenate(
             [m.positions for m in motions[1:]]), 4).tobytes()).hexdigest())
