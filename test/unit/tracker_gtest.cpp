@@ -613,6 +613,28 @@ TEST(Segmentation, NoWallInAnEmptyRoom) {
   }
 }
 
+// A wall at z = 3 m and four cells: 1 cm in front of it (on it), 10 cm in
+// front (within two margins, 0.060 m each there), 20 cm in front (off it by
+// more than two) and one with no reading. Without a previous frame only the
+// first is on the wall; with one that had all four on it, the first two stay
+// on it, the third leaves, and the one with no reading keeps its state.
+TEST(Segmentation, ACellOnAWallStaysOnItWithinTwoMargins) {
+  PointGrid g;
+  g.width = 4;
+  g.height = 1;
+  g.points = {Vec3(0, 0, 2.99), Vec3(0.1, 0, 2.90), Vec3(0.2, 0, 2.80), Vec3(0.3, 0, 0)};
+  g.valid = {1, 1, 1, 0};
+  Plane wall;
+  wall.n = Vec3(0, 0, -1);  // facing the sensor
+  wall.d = 3.0;
+  wall.found = true;
+  const std::vector<Plane> walls{wall};
+  EXPECT_EQ(wallCells(g, Plane(), walls), (std::vector<uint8_t>{1, 0, 0, 0}));
+  const std::vector<uint8_t> before{1, 1, 1, 1};
+  EXPECT_EQ(wallCells(g, Plane(), walls, &before, 2.0), (std::vector<uint8_t>{1, 1, 0, 1}));
+  EXPECT_EQ(wallCells(g, Plane(), walls, &before, 1.0), (std::vector<uint8_t>{1, 0, 0, 1}));
+}
+
 // A person too near for the view, no floor in sight (as in the real
 // upper-body recording): the body is cut by the image's bottom edge, which
 // partialView says (or the top edge: the head is cut too at 0.9 m); the same
