@@ -77,6 +77,18 @@ def test_a_sensor_reopened_or_a_tracker_restarted_starts_over():
     assert s['frames_expected'] == 300
 
 
+def test_a_count_that_grew_more_than_the_frames_between_is_capped():
+    # The count jumps by 200 between frames 100 and 101 (the tracker
+    # counted frames of a stream the sensor switched from): none of them
+    # lies between two published frames of this window.
+    stream = [(d, i, k + (200 if i > 100 else 0))
+              for d, i, k in tracker_stream(180, stall=[150])]
+    s = count(stream, 6.0)
+    assert s['frames_skipped'] == 1
+    assert s['frames_published'] + s['frames_skipped'] <= \
+        s['frames_expected']
+
+
 def test_unknown_indices_count_nothing():
     s = count([(10.0, 0, 0), (10.1, 0, 5)], 10.0)
     assert s['frames_published'] == 0 and s['frames_skipped'] == 0

@@ -11,7 +11,9 @@ tells the frames the sensor made apart:
   (the rate from the frame indices and device stamps of the skeletons);
 - ``frames_published``: frames with at least one skeleton (any user);
 - ``frames_skipped``: frames the tracker never processed, from the first to
-  the last frame published in the window (the growth of its count);
+  the last frame published in the window (the growth of its count, at most
+  the frames between two published ones' indices: a count that grew more,
+  as when the sensor switched streams, is not the window's);
 - ``frames_unpublished``: the rest, ``frames_expected - frames_published -
   frames_skipped`` (at least 0): frames it processed and did not publish
   (searching, calibrating, no clock), and the window's frames before its
@@ -66,13 +68,16 @@ class SensorFrames:
         if last is not None and index == last.last_index:
             return                       # another user of the same frame
         if last is None or index < last.last_index:
+            between = index - 1          # a new stretch: frames before it
             self._stretches.append(_Stretch(index, device, index, device))
         else:
+            between = index - last.last_index - 1
             last.last_index, last.last_device = index, device
         self.published += 1
         if self._count is not None:
-            self.skipped += (skipped - self._count
-                             if skipped >= self._count else skipped)
+            grown = (skipped - self._count if skipped >= self._count
+                     else skipped)
+            self.skipped += min(grown, between)
         self._count = skipped
 
     def rate(self) -> float:
