@@ -52,6 +52,7 @@ built workspace sourced (source WS/devel/setup.bash).
 """
 import argparse
 import concurrent.futures
+import functools
 import hashlib
 import json
 import math
@@ -123,6 +124,13 @@ def capture_times(i, n):
     return phase + np.arange(n) / FPS * (1 + drift)
 
 
+@functools.lru_cache(maxsize=None)
+def build_id(path):
+    """A digest of the executable at ``path`` (read once per run)."""
+    with open(path, 'rb') as f:
+        return hashlib.sha1(f.read()).hexdigest()
+
+
 def render(i, motions, cache, scene, eval_path):
     """View ``i``'s tracker dump file (rendered once, then cached for this
     build of tracker_eval): the first motion is the person (tracked alone,
@@ -130,9 +138,8 @@ def render(i, motions, cache, scene, eval_path):
     (``--dump-users``)."""
     world = motions[0]
     n = int(world.duration * FPS) - 2
-    with open(eval_path, 'rb') as f:
-        build = hashlib.sha1(f.read()).hexdigest()
-    ident = (world.name, world.positions.shape, VIEWS[i], scene, n, build)
+    ident = (world.name, world.positions.shape, VIEWS[i], scene, n,
+             build_id(eval_path))
     if len(motions) > 1:
         ident += (USERS, hashlib.sha1(np.round(np.concatenate(
             [m.positions for m in motions[1:]]), 4).tobytes()).hexdigest())

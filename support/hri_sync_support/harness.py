@@ -182,29 +182,32 @@ def start_time(info):
             + info.start / os.sysconf('SC_CLK_TCK'))
 
 
-def faketime_start(parent):
-    """True time (s) the ``faketime`` child of ``parent`` started, or None
-    when it has none (see ``start_time``)."""
-    for pid, info in proc_table().items():
+def _faketime_child(parent, table):
+    """The pid of the ``faketime`` child of ``parent`` in ``table`` (a
+    proc_table), or None."""
+    for pid, info in table.items():
         if info.ppid == parent and cmdline(pid).startswith('faketime'):
-            return start_time(info)
+            return pid
     return None
 
 
-# Reads the true CLOCK_REALTIME (a raw syscall, which libfaketime does not
-# see) around the faked one, 20 times; prints the tightest pair.
+def faketime_start(parent):
+    """True time (s) the ``faketime`` child of ``parent`` started, or None
+    when it has none (see ``start_time``)."""
+    table = proc_table()
+    pid = _faketime_child(parent, table)
+    return start_time(table[pid]) if pid is not None else None
+
+
+# Reads the true CLOCK_REALTIME (hri_sync.clock.truth: a raw syscall, which
+# libfaketime does not see) around the faked one, 20 times; prints the
+# tightest pair.
 _CLOCK_PROBE = """
-import ctypes, time
-libc = ctypes.CDLL('libc.so.6', use_errno=True)
-class Ts(ctypes.Structure):
-    _fields_ = [('s', ctypes.c_long), ('ns', ctypes.c_long)]
-def true():
-    ts = Ts()
-    libc.syscall(228, 0, ctypes.byref(ts))
-    return ts.s + ts.ns * 1e-9
+import time
+from hri_sync.clock.truth import true_time
 pairs = []
 for _ in range(20):
-    a = true(); faked = time.time(); b = true()
+    a = true_time(); faked = time.time(); b = true_time()
     pairs.append((b - a, (a + b) / 2, faked))
 _, t, faked = min(pairs)
 print('%.9f %.9f' % (t, faked))
@@ -220,13 +223,14 @@ def faketime_reading(parent):
     is only the drift's start within the time libfaketime takes to start
     up, hundreds of ms on a loaded host: ~0.04 ms of error at 200 ppm."""
     table = proc_table()
-    fake = [pid for pid, info in table.items() if info.ppid == parent
-            and cmdline(pid).startswith('faketime')]
-    under = [pid for pid, info in table.items() if fake
-             and info.ppid == fake[0]]
+    fake = _faketime_child(parent, table)
+    under = [pid for pid, info in table.items()
+             if fake is not None and info.ppid == fake]
     if not under:
         return None
-    env = dict(os.environ)
+    # The probe imports hri_sync as this process does.
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path
+                                                      if p))
     try:
         with open('/proc/%d/environ' % under[0], 'rb') as f:
             for item in f.read().split(b'\0'):
@@ -242,7 +246,7 @@ def faketime_reading(parent):
     if out.returncode != 0:
         return None
     true, faked = map(float, out.stdout.split())
-    return true, faked
+    return (true, faked) if math.isfinite(true) else None
 
 
 # ------------------------------------------------ the true-clock reference

@@ -306,10 +306,11 @@ class SkewBench:
         for name, p in self.started:
             if name in self.clocks and self.clocks[name].rate != 1.0:
                 reading = harness.faketime_reading(p.pid)
-                t0 = harness.faketime_start(p.pid)
                 if reading is not None:
                     self.clocks[name] = self.clocks[name].through(*reading)
-                elif t0 is None:
+                    continue
+                t0 = harness.faketime_start(p.pid)
+                if t0 is None:
                     self.log('WARNING: no faketime process of %s found: the'
                              ' injected offset is referred to its launch '
                              'time', name)
