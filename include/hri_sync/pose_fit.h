@@ -27,7 +27,9 @@ struct PoseFitParams {
 struct PoseFit {
   Joints joints;
   double energy = 0;                    ///< robust residual per depth point (m^2)
-  std::array<int, NUM_JOINTS> support{};  ///< depth points explained next to each joint
+  /// Depth points explained next to each joint; an arm's count only points
+  /// that no other part explains within the depth noise.
+  std::array<int, NUM_JOINTS> support{};
 };
 
 /// Fits poses to one frame's user; the torso keeps the model's shape, the limbs

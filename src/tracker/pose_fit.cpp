@@ -23,6 +23,7 @@ constexpr double kGroundReach = 0.15;  // only a foot joint this low is pulled
 // head (a crown ball, the face below and before it) best 2 cm above the joint
 // seen from the front, 3.5 cm from the side, 4.5 cm from behind.
 constexpr double kFitHeadAbove = 0.03;
+constexpr double kDepthNoise = 1.25 * 2.85e-3;  // a Kinect v1's depth noise at z: this times z^2 (m)
 
 // Per-joint weighted sums of displacements.
 struct Pull {
@@ -56,6 +57,17 @@ double ground(const Plane& floor, const Joints& j, const std::array<double, 2>& 
     if (pull) pull->addJoint(foot, floor.n * -h, kGroundWeight);
   }
   return energy;
+}
+
+// The arm (0 left, 1 right) a capsule moves, or -1: an arm capsule's points
+// support its joints only when no other capsule explains them nearly as well.
+int armOf(const BodyPart& p) {
+  for (int side = 0; side < 2; ++side) {
+    const int elbow = side == 0 ? L_ELBOW : R_ELBOW, hand = side == 0 ? L_HAND : R_HAND;
+    for (const CapsuleEnd& e : {p.a, p.b})
+      if (e.i == elbow || e.i == hand || e.k == elbow || e.k == hand) return side;
+  }
+  return -1;
 }
 
 }  // namespace
@@ -135,6 +147,20 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
   double energy = 0;
   const double tau = p_.outlier;
   std::array<double, 2> lowest{1e9, 1e9};  // per foot (left, right): its lowest point's height
+  // A point on an arm capsule that another part (the trunk it lies on) explains
+  // within the depth margin as well is no sign of where the arm is.
+  auto explainsAlone = [&](const Vec3& pt, double d, int arm) {
+    // The fit's depth margin, or a Kinect v1's depth noise there if more
+    // (1.25 depth steps of 2.85e-3 z^2: 5.7 cm at 4 m).
+    const double margin = std::max(p_.margin, kDepthNoise * pt.z * pt.z);
+    for (int c = 0; c < kNumParts; ++c) {
+      if (armOf(part(c)) == arm) continue;
+      const Vec3 ap = pt - ends[2 * c];
+      const double t = len2[c] < 1e-12 ? 0.0 : std::clamp(ap.dot(axis[c]) / len2[c], 0.0, 1.0);
+      if ((pt - (ends[2 * c] + axis[c] * t)).norm() - radius[c] < d + margin) return false;
+    }
+    return true;
+  };
   // Data: every user point lies on the surface of its nearest capsule.
   for (size_t n = 0; n < seg_.cells.size(); ++n) {
     const Vec3& pt = g_.points[seg_.cells[n]];
@@ -169,7 +195,9 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
     }
     if (support) {
       const BodyPart& p = part(best);
-      ++(*support)[best_t < 0.5 ? p.a.i : p.b.i];
+      const int joint = best_t < 0.5 ? p.a.i : p.b.i;
+      const int arm = armOf(p);
+      if (arm < 0 || explainsAlone(pt, best_d, arm)) ++(*support)[joint];
     }
     if (!move) continue;
     Vec3 axis = ends[2 * best] + (ends[2 * best + 1] - ends[2 * best]) * best_t;
