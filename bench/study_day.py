@@ -412,8 +412,11 @@ def cost(samples, hours):
             'bag_mb': round(b['bag_bytes'] / 1e6, 1)}
 
 
-def restarts(samples):
-    """{node: number of pid changes} (a respawn), nodes that vanished."""
+def restarts(samples, settled_s=0.0):
+    """{node: number of pid changes} (a respawn), nodes that vanished,
+    from the samples at or after ``settled_s`` (a sample taken while the
+    launch starts holds processes that become others)."""
+    samples = [s for s in samples if s['t_s'] >= settled_s]
     pids, changes, gone = {}, {}, set()
     for s in samples:
         for k, pid in s['pid'].items():
@@ -454,7 +457,9 @@ def summarize(rounds, samples, opts, elapsed):
         'rss_growth': rss,
         'clock_agreement_first_vs_last': clock,
         'decision_latency_first_vs_last': latency,
-        'restarts': restarts(samples),
+        'restarts': restarts(samples, min(
+            (r['end_s'] - opts.dur for r in done if r.get('end_s')),
+            default=0.0)),
         'cost': cost(samples, elapsed / 3600.0),
         'targets': {
             'every_round_decided': bool(done) and len(decided) == len(done),

@@ -108,6 +108,14 @@ def test_restarts_count_pid_changes():
     assert sd.restarts(samples) == {'pid_changes': {'a': 1}, 'gone': ['b']}
 
 
+def test_restarts_leave_out_the_launch_starting():
+    samples = [sample(0, {'a': 1}, {'roslaunch': 9}),
+               sample(60, {'a': 1}, {'a': 12}),
+               sample(120, {'a': 1}, {'a': 12})]
+    assert sd.restarts(samples)['gone'] == ['roslaunch']
+    assert sd.restarts(samples, 30.0) == {'pid_changes': {}, 'gone': []}
+
+
 def test_clock_spread():
     assert sd.clock_spread({'c1': 0.6, 'c2': 0.75, 'c3': 0.55}) == \
         0.75 - 0.55
