@@ -128,6 +128,7 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
   std::array<Vec3, kNumParts> axis;  // end a to end b
   std::array<double, kNumParts> reach;  // bounding sphere: no surface point is farther from centre
   std::array<double, kNumParts> len2, radius;
+  std::array<int, kNumParts> arm_of;  // the arm each capsule moves (armOf), or -1
   // The centres, one array per coordinate: the bounding-sphere test of a
   // point against every capsule runs as one vectorised loop.
   std::array<double, kNumParts> cx, cy, cz;
@@ -142,23 +143,29 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
     len2[c] = axis[c].dot(axis[c]);
     radius[c] = part(c).radius;
     reach[c] = axis[c].norm() * 0.5 + radius[c];
+    arm_of[c] = armOf(part(c));
   }
   Pull pull;
   double energy = 0;
   const double tau = p_.outlier;
   std::array<double, 2> lowest{1e9, 1e9};  // per foot (left, right): its lowest point's height
-  // A point on an arm capsule that another part (the trunk it lies on) explains
-  // within the depth margin as well is no sign of where the arm is.
+  // A point's distance to capsule c's surface; t: the closest point's place
+  // on its axis (0..1).
+  auto surface = [&](const Vec3& pt, int c, double* t) {
+    const Vec3 ap = pt - ends[2 * c];
+    *t = len2[c] < 1e-12 ? 0.0 : std::clamp(ap.dot(axis[c]) / len2[c], 0.0, 1.0);
+    return (pt - (ends[2 * c] + axis[c] * *t)).norm() - radius[c];
+  };
+  // A point on an arm capsule that another part (the trunk it lies on, the
+  // other arm) explains within the depth margin as well is no sign of where
+  // the arm is.
   auto explainsAlone = [&](const Vec3& pt, double d, int arm) {
     // The fit's depth margin, or a Kinect v1's depth noise there if more
     // (1.25 depth steps of 2.85e-3 z^2: 5.7 cm at 4 m).
     const double margin = std::max(p_.margin, kDepthNoise * pt.z * pt.z);
-    for (int c = 0; c < kNumParts; ++c) {
-      if (armOf(part(c)) == arm) continue;
-      const Vec3 ap = pt - ends[2 * c];
-      const double t = len2[c] < 1e-12 ? 0.0 : std::clamp(ap.dot(axis[c]) / len2[c], 0.0, 1.0);
-      if ((pt - (ends[2 * c] + axis[c] * t)).norm() - radius[c] < d + margin) return false;
-    }
+    double t;
+    for (int c = 0; c < kNumParts; ++c)
+      if (arm_of[c] != arm && surface(pt, c, &t) < d + margin) return false;
     return true;
   };
   // Data: every user point lies on the surface of its nearest capsule.
@@ -166,10 +173,9 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
     const Vec3& pt = g_.points[seg_.cells[n]];
     int best = -1;
     double best_d = 1e18, best_t = 0;
-    auto consider = [&](int c) {  // t: the closest point's place on the axis (0..1)
-      const Vec3 ap = pt - ends[2 * c];
-      double t = len2[c] < 1e-12 ? 0.0 : std::clamp(ap.dot(axis[c]) / len2[c], 0.0, 1.0);
-      double d = (pt - (ends[2 * c] + axis[c] * t)).norm() - radius[c];
+    auto consider = [&](int c) {
+      double t;
+      const double d = surface(pt, c, &t);
       if (d < best_d) { best_d = d; best = c; best_t = t; }
     };
     // Last iteration's capsule first: its distance prunes most others.
@@ -196,8 +202,7 @@ double PoseFitter::step(Joints* j, std::vector<int8_t>* hint, std::array<int, NU
     if (support) {
       const BodyPart& p = part(best);
       const int joint = best_t < 0.5 ? p.a.i : p.b.i;
-      const int arm = armOf(p);
-      if (arm < 0 || explainsAlone(pt, best_d, arm)) ++(*support)[joint];
+      if (arm_of[best] < 0 || explainsAlone(pt, best_d, arm_of[best])) ++(*support)[joint];
     }
     if (!move) continue;
     Vec3 axis = ends[2 * best] + (ends[2 * best + 1] - ends[2 * best]) * best_t;
