@@ -314,6 +314,18 @@ def test_a_recording_files_the_calibration_apart_from_the_rounds():
     assert 'none recorded' in analysis.calibration_text(None)
 
 
+def test_calibration_text_of_a_client_with_no_still_score():
+    # A client whose calibration result holds no value (NaN on the wire,
+    # None in the summary) is printed as such, not a TypeError.
+    from hri_sync.tools import analysis
+    summary = {'dur_s': 5.0, 'outcome': 'no_winner', 'clients': {
+        'left': {'status': 'partial', 'value': None, 'noise_floor': None,
+                 'noise_source': None}}}
+    assert analysis.calibration_text(summary) == (
+        'calibration: 5.0 s window; left partial, still score n/a, noise '
+        'floor n/a (n/a); answer: no_winner')
+
+
 def test_a_processor_without_a_quiet_level_calibrates_nothing():
     # CountMean's value is a mean, not a level of activity: its floor
     # stays unknown and the decision module's threshold rule decides.

@@ -501,7 +501,8 @@ def calibration(session):
     if cal is None:
         return None
     return {'start': cal.start, 'dur_s': cal.end - cal.start,
-            'clients': {c: {'status': r.msg.status, 'value': r.msg.value,
+            'clients': {c: {'status': r.msg.status,
+                            'value': _none_if_nan(r.msg.value),
                             'noise_floor': _none_if_nan(field_or_nan(
                                 r.msg, 'noise_floor')),
                             'noise_source': getattr(
@@ -516,10 +517,13 @@ def calibration_text(summary):
     if summary is None:
         return 'calibration: none recorded (the noise rule trusts no ' \
             'uncalibrated floor)'
+
+    def g(x):
+        return 'n/a' if x is None else '%.4g' % x
     clients = '; '.join(
-        '%s %s, still score %.4g, noise floor %s (%s)' % (
-            c, r['status'], r['value'], 'n/a' if r['noise_floor'] is None
-            else '%.4g' % r['noise_floor'], r['noise_source'] or 'n/a')
+        '%s %s, still score %s, noise floor %s (%s)' % (
+            c, r['status'], g(r['value']), g(r['noise_floor']),
+            r['noise_source'] or 'n/a')
         for c, r in summary['clients'].items()) or 'no result recorded'
     return 'calibration: %.1f s window; %s; answer: %s' % (
         summary['dur_s'], clients, summary['outcome'] or 'none recorded')
