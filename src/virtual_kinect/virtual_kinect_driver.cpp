@@ -17,6 +17,11 @@
 //   still_file=PATH (while PATH exists the person stands still: the motion stops at
 //   its pose, frames and noise go on, and it goes on from that pose once PATH is
 //   gone; nodes/still_file makes PATH over the control module's calibration window).
+//   epoch=-1 (true UNIX time, s, of the motion's time start: a frame shows the motion at
+//   start + the true time since epoch, read by a raw clock_gettime system call that
+//   libfaketime does not intercept, so virtual Kinects in processes of their own, each on
+//   a faked clock, show one dancer at one instant; before epoch, the pose at start;
+//   -1: the motion's time runs from the stream's start).
 // Scene keys (docs/tracker.md, "Virtual Kinect scenes"): body=average|short_broad|tall_slim|
 //   loose_clothes|dark_clothes|model, height, girth, limbs, arms, legs, clothing, clothes_albedo,
 //   wall=GAP_M|none, furniture=none|table|chair, furniture_x, bystander=none|walk|stand,
@@ -47,6 +52,8 @@
 #include <thread>
 #include <vector>
 
+#include <sys/syscall.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "hri_sync/body.h"
@@ -68,11 +75,20 @@ struct VirtualConfig {
   double start = 0.0, lose_after = 0.0, drift_ppm = 0.0;
   double hold = -1.0;           ///< >= 0: the motion frozen at this time (s)
   double offset_us = 1e6;
+  double epoch = -1.0;          ///< >= 0: true UNIX time (s) of the motion's time start
   std::string unplug_file;      ///< unplugged when this file exists (empty: never)
   std::string still_file;       ///< the motion stands still while it exists
   hri_sync::SceneSpec scene;    ///< scene.used: render a Scene
   bool sigma_given = false;
 };
+
+/// The true UNIX time (s): a raw clock_gettime system call, which
+/// libfaketime, interposed on the libc call, does not see.
+double trueUnixTime() {
+  timespec ts{};
+  syscall(SYS_clock_gettime, CLOCK_REALTIME, &ts);
+  return static_cast<double>(ts.tv_sec) + ts.tv_nsec * 1e-9;
+}
 
 double toNumber(const std::string& key, const std::string& value) {
   try {
@@ -127,9 +143,10 @@ VirtualConfig parseUri(const std::string& uri) {
     } else if (k == "lose_after") { c.lose_after = toNumber(k, v);
     } else if (k == "unplug_file") { c.unplug_file = v;
     } else if (k == "still_file") { c.still_file = v;
+    } else if (k == "epoch") { c.epoch = toNumber(k, v);
     } else {
       throw std::runtime_error("virtual kinect: unknown URI key '" + k + "' (keys: res, fps, background, noise, "
-                               "loop, start, hold, offset_us, drift_ppm, lose_after, unplug_file, still_file, " +
+                               "loop, start, hold, offset_us, drift_ppm, lose_after, unplug_file, still_file, epoch, " +
                                hri_sync::sceneKeys() + ")");
     }
   }
@@ -269,7 +286,8 @@ class DepthStream : public oni::driver::StreamBase {
       }
       if (!cfg_.still_file.empty() && access(cfg_.still_file.c_str(), F_OK) == 0) held += n - last;
       last = n;
-      double t = cfg_.hold >= 0 ? cfg_.hold : cfg_.start + (n - held) * period;
+      const double run = cfg_.epoch >= 0 ? std::max(0.0, trueUnixTime() - cfg_.epoch) : n * period;
+      double t = cfg_.hold >= 0 ? cfg_.hold : cfg_.start + run - held * period;
       if (!cfg_.loop && t > track_->duration()) {  // end of the motion: no more frames
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
         continue;

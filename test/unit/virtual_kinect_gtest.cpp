@@ -705,6 +705,48 @@ TEST_F(VirtualKinectDriver, DancerStandsStillWhileTheStillFileExists) {
   dev.close();
 }
 
+// epoch: the motion's time is the true time since epoch (so virtual Kinects
+// opened at different moments, or on faked clocks, show one dancer at one
+// instant): an epoch in the future shows the pose at start; one 5 s ago a
+// pose about 5 s into the motion, whenever the device was opened.
+TEST_F(VirtualKinectDriver, EpochSetsTheMotionsTimeByTheTrueClock) {
+  const Track track = Track::load(kMotion);
+  Camera cam;
+  RenderOptions ro;
+  ro.noise = 0.0;
+  auto render = [&](double t) {
+    std::vector<uint16_t> depth;
+    renderDepth(track.at(t, true), cam, ro, &depth);
+    return depth;
+  };
+  auto best_time = [&](const std::vector<uint16_t>& got) {  // the motion time it shows (10 ms steps)
+    double best = -1.0, best_diff = 1e300;
+    for (int k = 0; k <= 1000; ++k) {
+      const std::vector<uint16_t> want = render(k * 0.01);
+      double diff = 0.0;
+      for (size_t i = 0; i < got.size(); ++i) diff += std::abs(static_cast<int>(got[i]) - want[i]);
+      if (diff < best_diff) { best_diff = diff; best = k * 0.01; }
+    }
+    return best;
+  };
+  timespec now{};
+  clock_gettime(CLOCK_REALTIME, &now);
+  const double unix_now = now.tv_sec + now.tv_nsec * 1e-9;
+  std::vector<uint16_t> got;
+  int index = -1;
+  char query[64];
+  std::snprintf(query, sizeof query, "?noise=0&start=1&epoch=%.3f", unix_now + 1000.0);
+  ASSERT_NO_FATAL_FAILURE(readFirstFrame("virtual://" + kMotion + query, &got, &index));
+  EXPECT_EQ(got, render(1.0)) << "an epoch to come shows the pose at start";
+  std::snprintf(query, sizeof query, "?noise=0&epoch=%.3f", unix_now - 5.0);
+  ASSERT_NO_FATAL_FAILURE(readFirstFrame("virtual://" + kMotion + query, &got, &index));
+  const double shown = best_time(got);
+  EXPECT_GE(shown, 4.99);
+  EXPECT_LE(shown, 8.0) << "the first frame of a device opened now shows the motion 5 s in";
+  ASSERT_NO_FATAL_FAILURE(readFirstFrame("virtual://" + kMotion + "?noise=0", &got, &index));
+  EXPECT_LT(best_time(got), 1.0) << "without epoch the motion runs from the stream's start";
+}
+
 TEST_F(VirtualKinectDriver, BadSceneKeysFailToOpenWithTheReason) {
   struct Case { const char* query; const char* reason; };
   for (const Case& c : {Case{"wall=3", "wall must be in [0.1, 1.5]"},
