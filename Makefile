@@ -130,12 +130,11 @@ bench-sensors: setup
 bench: setup
 	@$(SOURCE) && $(ROS_PY) $(ROOT)/bench/sync_skew.py --clients 2 --rounds 20
 
-# Three virtual Kinects around one dancer, each on its own skewed clock,
-# fused; each view's and the fused error and the latency
-# (bench/fusion_accuracy.py; docs/fusion.md).
+# Three virtual Kinects around one dancer, each tracked live inside a
+# client on its own skewed clock, fused by the fusion node; each view's and
+# the fused error and the latency (scripts/demo_fusion.py; docs/fusion.md).
 demo-fusion: setup
-	@$(SOURCE) && $(ROS_PY) $(ROOT)/bench/fusion_accuracy.py --views 3 \
-	  --motion $(ROOT)/data/motion/cmu_60_01_salsa.track --table
+	@$(SOURCE) && $(ROS_PY) $(ROOT)/scripts/demo_fusion.py
 
 bench-dj-rob: setup
 	@$(SOURCE) && $(ROS_PY) $(ROOT)/bench/dj_rob_start.py --rounds 10 --dur 3

@@ -68,13 +68,14 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, 'src'))
 sys.path.insert(0, os.path.join(ROOT, 'support'))
 
-from hri_sync.dance_off.joints import INDEX, NUM_JOINTS  # noqa: E402
+from hri_sync.dance_off.joints import NUM_JOINTS  # noqa: E402
 from hri_sync.dance_off.motion import Motion, load_motion  # noqa: E402
 from hri_sync.fusion.align import Sample, Track  # noqa: E402
 from hri_sync.fusion.associate import body_distance  # noqa: E402
 from hri_sync.fusion.frames import SensorPose, facing  # noqa: E402
 from hri_sync.fusion.pipeline import Fusion, FusionParams  # noqa: E402
 from hri_sync.fusion.profile import Profile, fit_profile  # noqa: E402
+from hri_sync.fusion.truth import world_motion  # noqa: E402
 from hri_sync_support.fusion_people import (  # noqa: E402
     gait_cycle, match, score, walker)
 
@@ -101,16 +102,6 @@ CROSSING = 6.0
 PEOPLE_SECONDS = 13.0
 WALK = os.path.join(ROOT, 'data', 'motion', 'cmu_131_01_walk.track')
 TICK = 0.005        # s, the node's poll period
-
-
-def world_motion(motion):
-    """The motion in world (REP 103, floor z = 0, mean torso at the
-    origin, the dancer facing +x where the motion's own sensor was)."""
-    p = motion.positions
-    torso = p[:, INDEX['torso']].mean(axis=0)
-    world = np.stack([-(p[..., 2] - torso[2]), p[..., 0] - torso[0],
-                      p[..., 1] + 1.0], axis=-1)
-    return Motion(motion.times - motion.times[0], world, name=motion.name)
 
 
 def view_pose(i):
