@@ -21,7 +21,10 @@ Each scenario runs once with the DPMs republishing their captured
 samples (``republish on``: this bench subscribes to every ``captured``
 topic, as a recorder would, and counts what comes, or with
 ``--recorder rosbag`` rosbag record records them) and once without
-(``off``), ``--rounds`` windows of ``--dur`` s each.  Per run: frames
+(``off``), ``--rounds`` windows of ``--dur`` s each; with
+``--complete-on-last both`` once with the DPMs' ``complete_on_last`` on
+(a window is complete with its last sample, when the sensor's next one is
+due after its end) and once off (it waits for that next sample).  Per run: frames
 sent by each publisher in the window (its own send stamps) and captured
 (the result's frames + rejected), their ratio; each result's and the
 decision's latency after the window's end, as received here (true
@@ -134,7 +137,7 @@ def publish(kind, topic, seconds, out):
 
 # --- one run ---------------------------------------------------------------
 
-def launch_text(clients, ntp_port, rounds, dur, republish, bag=None):
+def launch_text(clients, ntp_port, rounds, dur, republish, last, bag=None):
     lines = ['<launch>',
              '  <include file="$(find hri_sync)/launch/timeserver.launch">',
              '    <arg name="ntp_port" value="%d"/>' % ntp_port,
@@ -157,6 +160,7 @@ def launch_text(clients, ntp_port, rounds, dur, republish, bag=None):
             % STREAMS[c.split('_')[1]][1],
             '    <arg name="input" value="/sensors/%s"/>' % c,
             '    <arg name="republish" value="%s"/>' % str(republish).lower(),
+            '    <arg name="complete_on_last" value="%s"/>' % str(last).lower(),
             '  </include>']
     if bag:
         lines.append('  <node pkg="rosbag" type="record" name="recorder" '
@@ -194,7 +198,7 @@ class CapturedCounter:
             self.stamps[client].append(sec + nsec * 1e-9)
 
 
-def run(args, scenario, republish):
+def run(args, scenario, republish, last):
     import numpy as np
     hosts, kinds = SCENARIOS[scenario]
     clients = ['c%d_%s' % (h + 1, k) for h in range(hosts) for k in kinds]
@@ -205,13 +209,13 @@ def run(args, scenario, republish):
         bag = os.path.join(work, 'captured.bag') \
             if republish and args.recorder == 'rosbag' else None
         f.write(launch_text(clients, ntp_port, args.rounds, args.dur,
-                            republish, bag))
+                            republish, last, bag))
     env = dict(os.environ, ROS_MASTER_URI='http://localhost:%d' % port)
     os.environ['ROS_MASTER_URI'] = env['ROS_MASTER_URI']
     launch_log = open(os.path.join(work, 'roslaunch.log'), 'w')
-    log('%s, republish %s: %d clients, %d round(s) of %g s; work dir %s',
-        scenario, 'on' if republish else 'off', len(clients), args.rounds,
-        args.dur, work)
+    log('%s, republish %s, complete on last %s: %d clients, %d round(s) '
+        'of %g s; work dir %s', scenario, 'on' if republish else 'off',
+        'on' if last else 'off', len(clients), args.rounds, args.dur, work)
     launch = subprocess.Popen(['roslaunch', '-p', str(port), launch_file],
                               stdout=launch_log, stderr=subprocess.STDOUT,
                               start_new_session=True)
@@ -280,6 +284,7 @@ def run(args, scenario, republish):
     republished = bag_stamps(bag, clients) if bag else \
         counter.stamps if counter else None
     out = {'scenario': scenario, 'republish': bool(republish),
+           'complete_on_last': bool(last),
            'recorder': (args.recorder if republish else None),
            'dur_s': args.dur, 'rounds': args.rounds,
            'load_average': load, 'clients': {}}
@@ -365,7 +370,12 @@ def main():
     ap.add_argument('--publish', nargs=4, metavar=('KIND', 'TOPIC', 'S',
                                                    'OUT'),
                     help=argparse.SUPPRESS)
-    ap.add_argument('--run', nargs=2, metavar=('SCENARIO', 'REPUBLISH'),
+    ap.add_argument('--complete-on-last', choices=('on', 'off', 'both'),
+                    default='on', help="the DPMs' complete_on_last "
+                    '(client.launch): both runs each scenario with it on '
+                    'and off')
+    ap.add_argument('--run', nargs=3, metavar=('SCENARIO', 'REPUBLISH',
+                                               'LAST'),
                     help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.publish:
@@ -373,35 +383,38 @@ def main():
         publish(kind, topic, float(seconds), out)
         return
     if args.run:        # one run, in a process of its own (one master)
-        s, m = args.run[0], args.run[1] == 'on'
+        s, m, last = args.run[0], args.run[1] == 'on', args.run[2] == 'on'
         try:
-            r = run(args, s, m)
+            r = run(args, s, m, last)
         except (RuntimeError, OSError) as e:
             log('%s failed: %s', s, e)
-            r = {'scenario': s, 'republish': m, 'error': str(e)}
+            r = {'scenario': s, 'republish': m, 'complete_on_last': last,
+                 'error': str(e)}
         print(json.dumps(r), flush=True)
         return
     scenarios = sorted(SCENARIOS) if args.scenario == 'all' \
         else [args.scenario]
-    modes = {'on': ['on'], 'off': ['off'], 'both': ['on', 'off']}[
-        args.republish]
+    both = {'on': ['on'], 'off': ['off'], 'both': ['on', 'off']}
     runs = []
     for s in scenarios:
-        for m in modes:
-            out = subprocess.run(
-                [sys.executable, os.path.abspath(__file__), '--run', s, m,
-                 '--dur', '%g' % args.dur, '--rounds', str(args.rounds),
-                 '--recorder', args.recorder],
-                stdout=subprocess.PIPE, text=True).stdout.strip()
-            try:
-                r = json.loads(out.splitlines()[-1])
-            except (IndexError, ValueError):
-                r = {'scenario': s, 'republish': m == 'on',
-                     'error': 'no result: %r' % out[-300:]}
-            print(json.dumps(r), flush=True)
-            runs.append(r)
+        for m in both[args.republish]:
+            for last in both[args.complete_on_last]:
+                out = subprocess.run(
+                    [sys.executable, os.path.abspath(__file__), '--run', s,
+                     m, last, '--dur', '%g' % args.dur, '--rounds',
+                     str(args.rounds), '--recorder', args.recorder],
+                    stdout=subprocess.PIPE, text=True).stdout.strip()
+                try:
+                    r = json.loads(out.splitlines()[-1])
+                except (IndexError, ValueError):
+                    r = {'scenario': s, 'republish': m == 'on',
+                         'complete_on_last': last == 'on',
+                         'error': 'no result: %r' % out[-300:]}
+                print(json.dumps(r), flush=True)
+                runs.append(r)
     print(json.dumps({'summary': [
-        {k: r.get(k) for k in ('scenario', 'republish', 'captured_ratio',
+        {k: r.get(k) for k in ('scenario', 'republish', 'complete_on_last',
+                               'captured_ratio',
                                'result_latency_ms', 'result_made_ms',
                                'decision_latency_ms', 'decision_made_ms',
                                'dpm_cpu_share_sum', 'load_average',

@@ -60,7 +60,7 @@ def results(steps):
 # -- arrival stamps ----------------------------------------------------------
 
 def test_result_as_soon_as_a_sample_stamped_at_the_end_arrives():
-    d = dp()
+    d = dp(complete_on_last=False)
     start = L0 + OFFSET + 0.01
     end = start + 1.0
     assert not d.open(1, start, end).results
@@ -73,6 +73,45 @@ def test_result_as_soon_as_a_sample_stamped_at_the_end_arrives():
     assert len(captured(steps)) == r.frames + r.frames_rejected
     assert r.first_frame_offset == pytest.approx(0.04)
     assert not d.windows
+
+
+def test_the_last_sample_completes_the_window_when_the_next_is_due_after():
+    # 20 Hz: the sample stamped 0.99 s into a 1 s window is the last, as
+    # every spacing so far was 50 ms: the result comes with it, not with
+    # the next one 50 ms later.
+    d = dp()
+    start = L0 + OFFSET + 0.01
+    end = start + 1.0
+    d.open(1, start, end)
+    steps = feed(d, ticks(20))              # the 20th is stamped 0.94 s in
+    assert not results(steps)
+    steps += feed(d, [L0 + 20 * P])         # 0.99 s in, 0.01 s before the end
+    (r,) = results(steps)
+    assert r.frames == 20 and r.diagnostics['completed_by'] == 'last'
+    assert not feed(d, [L0 + 21 * P])[0].late
+
+
+def test_a_sample_the_least_spacing_or_more_before_the_end_is_not_the_last():
+    # Spacings of 60 and 40 ms: a sample 45 ms before the end may not be
+    # the last (the next may come 40 ms later); the next, 60 ms later, is
+    # past the end and completes it.
+    d = dp()
+    start = L0 + OFFSET + 0.01
+    d.open(1, start, start + 0.935)         # ends 45 ms after the 19th
+    times = [L0 + k * P + 0.01 * (k % 2) for k in range(20)]
+    assert not results(feed(d, times[:19]))
+    assert d.least_gap == pytest.approx(0.04)
+    (r,) = results(feed(d, times[19:]))
+    assert r.diagnostics['completed_by'] == 'sample'
+
+
+def test_the_last_sample_rule_waits_for_eight_spacings():
+    d = dp()
+    start = L0 + OFFSET + 0.01
+    d.open(1, start, start + 0.39)          # the 8th tick, 0.01 s before its end
+    assert d.least_gap != d.least_gap       # NaN: 7 spacings
+    assert not results(feed(d, ticks(8)))
+    assert results(feed(d, [L0 + 8 * P]))   # completed by a sample after it
 
 
 def test_silent_sensor_completes_the_margin_past_the_end():
@@ -354,7 +393,7 @@ def test_the_first_samples_of_a_map_are_stamped_once_it_settles():
 
 
 def test_a_window_waits_for_the_sensors_delivery_lag():
-    d = dp(DeviceMean, margin=0.03)
+    d = dp(DeviceMean, margin=0.03, complete_on_last=False)
     start = L0 + OFFSET + 1.0
     d.open(1, start, start + 1.0)
     # Every second sample arrives 40 ms late: the next one after the

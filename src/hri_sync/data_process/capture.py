@@ -101,9 +101,13 @@ class CaptureWindow:
     ``offer`` each stamped sample: one stamped in the window goes to the
     processor (in stamp order: samples wait up to ``reorder`` s of stamps
     for a stamp-earlier one still on its way); the window is complete
-    (``complete``) when a sample stamped at or after its end arrives, or
-    (``due``) when the sensor's observed period plus ``margin`` has passed
-    its end, on the global clock, with nothing more.  A sample stamped
+    (``complete``) when a sample stamped at or after its end arrives, when
+    one stamped in it comes less than ``least_gap`` (the least spacing of
+    the sensor's recent stamps, given to ``offer``) before its end, so
+    that the next is due after the end (``completed_by`` ``last``: a
+    result one frame sooner), or (``due``) when the sensor's observed
+    period plus ``margin`` has passed its end, on the global clock, with
+    nothing more.  A sample stamped
     before its start that arrives after its end, or a window sample that
     comes too late for stamp order, is counted in ``late``, never added.
     Its coverage is judged at a period of at most ``max_period``
@@ -137,10 +141,12 @@ class CaptureWindow:
         self._newest = -math.inf   # newest stamp offered
 
     def offer(self, stamp: GlobalTime, msg: Any, arrival: GlobalTime,
-              bound: Seconds = 0.0) -> bool:
+              bound: Seconds = 0.0, least_gap: Seconds = math.nan) -> bool:
         """Offer a sample stamped ``stamp`` that arrived at global time
-        ``arrival`` with stamp error bound ``bound``.  Returns True when it
-        is in the window (and so is to be republished as captured)."""
+        ``arrival`` with stamp error bound ``bound``; ``least_gap``: the
+        least spacing of the sensor's recent stamps (NaN: unknown).
+        Returns True when it is in the window (and so is to be
+        republished as captured)."""
         if self.complete:
             if stamp < self.end:
                 self.late += 1
@@ -164,6 +170,9 @@ class CaptureWindow:
         while self._waiting and \
                 self._waiting[0][0] < self._newest - self.reorder:
             self._feed()
+        if stamp + least_gap > self.end:    # False for NaN
+            self.complete = True
+            self.completed_by = 'last'
         return True
 
     def _feed(self):

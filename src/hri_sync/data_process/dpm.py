@@ -111,7 +111,11 @@ class DataProcess:
 
     A window is due for lack of samples ``margin`` s, plus the recent
     delivery lag of device-stamped samples, after the next sample was
-    expected past its end.  ``min_rate`` (Hz; 0: none) is the lowest rate
+    expected past its end.  With ``complete_on_last`` it is complete as
+    soon as a sample stamped in it comes less than the least of the
+    sensor's last 31 stamp spacings (once there are 8, none of them a
+    repeated stamp) before its end: the next one is due after the end (a
+    frame period sooner than waiting for it).  ``min_rate`` (Hz; 0: none) is the lowest rate
     at which the sensor's samples still cover a window: slower, even if
     evenly (a tracker starved of CPU), the window is judged at that rate
     (``window_stats``' ``max_period``) and is partial.
@@ -139,7 +143,8 @@ class DataProcess:
             reorder: float = 0.2, drift_bound: float = DRIFT_BOUND,
             jump: float = 0.1, refit: float = 0.05,
             min_rate: float = 0.0, noise_chunk: float = DEFAULT_CHUNK,
-            noise_span: float = DEFAULT_SPAN) -> None:
+            noise_span: float = DEFAULT_SPAN,
+            complete_on_last: bool = True) -> None:
         if stamp_source not in STAMP_SOURCES:
             raise ValueError('stamp_source must be one of %s, got %r'
                              % (', '.join(STAMP_SOURCES), stamp_source))
@@ -172,6 +177,7 @@ class DataProcess:
         self.max_period = 1.0 / min_rate if min_rate else math.nan
         self.min_coverage = min_coverage
         self.margin = margin
+        self.complete_on_last = complete_on_last
         self.reorder = reorder
         self.drift_bound = drift_bound
         self.jump = jump
@@ -189,6 +195,7 @@ class DataProcess:
         self._pending: list[tuple] = []
         self._settling: list[tuple] = []
         self._gaps: deque[float] = deque(maxlen=31)
+        self._steps: deque[float] = deque(maxlen=31)  # repeats too
         self._lags: deque[float] = deque(maxlen=32)
         self._last_stamp: float | None = None
         # (arrival, s): each move of the device map to stamps s earlier
@@ -215,6 +222,17 @@ class DataProcess:
         if not self._gaps:
             return math.nan
         return sorted(self._gaps)[len(self._gaps) // 2]
+
+    @property
+    def least_gap(self) -> float:
+        """The least of the sensor's last 31 stamp spacings, once there
+        are 8; NaN before, when a stamp was repeated or went back among
+        them (the next sample may be stamped as the last), or without
+        ``complete_on_last``."""
+        if not self.complete_on_last or len(self._steps) < 8 or \
+                min(self._steps) <= 0:
+            return math.nan
+        return min(self._steps)
 
     @property
     def lag(self) -> float:
@@ -373,24 +391,26 @@ class DataProcess:
         """One stamped sample: to the history and the open windows."""
         bound = self.clock_bound(local) + self.stamp_error(msg)
         self._lags.append(max(0.0, arrival - stamp))
-        if self._last_stamp is not None and stamp > self._last_stamp:
-            self._gaps.append(stamp - self._last_stamp)
+        if self._last_stamp is not None:
+            self._steps.append(stamp - self._last_stamp)
+            if stamp > self._last_stamp:
+                self._gaps.append(stamp - self._last_stamp)
         self._last_stamp = stamp
         if self.baseline is not None:
             self.baseline.add(stamp, msg)
         self.history.add(stamp, (msg, raw, arrival, bound))
-        captured = False
+        for round_id, start, end in self.closed:   # before this sample
+            if start <= stamp < end:
+                self.counts['late_after_result'] += 1
+                step.late.append(round_id)
+        captured, least = False, self.least_gap
         for w in list(self.windows.values()):
-            took = w.offer(stamp, msg, arrival, bound)
+            took = w.offer(stamp, msg, arrival, bound, least)
             captured |= took and w.round != CALIBRATION_ROUND
             if w.complete:
                 step.results.append(self._close(w))
         if captured:
             step.captured.append((stamp, msg, raw))
-        for round_id, start, end in self.closed:
-            if start <= stamp < end:
-                self.counts['late_after_result'] += 1
-                step.late.append(round_id)
 
     def open(self, round_id: int, start: GlobalTime,
              end: GlobalTime) -> Step:
@@ -428,7 +448,8 @@ class DataProcess:
             self._spans.append((start, end))
         for f in self.history.take(start, GlobalTime(math.inf)):
             msg, raw, arrival, bound = f.msg
-            if w.offer(GlobalTime(f.stamp), msg, arrival, bound) and \
+            if w.offer(GlobalTime(f.stamp), msg, arrival, bound,
+                       self.least_gap) and \
                     round_id != CALIBRATION_ROUND:
                 step.captured.append((f.stamp, msg, raw))
             if w.complete:

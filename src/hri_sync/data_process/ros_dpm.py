@@ -134,7 +134,8 @@ class DataProcessModule:
                 noise_chunk=param('noise_chunk', 1.0, float, positive,
                                   '> 0 s'),
                 noise_span=param('noise_span', 600.0, float, positive,
-                                 '> 0 s'))
+                                 '> 0 s'),
+                complete_on_last=param('complete_on_last', True, bool))
             # Commands only for rounds the CM ordered this client into.
             self.gate = CommandGate(self.client_id, param(
                 'order_wait', 5.0, float, positive, '> 0 s'))
