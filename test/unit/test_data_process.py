@@ -105,6 +105,21 @@ def test_a_sample_the_least_spacing_or_more_before_the_end_is_not_the_last():
     assert r.diagnostics['completed_by'] == 'sample'
 
 
+def test_a_sensor_that_speeds_up_after_the_last_sample_has_it_counted_late():
+    # 10 Hz, then one sample 50 ms later: the window was complete with the
+    # sample 90 ms before its end; the one 40 ms before it is counted, and
+    # named, not added.
+    d = dp()
+    start = L0 + OFFSET + 0.01
+    d.open(1, start, start + 0.98)
+    times = [L0 + 0.1 * k for k in range(10)]   # the 10th: 0.90 s in
+    (r,) = results(feed(d, times))
+    assert r.diagnostics['completed_by'] == 'last' and r.frames == 9
+    step = d.on_sample(NS(value=1.0, device=None), L0 + 0.95)
+    assert step.late == [1] and not step.captured
+    assert d.counts['late_after_result'] == 1
+
+
 def test_the_last_sample_rule_waits_for_eight_spacings():
     d = dp()
     start = L0 + OFFSET + 0.01
