@@ -24,9 +24,9 @@ topic, as a recorder would, and counts what comes, or with
 (``off``), ``--rounds`` windows of ``--dur`` s each; with
 ``--complete-on-last both`` once with the DPMs' ``complete_on_last`` on
 (a window is complete with its last sample, when the sensor's next one is
-due after its end) and once off (it waits for that next sample).  Per run: frames
-sent by each publisher in the window (its own send stamps) and captured
-(the result's frames + rejected), their ratio; each result's and the
+due after its end) and once off (it waits for that next sample).  Per
+run: frames sent by each publisher in the window (its own send stamps)
+and captured (the result's frames + rejected), their ratio; each result's and the
 decision's latency after the window's end, as received here (true
 clock; the server runs on it; this process also receives every captured
 stream with republish on, so its own load delays it) and as made (their
@@ -160,7 +160,8 @@ def launch_text(clients, ntp_port, rounds, dur, republish, last, bag=None):
             % STREAMS[c.split('_')[1]][1],
             '    <arg name="input" value="/sensors/%s"/>' % c,
             '    <arg name="republish" value="%s"/>' % str(republish).lower(),
-            '    <arg name="complete_on_last" value="%s"/>' % str(last).lower(),
+            '    <arg name="complete_on_last" value="%s"/>'
+            % str(last).lower(),
             '  </include>']
     if bag:
         lines.append('  <node pkg="rosbag" type="record" name="recorder" '

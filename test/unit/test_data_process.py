@@ -123,7 +123,7 @@ def test_a_sensor_that_speeds_up_after_the_last_sample_has_it_counted_late():
 def test_the_last_sample_rule_waits_for_eight_spacings():
     d = dp()
     start = L0 + OFFSET + 0.01
-    d.open(1, start, start + 0.39)          # the 8th tick, 0.01 s before its end
+    d.open(1, start, start + 0.39)          # the 8th tick 0.01 s before it
     assert d.least_gap != d.least_gap       # NaN: 7 spacings
     assert not results(feed(d, ticks(8)))
     assert results(feed(d, [L0 + 8 * P]))   # completed by a sample after it

@@ -115,10 +115,10 @@ class DataProcess:
     soon as a sample stamped in it comes less than the least of the
     sensor's last 31 stamp spacings (once there are 8, none of them a
     repeated stamp) before its end: the next one is due after the end (a
-    frame period sooner than waiting for it).  ``min_rate`` (Hz; 0: none) is the lowest rate
-    at which the sensor's samples still cover a window: slower, even if
-    evenly (a tracker starved of CPU), the window is judged at that rate
-    (``window_stats``' ``max_period``) and is partial.
+    frame period sooner than waiting for it).  ``min_rate`` (Hz; 0: none)
+    is the lowest rate at which the sensor's samples still cover a window:
+    slower, even if evenly (a tracker starved of CPU), the window is
+    judged at that rate (``window_stats``' ``max_period``) and is partial.
 
     Every sample is first validated by the processor's ``check``: one it
     rejects is counted by its reason (``counts``, ``invalid``, and the
