@@ -19,22 +19,22 @@ each message with the host clock):
 
 Each scenario runs once with the DPMs republishing their captured
 samples (``republish on``: this bench subscribes to every ``captured``
-topic, as a recorder would, and counts what comes, or with
-``--recorder rosbag`` rosbag record records them) and once without
-(``off``), ``--rounds`` windows of ``--dur`` s each; with
-``--complete-on-last both`` once with the DPMs' ``complete_on_last`` on
-(a window is complete with its last sample, when the sensor's next one is
-due after its end) and once off (it waits for that next sample).  Per
-run: frames sent by each publisher in the window (its own send stamps)
-and captured (the result's frames + rejected), their ratio; each result's and the
-decision's latency after the window's end, as received here (true
-clock; the server runs on it; this process also receives every captured
-stream with republish on, so its own load delays it) and as made (their
+topic, as a recorder would, and counts what comes, or with ``--recorder
+rosbag`` rosbag record records them) and once without (``off``),
+``--rounds`` windows of ``--dur`` s each; with ``--complete-on-last
+both`` once with the DPMs' ``complete_on_last`` on (a window is complete
+with its last sample, when the sensor's next one is due after its end)
+and once off (it waits for that next sample). Per run: frames sent by
+each publisher in the window (its own send stamps) and captured (the
+result's frames + rejected), their ratio; each result's and the
+decision's latency after the window's end, as received here (true clock;
+the server runs on it; this process also receives every captured stream
+with republish on, so its own load delays it) and as made (their
 header.stamp, global, minus the window's end); each DPM's CPU share of
 one core over the window (utime + stime from /proc) and its peak RSS
-(VmHWM); the publishers' CPU share; the
-host's 1-minute load average before and after.  Progress to stderr, one
-JSON object per run on stdout, then a summary object last.
+(VmHWM); the publishers' CPU share; the host's 1-minute load average
+before and after. Progress to stderr, one JSON object per run on stdout,
+then a summary object last.
 """
 import argparse
 import json
