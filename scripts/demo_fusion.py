@@ -9,7 +9,7 @@ the fused body's joint error against the motion, the bodies that are
 nobody, and the latency; --out keeps them as JSON.
 
     scripts/demo_fusion.py [--motion data/motion/cmu_60_01_salsa.track]
-        [--seconds 15] [--out scores.json]
+        [--seconds 15] [--out scores.json] [--markers]
 
 Needs the built workspace sourced (source WS/devel/setup.bash).
 """
@@ -40,6 +40,8 @@ def main():
     ap.add_argument('--seconds', type=float, default=15.0,
                     help='s scored, from 4 s after the motion starts')
     ap.add_argument('--out', default='', help='the scores as JSON')
+    ap.add_argument('--markers', action='store_true',
+                    help="rviz markers of the views and the fused body")
     ap.add_argument('--options', default='res=320x240&noise=kinect1&fps=15',
                     help='virtual Kinect URI options (docs/tracker.md); on '
                     'two cores three trackers at 30 fps lose frames')
@@ -58,6 +60,7 @@ def main():
             'motion:=' + os.path.abspath(args.motion),
             'epoch:=%.3f' % epoch, 'seconds:=%g' % args.seconds,
             'options:=' + args.options,
+            'markers:=%s' % str(args.markers).lower(),
             'out:=' + (os.path.abspath(args.out) if args.out else '')])
 
 
