@@ -446,10 +446,10 @@ class DataProcess:
         self.windows[round_id] = w
         if round_id != CALIBRATION_ROUND:
             self._spans.append((start, end))
+        least = self.least_gap
         for f in self.history.take(start, GlobalTime(math.inf)):
             msg, raw, arrival, bound = f.msg
-            if w.offer(GlobalTime(f.stamp), msg, arrival, bound,
-                       self.least_gap) and \
+            if w.offer(GlobalTime(f.stamp), msg, arrival, bound, least) and \
                     round_id != CALIBRATION_ROUND:
                 step.captured.append((f.stamp, msg, raw))
             if w.complete:

@@ -21,9 +21,9 @@ import numpy as np
 
 from hri_sync.dance_off.joints import INDEX
 from hri_sync.dance_off.motion import Motion
+from hri_sync.fusion.associate import body_distance
 
 PROFILED = ' profiled'   # a view through its tracker's profile
-CORE = [INDEX[n] for n in ('neck', 'torso', 'left_hip', 'right_hip')]
 
 
 def world_motion(motion: Motion) -> Motion:
@@ -60,8 +60,8 @@ class SourceScore:
 class TruthScore:
     """Each source's joint error against the truth at its stamps.
 
-    A body whose core (neck, torso, hips) is within ``near`` m of the
-    truth's along the floor is the person; the nearest one per message is
+    A body within ``near`` m of the truth along the floor (the fusion's
+    own ``body_distance``) is the person; the nearest one per message is
     scored, every other body counted in ``others``. Stamps ``since`` s
     after ``epoch`` and on are scored, for ``seconds``.
     """
@@ -95,9 +95,7 @@ class TruthScore:
         score.instants += 1
         score.latencies.append(latency)
         truth = self.truth_at(stamp)
-        centre = truth[CORE, :2].mean(axis=0)
-        gaps = [float(np.linalg.norm(np.nanmedian(
-            b.positions[CORE, :2], axis=0) - centre)) for b in bodies]
+        gaps = [body_distance(b.positions, truth) for b in bodies]
         near = [i for i, g in enumerate(gaps) if g <= self.near]
         score.others += len(bodies) - min(len(near), 1)
         if not near:
