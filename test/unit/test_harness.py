@@ -204,8 +204,11 @@ def test_a_reading_of_a_faketime_clock_refers_its_drift_to_its_start():
     child = subprocess.Popen(['faketime', '-f', clock.spec, 'sleep', '60'],
                              start_new_session=True)
     try:
+        # The child has exec'd sleep (before that, a fork of faketime has
+        # not its clock's environment yet: seen once under load).
         eventually(lambda: any(
-            info.ppid == child.pid for info in procs.proc_table().values()),
+            info.ppid == child.pid and info.name == 'sleep'
+            for info in procs.proc_table().values()),
             'faketime to start sleep')
         first = harness.faketime_reading(os.getpid())
         assert first is not None
