@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from hri_sync.dance_off.expressiveness import (DEFAULT_MIN_CONFIDENCE,
-                                               expressiveness)
+                                               RunningExpressiveness)
 from hri_sync.dance_off.joints import NUM_JOINTS
 from hri_sync.dance_off import verify
 from hri_sync.clock.skew import client_timing, percentiles, start_skew
@@ -122,14 +122,17 @@ def build_up(frames, start, dur, min_confidence, points=BUILD_UP_POINTS):
     stamps, pos, conf = skeleton_arrays(frames)
     if not len(stamps):
         return {'t': [], 'value': []}
+    order = np.argsort(stamps, kind='stable')           # NaN stamps last
+    stamps, pos, conf = stamps[order], pos[order], conf[order]
     ts = np.linspace(0.0, dur, points + 1)[1:]
-    values = []
-    for t in ts:
+    run = RunningExpressiveness(NUM_JOINTS, min_confidence)
+    values, added = [], 0
+    for t in ts:           # one pass: each point adds the frames up to it
         k = int(np.searchsorted(stamps, start + t, 'right'))
-        values.append(expressiveness(stamps[:k], pos[:k], conf[:k],
-                                     duration=dur,
-                                     min_confidence=min_confidence).value
-                      if k else 0.0)
+        for i in range(added, k):
+            run.add(float(stamps[i]), pos[i], conf[i])
+        added = max(added, k)
+        values.append(run.score(dur).value if k else 0.0)
     return {'t': ts.tolist(), 'value': values}
 
 
