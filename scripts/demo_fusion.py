@@ -19,18 +19,29 @@ import subprocess
 import sys
 import tempfile
 import time
+from xml.etree import ElementTree
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, 'src'))
 
 from hri_sync.dance_off.motion import Motion, load_motion  # noqa: E402
-from hri_sync.fusion.frames import facing  # noqa: E402
+from hri_sync.fusion.frames import SensorPose  # noqa: E402
 from hri_sync.fusion.truth import world_motion  # noqa: E402
 
-# The views of launch/demo_fusion.launch: x, y (m), 1 m up, facing the
-# dancer's mean place at the origin.
-VIEWS = {'left': (3.3, 0.4), 'right': (0.5, -3.3), 'back': (-2.3, 2.3)}
+LAUNCH = os.path.join(ROOT, 'launch', 'demo_fusion.launch')
 LEAD = 12.0     # s from now to the motion's start: the launch starts
+
+
+def view_poses(launch=LAUNCH):
+    """{view: SensorPose} of the launch file's ``VIEW_pose`` args
+    ("x y z yaw"), the one place the demo's views are set."""
+    poses = {}
+    for arg in ElementTree.parse(launch).getroot().iter('arg'):
+        name = arg.get('name', '')
+        if name.endswith('_pose') and arg.get('default'):
+            poses[name[:-len('_pose')]] = SensorPose(
+                *map(float, arg.get('default').split()))
+    return poses
 
 
 def main():
@@ -48,9 +59,9 @@ def main():
     args = ap.parse_args()
     world = world_motion(load_motion(args.motion))
     with tempfile.TemporaryDirectory(prefix='hri_sync_demo_fusion_') as d:
-        for name, (x, y) in VIEWS.items():
-            Motion(world.times, facing(x, y, 1.0).from_world(
-                world.positions)).save_track(os.path.join(d, name + '.track'))
+        for name, pose in view_poses().items():
+            Motion(world.times, pose.from_world(world.positions)).save_track(
+                os.path.join(d, name + '.track'))
         epoch = time.time() + LEAD
         print('three virtual Kinects show %s from %.1f s from now; scored '
               'from 4 s after for %.0f s' % (os.path.basename(args.motion),
