@@ -18,7 +18,10 @@ then paired with the others' bodies (calibration.PoseFit); a pose that fits
 them becomes the view's (``fitted``: its skeletons, those kept included,
 are placed by it), and the view stays ``wrong_pose`` (down-weighted,
 reported) for the session; when none does, the people it alone gives are
-other people (the associator holds them back until then).
+other people (the associator holds them back until then). Two views that
+share no person with any view though the people one of them gives stand in
+the other's sight are reported ``unmatched`` (sightlines): with no third
+view to agree with, which pose is wrong cannot be told.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from hri_sync.fusion.calibration import Fit, PoseFit, Residuals
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import FuseParams, Fused, Observation, fuse
 from hri_sync.fusion.profile import Profile
+from hri_sync.fusion.sightlines import SightParams, Sightlines
 from hri_sync.fusion.views import HealthParams, ViewHealth
 
 
@@ -53,6 +57,7 @@ class FusionParams:
     gate: float = 0.5                   # m, association (associate.py)
     residual_threshold: float = 0.2     # m, wrong pose (calibration.py)
     refit: float = 0.5                  # s between a suspect view's fits
+    sight: SightParams = field(default_factory=SightParams)
 
 
 @dataclass
@@ -92,6 +97,7 @@ class Fusion:
         self.pose_fit = PoseFit(threshold=self.params.residual_threshold)
         self.fitted: Dict[str, Fit] = {}    # view: (pose, before, after)
         self.tried: Dict[str, float] = {}   # view: when its pose was fitted
+        self.sightlines = Sightlines(self.params.sight)
         self.next_k: Optional[int] = None
 
     def add(self, view: str, user: Hashable, stamp: float,
@@ -203,6 +209,10 @@ class Fusion:
             newest = max((obs[k][1] for k in groups[pid]
                           if k[0] in body.views), default=t)
             people.append(Person(pid, body, newest))
+        self.sightlines.update(t, {pid: (bodies[pid].positions,
+                                         {k[0] for k in keys})
+                                   for pid, keys in groups.items()},
+                               self.poses)
         blamed, _ = self.residuals.wrong()
         self._check_poses(t, obs, ids, bodies, blamed)
         for view, health in self.health.items():
@@ -262,6 +272,18 @@ class Fusion:
         self.pose_fit.forget(view)
 
     def faults(self) -> Dict[str, List[Tuple[str, str]]]:
-        """Each view's faults now (views.ViewHealth.faults)."""
+        """Each view's faults now (views.ViewHealth.faults), and
+        ``unmatched`` when it and another view share no person though one
+        of them gives people in the other's sight (sightlines)."""
         now = self.clock()
-        return {v: h.faults(now) for v, h in sorted(self.health.items())}
+        unmatched = self.sightlines.disagreeing()
+        out = {}
+        for view, health in sorted(self.health.items()):
+            out[view] = health.faults(now) + [
+                ('unmatched', "shares no person with view %s (nor with "
+                 "any view), though the people one of the two gives stand "
+                 "in the other's sight (%.2f m apart): a pose is wrong by "
+                 "more than the association gate (fusion_refine refits it) "
+                 "or a view is blind there" % (other, apart))
+                for other, apart in unmatched.get(view, ())]
+        return out

@@ -43,6 +43,9 @@ class FusionNode:
                                           positive)
         params.residual_threshold = param('residual_threshold', 0.2, float,
                                           positive)
+        params.sight.fov_deg = param('fov_deg', 57.0, float,
+                                     lambda x: 0 < x < 360, '0-360 degrees')
+        params.sight.far = param('max_range', 4.5, float, positive)
         self.lock = threading.Lock()
         self.host = None             # this host's ClockState, if any
         self.clock_of = {v: None for v in self.views}
