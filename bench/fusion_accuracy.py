@@ -20,6 +20,10 @@ rendered truth. Prints one JSON object:
 - ``duplicate_people``: person ids beyond the one dancer;
   ``missing_frames``: instants without a person once tracking started;
 - ``bound_coverage``: share of fused joints within their 95 % bound;
+- ``unmatched_instants``: per view, the fused instants it was reported
+  ``unmatched`` (sharing no person with any view though one's people are
+  in the other's sight: hri_sync.fusion.sightlines), which should be none
+  with every pose right;
 - ``view_oracle_mean_m`` / ``view_oracle_hidden_mean_m``: at each fused
   instant and joint the view nearest the truth (which no fusion can
   know): a ceiling for any weighting of the views;
@@ -523,11 +527,12 @@ def people_main(args, names, profile):
                      'duplicate_people',
                      'fused_ids')}
     for aligned in (True, False):
-        frames, _, _ = run_fusion(msgs, dict(zip(names, poses)), aligned,
-                                  profile)
+        frames, _, fusion = run_fusion(msgs, dict(zip(names, poses)),
+                                       aligned, profile)
         result = score([(f.stamp, [(p.person, p.body.positions)
                                    for p in f.people]) for f in frames],
                        truth, seen)
+        result['unmatched_instants'] = dict(fusion.sightlines.instants)
         if aligned:
             out.update(result)
         else:
@@ -571,6 +576,7 @@ def main():
                                               profile)
         result = figures(frames, captured, truth, best_view_track(
             msgs, best, poses, aligned, profile))
+        result['unmatched_instants'] = dict(fusion.sightlines.instants)
         if aligned:
             out.update(result)
             out.update(oracle(frames, truth, {n: best_view_track(

@@ -78,6 +78,9 @@ def test_a_still_person_twice_from_a_misplaced_view_is_reported():
     assert abs(apart - 1.2) < 0.05
     name, level, message, _ = view_status(fusion, 'side')
     assert level == 1 and 'unmatched' in message
+    # reported from 3 s on: about 2 s of the 5 at 30 Hz, for each view
+    assert set(fusion.sightlines.instants) == {'front', 'side'}
+    assert 50 <= fusion.sightlines.instants['front'] <= 62
 
 
 def test_reported_only_after_it_lasts():
@@ -94,6 +97,7 @@ def test_right_poses_one_person_nothing_reported():
     fusion, frames = run(5.0, {'front': [person], 'side': [person]})
     assert len(frames[-1].people) == 1
     assert unmatched(fusion) == {'front': [], 'side': []}
+    assert fusion.sightlines.instants == {}
 
 
 def test_two_people_each_out_of_the_other_views_field():

@@ -78,6 +78,7 @@ class Sightlines:
         self.since: Dict[Tuple[str, str], float] = {}   # pair: since when
         self.apart: Dict[Tuple[str, str], float] = {}   # pair: m
         self.t = -math.inf                              # the last instant
+        self.instants: Dict[str, int] = {}  # view: instants reported
 
     def update(self, t: float, people: Dict[int, Tuple[np.ndarray,
                                                        Set[str]]],
@@ -108,6 +109,8 @@ class Sightlines:
         for pair in now:
             self.since.setdefault(pair, t)
         self.t = t
+        for view in self.disagreeing():
+            self.instants[view] = self.instants.get(view, 0) + 1
 
     def _unseen(self, a: str, b: str, given: Dict[str, List[int]],
                 people: Dict[int, Tuple[np.ndarray, Set[str]]],
