@@ -374,3 +374,17 @@ def test_the_calibration_window_on_a_sensors_own_clock():
                                                                66.203))
     assert host_window(order, 60.003, None, margin=0.0) == \
         pytest.approx((61.003, 66.003))
+
+
+def test_calibration_window_before_the_recording():
+    # A later part of a split recording holds the latched answer of the
+    # calibration but not its window: said so, not a TypeError.
+    from types import SimpleNamespace as NS
+    from hri_sync.tools import analysis
+    cal = NS(start=None, end=None, results={}, decision=NS(msg=NS(
+        outcome='no_winner', reason='calibrated')))
+    summary = analysis.calibration(NS(calibration=cal))
+    assert summary['dur_s'] is None and summary['outcome'] == 'no_winner'
+    assert analysis.calibration_text(summary) == (
+        'calibration: window before this recording; no result recorded; '
+        'answer: no_winner')

@@ -499,11 +499,15 @@ def calibration(session):
     """The calibration window before round 1 (None when the recording has
     none): its global window, each participant's calibration result
     (status, still score, the noise floor it set and its source) and the
-    decision module's answer."""
+    decision module's answer. A recording that starts after the window
+    (a later part of a split one: its latched answer repeated) has no
+    window: ``dur_s`` None."""
     cal = session.calibration
     if cal is None:
         return None
-    return {'start': cal.start, 'dur_s': cal.end - cal.start,
+    known = cal.start is not None and cal.end is not None
+    return {'start': cal.start,
+            'dur_s': cal.end - cal.start if known else None,
             'clients': {c: {'status': r.msg.status,
                             'value': _none_if_nan(r.msg.value),
                             'noise_floor': _none_if_nan(field_or_nan(
@@ -528,8 +532,10 @@ def calibration_text(summary):
             c, r['status'], g(r['value']), g(r['noise_floor']),
             r['noise_source'] or 'n/a')
         for c, r in summary['clients'].items()) or 'no result recorded'
-    return 'calibration: %.1f s window; %s; answer: %s' % (
-        summary['dur_s'], clients, summary['outcome'] or 'none recorded')
+    window = ('window before this recording' if summary['dur_s'] is None
+              else '%.1f s window' % summary['dur_s'])
+    return 'calibration: %s; %s; answer: %s' % (
+        window, clients, summary['outcome'] or 'none recorded')
 
 
 def totals(rounds):
