@@ -8,11 +8,11 @@ while every person one of them gives stands in the other's sight, for
 ``after`` s, disagree: one of their poses is wrong by more than the
 association's gates (they give one person twice), or the other view is
 blind there. (One way is enough: a person given twice along one view's
-line of sight looks, to that view, like someone hidden behind.) With three or more views the
-pipeline fits a wrong pose to the people the others agree on; with two
-there is no third to say which pose is wrong, so the pair is reported
-(``unmatched``) with the distance between their people, and
-``fusion_refine`` mends it. The check is along the floor: a sensor's
+line of sight looks, to that view, like someone hidden behind.) With
+three or more views the pipeline fits a wrong pose to the people the
+others agree on; with two there is no third to say which pose is wrong,
+so the pair is reported (``unmatched``) with the distance between their
+people, and ``fusion_refine`` mends it. The check is along the floor: a sensor's
 pitch and vertical field are not used.
 """
 

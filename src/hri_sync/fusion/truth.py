@@ -154,8 +154,7 @@ def table(summary: Dict[str, Dict[str, float]], fused: str,
     if got and best and not math.isnan(got['mean_m']):
         lines.append('fused: %.1f %% below the best view (%s, %.3f m); '
                      '%.1f %% of the truth inside its 95 %% bounds; latency '
-                     'p95 %.1f '
-                     'ms beyond the slowest view\'s' % (
+                     'p95 %.1f ms beyond the slowest view\'s' % (
                          100 * (1 - got['mean_m'] / ours[best]['mean_m']),
                          best, ours[best]['mean_m'],
                          100 * got.get('bound_coverage', math.nan),
