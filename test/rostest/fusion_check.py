@@ -3,7 +3,10 @@
 
 Before the fault (~fault_after s) and after it: fused skeletons keep
 coming (3 s windows with at least ~min_rate per s: low, for a busy
-machine), one person, every joint with a confidence; the
+machine), one person, every joint with a confidence unless only the
+faulty view gave the body (on a busy machine the others may be left out
+of an instant) and the fault hides that joint (``nan_joints``: the
+hands), and the healthy views in at least half the bodies; the
 diagnostics name the fault (~expect, a fault of hri_sync.fusion.views) on
 view ~faulty's status, and no other view's.
 """
@@ -65,8 +68,17 @@ class FusionFault(unittest.TestCase):
         got, rate = self.rate_since(time.time())
         self.assertGreaterEqual(rate, least, 'after the fault')
         self.assertEqual({m.user_id for m in got}, {got[0].user_id})
+        hidden = {7, 8} if expect == 'nan_joints' else set()
         for m in got:
-            self.assertTrue(all(c > 0 for c in m.confidence))
+            missing = {j for j, c in enumerate(m.confidence) if c <= 0}
+            alone = set(m.sources) <= {faulty}
+            self.assertTrue(missing <= (hidden if alone else set()),
+                            'joints %s missing, views %s'
+                            % (sorted(missing), m.sources))
+        healthy = [m for m in got if set(m.sources) - {faulty}]
+        self.assertGreaterEqual(2 * len(healthy), len(got),
+                                'the healthy views gave %d of %d bodies'
+                                % (len(healthy), len(got)))
         with self.lock:
             others = {v: f for v, f in self.faults.items() if v != faulty}
         self.assertEqual(set(others.values()), {'none'}, others)

@@ -100,7 +100,12 @@ class FusionNode:
         with self.lock:
             frames = self.fusion.poll()
         for frame in frames:
-            self.publish(frame)
+            try:
+                self.publish(frame)
+            except rospy.ROSException:  # publishers closed: shutting down
+                if not rospy.is_shutdown():
+                    raise
+                return
             self.last = frame
 
     def publish(self, frame):
