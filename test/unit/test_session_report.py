@@ -373,3 +373,19 @@ def test_a_session_that_is_not_a_dance_off_reads_without_false_failures():
                                   'skeleton frames)')
     assert reproduced_text(dict(t, reproduced=1, recomputed=2)) == \
         '1/2 decisions reproduced'
+
+
+def test_a_round_begun_before_a_later_part_is_cut_off_not_failed(tmp_path):
+    # The second part of a split recording starts inside round 2's window:
+    # its decision and results are there, not all its frames.
+    from test_tools_bag import split_in_two
+    parts = split_in_two(tmp_path)
+    later = report.build([parts[1]], str(tmp_path / 'later'), say=quiet)
+    rounds = {r['round']: r for r in later['sessions'][0]['rounds']}
+    assert rounds[2]['cut_off'] == 'start' and not rounds[2]['ok']
+    assert 'began before the recording' in rounds[2]['verdict']
+    assert later['sessions'][0]['totals']['cut_off'] == [2]
+    whole = report.build(parts, str(tmp_path / 'whole'), say=quiet)
+    assert [r['cut_off'] for r in whole['sessions'][0]['rounds']] \
+        == [False, False]
+    assert all(r['ok'] for r in whole['sessions'][0]['rounds'])

@@ -291,12 +291,23 @@ def _starts(rnd):
     return out
 
 
+def _cut_off(session, rnd, clock):
+    """How the recording cut the round: 'end' (no decision recorded),
+    'start' (its window began before the recording: a later part of a
+    split one, or a latched decision repeated), or False (whole)."""
+    if rnd.decision is None:
+        return 'end'
+    if rnd.window_start < clock.to_global(session.start):   # False for NaN
+        return 'start'
+    return False
+
+
 def summarize_round(session, rnd, clock, pose_list, rule, truth_clients,
                     tolerance):
     """The figures of one round (see the module docstring)."""
     # Over 80 lines: one dict of the round's figures, field by field.
     d = rnd.decision.msg if rnd.decision is not None else None
-    row = {'round': rnd.n, 'cut_off': d is None,
+    row = {'round': rnd.n, 'cut_off': _cut_off(session, rnd, clock),
            'duplicates': list(rnd.duplicates)}
     sync = rnd.sync
     if rnd.capture is not None:
@@ -420,6 +431,9 @@ def _recompute(session, rnd, rule):
 
 def _verdict(row):
     """(ok, one line) of a round."""
+    if row['cut_off'] == 'start':
+        return False, ('CUT OFF: its window began before the recording; '
+                       'its decision is here, not all its frames')
     if row['cut_off']:
         return False, ('CUT OFF: the recording holds no decision for this '
                        'round')

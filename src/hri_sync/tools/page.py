@@ -222,7 +222,7 @@ def _session(s, images):
             _plain(t['start_skew_ms']['p50']),
             _plain(t['start_skew_ms']['p99']),
             _plain(t['error_bound_ms']['p99']),
-            '; cut off (no decision): rounds %s' % ', '.join(
+            '; cut off by the recording: rounds %s' % ', '.join(
                 map(str, t['cut_off'])) if t['cut_off'] else ''))))
     if s['missing']:
         out.append('<div class="missing"><b>Not in this recording</b> '

@@ -97,6 +97,15 @@ class Round:
         return stamp_of(c) + c.str_aft
 
     @property
+    def window_start(self):
+        """Global start of the window from its CaptureData or, without
+        one, the results' capture_start (NaN if neither)."""
+        if self.capture is not None:
+            return self.start
+        starts = [secs(r.msg.capture_start) for r in self.results.values()]
+        return min(starts) if starts else math.nan
+
+    @property
     def end(self):
         if self.capture is None:
             return math.nan
