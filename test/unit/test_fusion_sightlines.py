@@ -79,7 +79,7 @@ def test_reported_only_after_it_lasts():
     fusion, _ = run(2.0, {'front': [person], 'side': [person]},
                     actual={'side': wrong})
     assert unmatched(fusion) == {'front': [], 'side': []}
-    assert fusion.sightlines.since        # seen, not yet reported
+    assert fusion.sightlines.pairs        # seen, not yet reported
 
 
 def test_right_poses_one_person_nothing_reported():

@@ -75,8 +75,8 @@ class Sightlines:
 
     def __init__(self, params: Optional[SightParams] = None) -> None:
         self.params = params or SightParams()
-        self.since: Dict[Tuple[str, str], float] = {}   # pair: since when
-        self.apart: Dict[Tuple[str, str], float] = {}   # pair: m
+        # pair: (since when, m between their people now)
+        self.pairs: Dict[Tuple[str, str], Tuple[float, float]] = {}
         self.t = -math.inf                              # the last instant
         self.instants: Dict[str, int] = {}  # view: instants reported
 
@@ -92,22 +92,18 @@ class Sightlines:
                 given.setdefault(v, []).append(p)
         alone = sorted(v for v in given if all(
             len(people[p][1]) == 1 for p in given[v]))
-        now = set()
+        now: Dict[Tuple[str, str], float] = {}
         for a in alone:
             for b in alone:
                 if a < b and (self._unseen(a, b, given, people, places,
                                            poses)
                               or self._unseen(b, a, given, people, places,
                                               poses)):
-                    now.add((a, b))
-                    self.apart[(a, b)] = min(
+                    now[(a, b)] = min(
                         body_distance(people[p][0], people[q][0])
                         for p in given[a] for q in given[b])
-        for pair in list(self.since):
-            if pair not in now:
-                del self.since[pair]
-        for pair in now:
-            self.since.setdefault(pair, t)
+        self.pairs = {pair: (self.pairs.get(pair, (t, 0.0))[0], m)
+                      for pair, m in now.items()}
         self.t = t
         for view in self.disagreeing():
             self.instants[view] = self.instants.get(view, 0) + 1
@@ -130,8 +126,8 @@ class Sightlines:
         """{view: [(other view, m between their people)]} of the pairs
         that have disagreed for ``after`` s by the last instant."""
         out: Dict[str, List[Tuple[str, float]]] = {}
-        for (a, b), since in sorted(self.since.items()):
+        for (a, b), (since, m) in sorted(self.pairs.items()):
             if self.t - since >= self.params.after:
-                out.setdefault(a, []).append((b, self.apart[(a, b)]))
-                out.setdefault(b, []).append((a, self.apart[(a, b)]))
+                out.setdefault(a, []).append((b, m))
+                out.setdefault(b, []).append((a, m))
         return out
