@@ -385,6 +385,11 @@ def test_a_round_begun_before_a_later_part_is_cut_off_not_failed(tmp_path):
     assert rounds[2]['cut_off'] == 'start' and not rounds[2]['ok']
     assert 'began before the recording' in rounds[2]['verdict']
     assert later['sessions'][0]['totals']['cut_off'] == [2]
+    out = run('verify_decisions', parts[1])
+    assert out.returncode == 0, out.stdout
+    assert 'round 2: CUT OFF: its window began before the recording' \
+        in out.stdout
+    assert 'no round wholly in this recording' in out.stdout
     whole = report.build(parts, str(tmp_path / 'whole'), say=quiet)
     assert [r['cut_off'] for r in whole['sessions'][0]['rounds']] \
         == [False, False]

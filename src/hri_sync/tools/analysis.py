@@ -227,8 +227,8 @@ def robot_places(config):
 
 def check_round_robot(session, rnd, clock, pose_list, tolerance):
     """The RobotCheck of a decided round (see robot_check.check_robot);
-    None if the round has no decision."""
-    if rnd.decision is None:
+    None if the round has no decision or began before the recording."""
+    if rnd.decision is None or session.began_before(rnd, clock):
         return None
     d = rnd.decision.msg
     robot_id = session.config.get('robot_id', ROBOT_ID)
@@ -297,9 +297,7 @@ def _cut_off(session, rnd, clock):
     split one, or a latched decision repeated), or False (whole)."""
     if rnd.decision is None:
         return 'end'
-    if rnd.window_start < clock.to_global(session.start):   # False for NaN
-        return 'start'
-    return False
+    return 'start' if session.began_before(rnd, clock) else False
 
 
 def summarize_round(session, rnd, clock, pose_list, rule, truth_clients,

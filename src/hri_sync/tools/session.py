@@ -173,6 +173,21 @@ class Session:
         return sorted(n for n, r in self.rounds.items()
                       if r.decision is None)
 
+    def began_before(self, rnd, clock):
+        """Whether decided round ``rnd``'s window began before the
+        recording (a later part of a split one, or its decision repeated
+        as latched): its frames are not all here. ``clock``: the
+        recorder's BagClock."""
+        return rnd.decision is not None and \
+            rnd.window_start < clock.to_global(self.start)  # False for NaN
+
+    @property
+    def cut_at_start(self):
+        """Decided rounds whose window began before the recording."""
+        clock = server_clock(self)
+        return sorted(n for n, r in self.rounds.items()
+                      if self.began_before(r, clock))
+
     def next_round_t(self, n):
         """Bag time the round after ``n`` began (inf: none)."""
         later = [r.first_t for m, r in self.rounds.items() if m > n]
