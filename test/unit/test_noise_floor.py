@@ -180,3 +180,32 @@ def test_collector_counts_unknown_noise_floors():
     closed, _ = c.add(2, 'right', 'ok', 0.05, 0.001, 0.033)
     assert closed.verdict.outcome == NO_WINNER
     assert 'within noise' in closed.verdict.reason
+
+
+def test_quiet_stretches_of_the_skeleton_processor_skip_the_jitter_floor():
+    from types import SimpleNamespace as NS
+    from hri_sync.dance_off.expressiveness import SkeletonExpressiveness
+    from hri_sync.data_process.processors import Frame
+    t, pos = still(0.003, seed=2, dur=2.0)
+    frames = [Frame(s, NS(positions=[NS(x=x, y=y, z=z) for x, y, z in p],
+                          confidence=[0.9] * 15, user_id=1))
+              for s, p in zip(t, pos)]
+    full, quiet = SkeletonExpressiveness(), SkeletonExpressiveness()
+    full.begin(0.0, 2.0)
+    quiet.begin_quiet(0.0, 2.0)
+    for f in frames:
+        full.add(f)
+        quiet.add(f)
+    a, b = full.result(), quiet.result()
+    assert a.value == b.value and a.value > 0       # the same score
+    assert a.noise_floor > 0 and math.isnan(b.noise_floor)
+    stretches = []
+
+    class Seen(Level):
+        def begin_quiet(self, start, end):
+            stretches.append((start, end))
+            super().begin_quiet(start, end)
+    base = QuietBaseline(Seen, chunk=1.0, step=0.25, span=30.0)
+    for s in t:
+        base.add(s, 1.0)
+    assert stretches[:2] == [(0.0, 1.0), (0.25, 1.25)]

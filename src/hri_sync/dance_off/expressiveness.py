@@ -108,7 +108,10 @@ class JitterFloor:
                  - r[:, None] * (last_pos[three] - self._prev[j]))
             z /= np.sqrt(1.0 + (1.0 + r) ** 2 + r ** 2)[:, None]
             idx = np.searchsorted(_JITTER_BINS, np.abs(z))
-            np.add.at(self._hist, (np.repeat(j, 3), idx.ravel()), 1)
+            cols = self._hist.shape[1]
+            self._hist += np.bincount(
+                (j[:, None] * cols + idx).ravel(),
+                minlength=self._hist.size).reshape(self._hist.shape)
         self._prev[joints] = last_pos
         self._prev_t[joints] = last_t
 
@@ -145,7 +148,8 @@ class RunningExpressiveness:
     """
 
     def __init__(self, joints: int = NUM_JOINTS,
-                 min_confidence: float = DEFAULT_MIN_CONFIDENCE) -> None:
+                 min_confidence: float = DEFAULT_MIN_CONFIDENCE,
+                 jitter: bool = True) -> None:
         self.min_confidence = float(min_confidence)
         self._last_pos = np.zeros((joints, 3))
         self._last_t = np.zeros(joints)
@@ -158,7 +162,7 @@ class RunningExpressiveness:
         self.nonfinite_joints = 0
         self.low_confidence_joints = 0
         self.terms = 0
-        self.jitter = JitterFloor(joints)
+        self.jitter = JitterFloor(joints) if jitter else None
         self._all = np.arange(joints)
         self.out_of_order = 0
         self.repeated = 0
@@ -177,6 +181,9 @@ class RunningExpressiveness:
                 self.out_of_order += 1
             return False
         self._prev = stamp
+        if self._all_seen and np.isfinite(positions).all() and \
+                (confidence >= self.min_confidence).all():
+            return self._add_every(stamp, positions)
         finite = np.isfinite(positions).all(axis=1)
         valid = finite & (confidence >= self.min_confidence)  # NaN: False
         every = bool(valid.all())
@@ -195,8 +202,9 @@ class RunningExpressiveness:
                 d2 = np.sum((positions - self._last_pos) ** 2, axis=1)
                 self.total += float(np.sum(d2 / (stamp - self._last_t)))
                 self.terms += len(valid)
-                self.jitter.add(self._all, stamp, positions, self._last_pos,
-                                self._last_t)
+                if self.jitter is not None:
+                    self.jitter.add(self._all, stamp, positions,
+                                    self._last_pos, self._last_t)
             else:
                 self._pairs(valid, stamp, positions)
             self._last_pos[:] = positions
@@ -215,6 +223,25 @@ class RunningExpressiveness:
         self.last = stamp
         return True
 
+    def _add_every(self, stamp: float, positions: np.ndarray) -> bool:
+        """``add`` of the common frame: every joint valid and seen before
+        (the same sums as the general path, in fewer steps)."""
+        diff = positions - self._last_pos
+        if not diff.any():
+            self.repeated += 1          # no new measurement: not paired
+        else:
+            d2 = np.sum(diff ** 2, axis=1)
+            self.total += float(np.sum(d2 / (stamp - self._last_t)))
+            self.terms += len(d2)
+            if self.jitter is not None:
+                self.jitter.add(self._all, stamp, positions, self._last_pos,
+                                self._last_t)
+            self._last_pos[:] = positions
+            self._last_t[:] = stamp
+        self.frames_used += 1
+        self.last = stamp
+        return True
+
     def _pairs(self, valid: np.ndarray, stamp: float,
                positions: np.ndarray) -> None:
         """Sum the terms of the valid joints seen before."""
@@ -223,8 +250,10 @@ class RunningExpressiveness:
             d2 = np.sum((positions[pair] - self._last_pos[pair]) ** 2, axis=1)
             self.total += float(np.sum(d2 / (stamp - self._last_t[pair])))
             self.terms += int(np.count_nonzero(pair))
-            self.jitter.add(np.flatnonzero(pair), stamp, positions[pair],
-                            self._last_pos[pair], self._last_t[pair])
+            if self.jitter is not None:
+                self.jitter.add(np.flatnonzero(pair), stamp,
+                                positions[pair], self._last_pos[pair],
+                                self._last_t[pair])
 
     def score(self, duration: float) -> Expressiveness:
         """The Expressiveness over T = ``duration`` s."""
@@ -236,7 +265,8 @@ class RunningExpressiveness:
             nonfinite_joints=self.nonfinite_joints,
             low_confidence_joints=self.low_confidence_joints,
             terms=self.terms, duration=duration,
-            jitter=self.jitter.floor(duration))
+            jitter=math.nan if self.jitter is None
+            else self.jitter.floor(duration))
 
 
 def expressiveness(
@@ -344,14 +374,19 @@ class SkeletonExpressiveness(Processor):
                 'zone_sensor_pose': d.get('zone_sensor_pose', ''),
                 'lost_after': float(d.get('lost_after', 0.5))}
 
-    def begin(self, start: float, end: float) -> None:
+    def begin(self, start: float, end: float, jitter: bool = True) -> None:
         self._duration = end - start
-        self._run = RunningExpressiveness(NUM_JOINTS, self.min_confidence)
+        self._run = RunningExpressiveness(NUM_JOINTS, self.min_confidence,
+                                          jitter)
         self._people = ParticipantSelector(self.zone, self.lost_after,
                                            start, end)
         self._malformed = 0
         self._sensor = SensorFrames()
         self._sources: dict[str, int] = {}
+
+    def begin_quiet(self, start: float, end: float) -> None:
+        """A quiet-baseline stretch: the score without the jitter floor."""
+        self.begin(start, end, jitter=False)
 
     def add(self, frame: Frame) -> None:
         msg = frame.msg

@@ -87,7 +87,7 @@ class QuietBaseline:
         if k not in self._open:
             try:
                 p = self.make_processor()
-                p.begin(k * self.step, k * self.step + self.chunk)
+                p.begin_quiet(k * self.step, k * self.step + self.chunk)
             except Exception:  # a processor bug costs the baseline a stretch
                 self.errors += 1
             else:

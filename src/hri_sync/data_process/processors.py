@@ -98,6 +98,12 @@ class Processor:
         self._window = (start, end)
         self._frames: list[Frame] = []
 
+    def begin_quiet(self, start: float, end: float) -> None:
+        """Start a stretch of the quiet baseline (``quiet_baseline``):
+        only ``result().value`` is read, so a processor may skip the rest
+        (its own noise floor, its diagnostics)."""
+        self.begin(start, end)
+
     def add(self, frame: Frame) -> None:
         """Consume one Frame of the window (frames come in stamp order)."""
         self._frames.append(frame)
