@@ -390,6 +390,15 @@ def test_a_round_begun_before_a_later_part_is_cut_off_not_failed(tmp_path):
     assert 'round 2: CUT OFF: its window began before the recording' \
         in out.stdout
     assert 'no round wholly in this recording' in out.stdout
+    # with a bag of the config (recorded at the start) before it, as
+    # bench/study_day.py checks a later chunk: the rounds still begin late
+    cfg, late = str(tmp_path / 'c_0.bag'), str(tmp_path / 'c_1.bag')
+    bag_edit.copy_bag(ROBOT, cfg, edit=lambda topic, _t, m: m if topic in (
+        'dance_off/config', '/dance_off/config') else None)
+    os.symlink(parts[1], late)
+    out = run('verify_decisions', cfg, late)
+    assert 'round 2: CUT OFF: its window began before the recording' \
+        in out.stdout, out.stdout
     whole = report.build(parts, str(tmp_path / 'whole'), say=quiet)
     assert [r['cut_off'] for r in whole['sessions'][0]['rounds']] \
         == [False, False]

@@ -179,7 +179,16 @@ class Session:
         as latched): its frames are not all here. ``clock``: the
         recorder's BagClock."""
         return rnd.decision is not None and \
-            rnd.window_start < clock.to_global(self.start)  # False for NaN
+            rnd.window_start < clock.to_global(self.rounds_start)
+
+    @property
+    def rounds_start(self):
+        """Bag time of the first round message (the recording's start
+        without one): where the recording of the rounds begins, whatever
+        else (a config, odometry) came before it."""
+        ts = [r.first_t for r in self.rounds.values()
+              if math.isfinite(r.first_t)]
+        return min(ts, default=self.start)
 
     @property
     def cut_at_start(self):
