@@ -385,6 +385,8 @@ def test_calibration_window_before_the_recording():
         outcome='no_winner', reason='calibrated')))
     summary = analysis.calibration(NS(calibration=cal))
     assert summary['dur_s'] is None and summary['outcome'] == 'no_winner'
+    cal.start = cal.end = math.nan      # NaN where its capture is missing
+    assert analysis.calibration(NS(calibration=cal)) == summary
     assert analysis.calibration_text(summary) == (
         'calibration: window before this recording; no result recorded; '
         'answer: no_winner')

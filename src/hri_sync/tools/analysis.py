@@ -517,8 +517,9 @@ def calibration(session):
     cal = session.calibration
     if cal is None:
         return None
-    known = cal.start is not None and cal.end is not None
-    return {'start': cal.start,
+    known = all(t is not None and math.isfinite(t)
+                for t in (cal.start, cal.end))
+    return {'start': cal.start if known else None,
             'dur_s': cal.end - cal.start if known else None,
             'clients': {c: {'status': r.msg.status,
                             'value': _none_if_nan(r.msg.value),
