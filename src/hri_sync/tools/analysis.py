@@ -428,13 +428,14 @@ def _recompute(session, rnd, rule):
 
 
 def _verdict(row):
-    """(ok, one line) of a round."""
+    """(ok, one line) of a round; ok is None for a round the recording
+    cut off (not checked)."""
     if row['cut_off'] == 'start':
-        return False, ('CUT OFF: its window began before the recording; '
+        return None, ('CUT OFF: its window began before the recording; '
                        'its decision is here, not all its frames')
     if row['cut_off']:
-        return False, ('CUT OFF: the recording holds no decision for this '
-                       'round')
+        return None, ('CUT OFF: the recording holds no decision for this '
+                      'round')
     d, rec = row['decision'], row['recomputed']
     who = ' participant %d (%s)' % (d['winner'], d['winner_client']) \
         if d['winner'] else ''
@@ -567,7 +568,7 @@ def totals(rounds):
             'recomputed': sum(1 for r in decided
                               if r['recomputed']['reproduced'] is not None),
             'robot_checked': len(robot), 'robot_ok': len(robot_ok),
-            'ok': all(r['ok'] for r in rounds),
+            'ok': all(r['ok'] for r in rounds if not r['cut_off']),
             'outcomes': _count(r['decision']['outcome'] for r in decided),
             'start_skew_ms': percentiles(skews, (50, 99)),
             'error_bound_ms': percentiles(bounds, (50, 99))}

@@ -107,7 +107,8 @@ def _rounds_table(rounds):
                 rec.get('reproduced'), 'n/a')),
             _mark(robot.get('ok'), {True: 'yes', False: 'NO'}.get(
                 robot.get('ok'), 'n/a')),
-            _mark(r['ok'], 'pass' if r['ok'] else 'FAIL')])
+            _mark(r['ok'], {True: 'pass', False: 'FAIL'}.get(r['ok'],
+                                                             'cut off'))])
     return _table(['round', 'CR_T [s]', 'STR_AFT [s]', 'DUR [s]',
                    'ACK round [ms]', 'start skew [ms]', 'error bound [ms]',
                    'decision', 'reproduced', 'robot', 'verdict'], rows)
