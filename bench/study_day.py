@@ -205,6 +205,23 @@ def count_in_window(stamps, start, end):
     return bisect.bisect_left(stamps, end) - bisect.bisect_left(stamps, start)
 
 
+def parse_speeds(text):
+    """The 4 clients' motion speeds from 'S1,S2,S3,S4' (each > 0), as
+    strings for the launch file; ValueError names what is wrong."""
+    parts = [p.strip() for p in text.split(',')]
+    if len(parts) != len(CLIENTS):
+        raise ValueError('%d speeds given, one per client (%s) needed'
+                         % (len(parts), ', '.join(CLIENTS)))
+    for p in parts:
+        try:
+            ok = float(p) > 0 and math.isfinite(float(p))
+        except ValueError:
+            ok = False
+        if not ok:
+            raise ValueError('speed %r is not a number > 0' % p)
+    return tuple(parts)
+
+
 def straddles(start, end, boundaries):
     """The bag boundaries (s) inside the window (start, end)."""
     return [b for b in boundaries if start < b < end]
@@ -249,7 +266,7 @@ def launch_text(opts, bag):
             '    <arg name="ntp_port" value="%d"/>' % opts.ntp_port,
             '    <arg name="client_id" value="%s"/>' % c,
             '    <arg name="motion" value="%s"/>' % MOTIONS[i],
-            '    <arg name="speed" value="%s"/>' % SPEEDS[i],
+            '    <arg name="speed" value="%s"/>' % opts.speeds[i],
             '    <arg name="rate" value="%g"/>' % opts.rate,
             '    <arg name="seed" value="%d"/>' % (i + 1),
             '    <arg name="clock" value="%s"/>' % CLOCKS[i],
@@ -528,6 +545,7 @@ def checkpoint(opts, t0, rounds, samples, launch_file, done=False):
            'config': {'hours': opts.hours, 'dur_s': opts.dur,
                       'rate_hz': opts.rate, 'clients': list(CLIENTS),
                       'clocks': dict(zip(CLIENTS, CLOCKS)),
+                      'speeds': dict(zip(CLIENTS, opts.speeds)),
                       'pause_s': opts.pause,
                       'split_minutes': opts.split_minutes,
                       'sample_s': opts.sample,
@@ -621,6 +639,9 @@ def main():
     ap.add_argument('--dur', type=float, default=60.0, help='window, s')
     ap.add_argument('--rate', type=float, default=100.0,
                     help='sensor rate, Hz')
+    ap.add_argument('--speeds', default=','.join(SPEEDS),
+                    help='the 4 clients\' motion speeds (the default '
+                    'ends every round within noise: no winner)')
     ap.add_argument('--pause', type=float, default=8.0,
                     help='s after a decision before the next round')
     ap.add_argument('--sample', type=float, default=60.0,
@@ -641,6 +662,10 @@ def main():
                     help='with --analyze: check the bags as the run closes '
                     'them, until it has finished')
     opts = ap.parse_args()
+    try:
+        opts.speeds = parse_speeds(opts.speeds)
+    except ValueError as e:
+        ap.error('--speeds: %s' % e)
     if opts.analyze:
         sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
         import study_day_analysis as sda

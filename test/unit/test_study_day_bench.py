@@ -130,6 +130,30 @@ def test_frames_in_a_window_across_a_split():
     assert sd.straddles(110.0, 130.0, [105.0, 120.0, 131.0]) == [120.0]
 
 
+def test_speeds_are_four_positive_numbers():
+    assert sd.parse_speeds('1.0, 0.3,1,0.6') == ('1.0', '0.3', '1', '0.6')
+    for bad, says in (('1,2,3', '3 speeds given'), ('1,2,3,0', "'0'"),
+                      ('1,2,x,4', "'x'"), ('1,2,3,nan', "'nan'"),
+                      ('1,2,3,4,5', '5 speeds given')):
+        try:
+            sd.parse_speeds(bad)
+        except ValueError as e:
+            assert says in str(e), (bad, e)
+        else:
+            raise AssertionError(bad)
+
+
+def test_the_launch_gives_each_client_its_speed():
+    from types import SimpleNamespace
+    opts = SimpleNamespace(port=11411, ntp_port=11497, dur=60.0, rate=100.0,
+                           split_minutes=10, out='/tmp/sd',
+                           speeds=('1.0', '0.3', '0.5', '0.6'))
+    text = sd.launch_text(opts, '/tmp/sd/bags/session')
+    speeds = [line.split('"')[3] for line in text.splitlines()
+              if 'name="speed"' in line]
+    assert speeds == ['1.0', '0.3', '0.5', '0.6']
+
+
 import study_day_analysis as sda  # noqa: E402
 
 
