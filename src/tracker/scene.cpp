@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <deque>
 #include <iterator>
 #include <limits>
 #include <stdexcept>
+#include <tuple>
 
 namespace hri_sync {
 
@@ -87,6 +90,25 @@ std::vector<float> correlatedField(uint64_t key, int W, int H, double width_px) 
 }
 
 double normalCdf(double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); }
+
+// A field that is the same in every frame of a scene (keyed by the scene's
+// seed), kept per thread for the last few scenes: the renderer's static
+// fields (the holes' still share, the per-place noise level) were drawn
+// again each frame, a third of the noise fields' time.  ``make`` computes
+// it when it is not kept; ``param`` is any other input it depends on.
+template <typename Make>
+std::vector<float> staticField(uint64_t key, int W, int H, double width_px, double param, Make make) {
+  using Key = std::tuple<uint64_t, int, int, uint64_t, uint64_t>;
+  auto bits = [](double d) { uint64_t b; std::memcpy(&b, &d, sizeof b); return b; };
+  const Key k{key, W, H, bits(width_px), bits(param)};
+  thread_local std::deque<std::pair<Key, std::vector<float>>> kept;
+  for (const auto& e : kept) {
+    if (e.first == k) return e.second;
+  }
+  kept.emplace_front(k, make());
+  if (kept.size() > 8) kept.pop_back();
+  return kept.front().second;
+}
 
 }  // namespace
 
@@ -683,16 +705,21 @@ Speckle makeSpeckle(const KinectNoise& n, uint32_t seed, uint64_t key0, uint64_t
   if (n.coarse_share > 0) sp.coarse = correlatedField(stream(2), W, H, n.coarse_px * px_scale);
   if (n.holes) {
     const uint64_t static_key = mix((static_cast<uint64_t>(seed) << 32) ^ 0x5bd1e995ULL);
-    std::vector<float> still = correlatedField(static_key, W, H, n.hole_px * px_scale);
+    const std::vector<float> still = staticField(static_key, W, H, n.hole_px * px_scale, 0.0, [&] {
+      return correlatedField(static_key, W, H, n.hole_px * px_scale);
+    });
     sp.hole_field = correlatedField(stream(3), W, H, n.hole_px * px_scale);
     const double a = std::sqrt(n.hole_static_share), b = std::sqrt(1.0 - n.hole_static_share);
     for (size_t i = 0; i < N; ++i) sp.hole_field[i] = static_cast<float>(a * still[i] + b * sp.hole_field[i]);
   }
   if (n.sigma_spread > 0) {  // a static per-place noise level, lognormal
     const uint64_t static_key = mix((static_cast<uint64_t>(seed) << 32) ^ 0x85ebca6bULL);
-    sp.level = correlatedField(static_key, W, H, n.fine_px * px_scale);
     const double t = n.sigma_spread;
-    for (float& x : sp.level) x = static_cast<float>(std::exp(t * x - 0.5 * t * t));
+    sp.level = staticField(static_key, W, H, n.fine_px * px_scale, t, [&] {
+      std::vector<float> level = correlatedField(static_key, W, H, n.fine_px * px_scale);
+      for (float& x : level) x = static_cast<float>(std::exp(t * x - 0.5 * t * t));
+      return level;
+    });
   }
   if (n.frame_offset_sigma > 0) sp.offset = frameOffset(n, seed, frame_index);
   if (n.edge_drop > 0 && n.edge_px > 0) {
