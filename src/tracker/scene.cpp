@@ -72,19 +72,31 @@ std::vector<float> correlatedField(uint64_t key, int W, int H, double width_px) 
     sq += k.back() * k.back();
   }
   const double norm = 1.0 / sq;  // the 2-D filter's gain on the variance is sq^2
+  // Each output sums its taps in the order j = -r..r (edges clamped); the
+  // interior needs no clamp, and the column pass runs along rows.
   for (int v = 0; v < H; ++v) {
+    const float* in = &white[static_cast<size_t>(v) * W];
+    float* out = &tmp[static_cast<size_t>(v) * W];
     for (int u = 0; u < W; ++u) {
       double a = 0;
-      for (int j = -r; j <= r; ++j) a += k[j + r] * white[static_cast<size_t>(v) * W + std::clamp(u + j, 0, W - 1)];
-      tmp[static_cast<size_t>(v) * W + u] = static_cast<float>(a);
+      if (u >= r && u < W - r) {
+        for (int j = -r; j <= r; ++j) a += k[j + r] * in[u + j];
+      } else {
+        for (int j = -r; j <= r; ++j) a += k[j + r] * in[std::clamp(u + j, 0, W - 1)];
+      }
+      out[u] = static_cast<float>(a);
     }
   }
+  std::vector<double> acc(W);
   for (int v = 0; v < H; ++v) {
-    for (int u = 0; u < W; ++u) {
-      double a = 0;
-      for (int j = -r; j <= r; ++j) a += k[j + r] * tmp[static_cast<size_t>(std::clamp(v + j, 0, H - 1)) * W + u];
-      white[static_cast<size_t>(v) * W + u] = static_cast<float>(a * norm);
+    std::fill(acc.begin(), acc.end(), 0.0);
+    for (int j = -r; j <= r; ++j) {
+      const float* row = &tmp[static_cast<size_t>(std::clamp(v + j, 0, H - 1)) * W];
+      const double kj = k[j + r];
+      for (int u = 0; u < W; ++u) acc[u] += kj * row[u];
     }
+    float* out = &white[static_cast<size_t>(v) * W];
+    for (int u = 0; u < W; ++u) out[u] = static_cast<float>(acc[u] * norm);
   }
   return white;
 }
