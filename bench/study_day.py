@@ -214,10 +214,10 @@ def parse_speeds(text):
                          % (len(parts), ', '.join(CLIENTS)))
     for p in parts:
         try:
-            ok = float(p) > 0 and math.isfinite(float(p))
+            value = float(p)
         except ValueError:
-            ok = False
-        if not ok:
+            value = math.nan
+        if not (value > 0 and math.isfinite(value)):
             raise ValueError('speed %r is not a number > 0' % p)
     return tuple(parts)
 

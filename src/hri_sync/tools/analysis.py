@@ -568,7 +568,7 @@ def totals(rounds):
             'recomputed': sum(1 for r in decided
                               if r['recomputed']['reproduced'] is not None),
             'robot_checked': len(robot), 'robot_ok': len(robot_ok),
-            'ok': all(r['ok'] for r in rounds if not r['cut_off']),
+            'ok': all(r['ok'] for r in decided),
             'outcomes': _count(r['decision']['outcome'] for r in decided),
             'start_skew_ms': percentiles(skews, (50, 99)),
             'error_bound_ms': percentiles(bounds, (50, 99))}
