@@ -12,9 +12,12 @@ site_multihost): on a CPU-bound suite one pool, longest job first, ends
 its jobs together, where a chain of stages run beside the pool ended
 up to a minute after it on half the cores.
 
-Up to N jobs run at once, and up to M (--max-jobs, default N + 2) once
-every stage is done, one more every 5 s (a test's start is a burst): the
-rostests then take the cores the stages left.  Run as root, each test gets a network
+Up to N jobs run at once, and up to M (--max-jobs, default N + 2) while
+the machine has CPU to spare: one more when at least a quarter of its
+CPU time was idle over the last 5 s, and one every 5 s at most (a test's
+start is a burst).  Many rostests mostly wait (for a round, a timeout),
+so N of them leave cores idle that more can use; a busy machine gets no
+more than N.  Run as root, each test gets a network
 namespace of its own (loopback only), so the tests' masters, NTP servers
 and node ports never meet, whatever ports they hard-code; the namespace
 and every process left in it are removed when the test ends.  Not root,
@@ -31,6 +34,7 @@ time they used.  The last line is 'rostest: N passed, N failed';
 the exit status is non-zero when any test failed or none ran.
 """
 import argparse
+import collections
 import concurrent.futures
 import glob
 import json
@@ -56,6 +60,7 @@ TAIL = 60     # lines of a failed job's log printed
 NETNS_PREFIX = 'hrit'
 CPUACCT = '/sys/fs/cgroup/cpuacct'
 RAMP = 5.0          # s between starts above --jobs
+IDLE_WANTED = 0.25  # share of the CPU idle over the last RAMP for one more
 
 
 def junit_counts(path):
@@ -138,6 +143,42 @@ class Stage:
         return 'Stage(%r)' % self.name
 
 
+def cpu_times(path='/proc/stat'):
+    """(busy, idle) CPU time of all cores since boot, in clock ticks."""
+    with open(path) as f:
+        ticks = [int(t) for t in f.readline().split()[1:9]]
+    idle = ticks[3] + ticks[4]              # idle, iowait
+    return sum(ticks) - idle, idle
+
+
+class IdleShare:
+    """Called, the share of the machine's CPU time that was idle over
+    the last ``span`` s (0 until it has looked that long, or where
+    /proc/stat cannot be read)."""
+
+    def __init__(self, span=RAMP, read=cpu_times, clock=time.monotonic):
+        self.span = span
+        self.read = read
+        self.clock = clock
+        self.readings = collections.deque()
+
+    def __call__(self):
+        try:
+            busy, idle = self.read()
+        except (OSError, ValueError, IndexError):
+            return 0.0
+        now = self.clock()
+        self.readings.append((now, busy, idle))
+        while (len(self.readings) > 1
+               and now - self.readings[1][0] >= self.span):
+            self.readings.popleft()
+        then, busy0, idle0 = self.readings[0]
+        total = (busy - busy0) + (idle - idle0)
+        if now - then < self.span or total <= 0:
+            return 0.0
+        return (idle - idle0) / total
+
+
 def job_name(job):
     """A test file's name without its extension, or a stage's name."""
     if isinstance(job, Stage):
@@ -168,8 +209,8 @@ def _run_all(pool, pending, run, report, jobs, max_jobs, more, ramp):
     most = 0
     while pending or running:
         while pending and (len(running) < jobs or (
-                len(running) < max_jobs and more()
-                and time.monotonic() - last_extra >= ramp)):
+                len(running) < max_jobs
+                and time.monotonic() - last_extra >= ramp and more())):
             if len(running) >= jobs:
                 last_extra = time.monotonic()
             running.add(pool.submit(run, pending.pop(0)))
@@ -453,7 +494,7 @@ def main():
                         help='jobs at once (default $ROSTEST_JOBS or 4)')
     parser.add_argument('--max-jobs', type=int,
                         default=os.environ.get('ROSTEST_MAX_JOBS'),
-                        help='jobs at once once every stage is done '
+                        help='jobs at once while the CPU is a quarter idle '
                         '(default $ROSTEST_MAX_JOBS or JOBS + 2)')
     parser.add_argument('--stage', type=Stage, action='append', default=[],
                         metavar='NAME=COMMAND', help='a shell command run '
@@ -492,8 +533,8 @@ def main():
     print('rostest: %d files%s, %d at once%s%s%s'
           % (len(files), ' and %d stages (%s)' % (
               len(stages), ', '.join(s.name for s in stages))
-             if stages else '', jobs, ' (up to %d once the stages are '
-             'done)' % max_jobs if stages and max_jobs > jobs else '',
+             if stages else '', jobs, ' (up to %d while the CPU is idle)'
+             % max_jobs if max_jobs > jobs else '',
              ', one network namespace each' if isolate else
         ' (not root: no network namespaces, one at a time)',
         ', Python forked from a preloaded server' if runner.mother else ''),
@@ -509,12 +550,11 @@ def main():
         cpu_total += cpu_seconds or 0.0
         (passed if ok else failed).append(name)
         print(line, flush=True)
-    stage_names = {s.name for s in stages}
+    idle = IdleShare()
     mother = runner.start_mother()
     try:
         most = schedule(pool, runner.run, report, jobs, max_jobs,
-                        lambda: bool(stages) and stage_names <= set(
-                            passed + failed), stop=runner.kill_all)
+                        lambda: idle() >= IDLE_WANTED, stop=runner.kill_all)
     except KeyboardInterrupt:
         print('rostest: interrupted: the running jobs were killed',
               flush=True)

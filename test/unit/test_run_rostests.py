@@ -1,5 +1,5 @@
 """scripts/run_rostests.py's scheduler: JOBS tests at once, up to
-MAX_JOBS once the other stages are done, every result reported once."""
+MAX_JOBS while the CPU is idle, every result reported once."""
 import importlib.util
 import os
 import subprocess
@@ -155,3 +155,31 @@ def test_without_a_working_rosversion_nothing_is_cached(tmp_path, monkeypatch):
     runner = run_rostests.Runner(str(tmp_path), False, None)
     assert runner.bin is None
     assert runner.env()['PATH'] == os.environ['PATH']
+
+
+def test_idle_share_is_over_the_last_span_of_readings():
+    now = [0.0]
+    ticks = [(0, 0)]
+    idle = run_rostests.IdleShare(span=5.0, read=lambda: ticks[0],
+                                  clock=lambda: now[0])
+    assert idle() == 0.0                    # not looked 5 s yet
+    for t, busy, spare in ((2, 150, 50), (5, 300, 200), (7, 500, 200),
+                           (10, 700, 200)):
+        now[0], ticks[0] = t, (busy, spare)
+        share = idle()
+    # 5-10 s: 400 busy and 0 idle ticks; 0-5 s's idle does not count
+    assert share == 0.0
+    now[0], ticks[0] = 15, (800, 1100)
+    assert idle() == pytest.approx(900 / 1000)
+
+
+def test_idle_share_is_0_where_the_cpu_times_cannot_be_read():
+    def unreadable():
+        raise OSError('no /proc/stat')
+    assert run_rostests.IdleShare(span=0.0, read=unreadable)() == 0.0
+
+
+def test_cpu_times_reads_busy_and_idle_from_proc_stat(tmp_path):
+    stat = tmp_path / 'stat'
+    stat.write_text('cpu  10 1 5 100 4 2 3 0 0 0\ncpu0 5 0 2 50 2 1 1 0\n')
+    assert run_rostests.cpu_times(str(stat)) == (21, 104)
