@@ -12,12 +12,12 @@ site_multihost): on a CPU-bound suite one pool, longest job first, ends
 its jobs together, where a chain of stages run beside the pool ended
 up to a minute after it on half the cores.
 
-Up to N jobs run at once, and up to M (--max-jobs, default N + 2) while
-the machine has CPU to spare: one more when at least a quarter of its
-CPU time was idle over the last 5 s, and one every 5 s at most (a test's
-start is a burst).  Many rostests mostly wait (for a round, a timeout),
-so N of them leave cores idle that more can use; a busy machine gets no
-more than N.  Run as root, each test gets a network
+N jobs run at once, and up to M (--max-jobs, default N + 2) while the
+machine has CPU to spare: every 5 s the limit goes up by one when at
+least a quarter of the CPU time was idle over the last 5 s, and down by
+one (not below N) when under 5 % was.  Many rostests mostly wait (for a
+round, a timeout), so N of them leave cores idle that more can use; a
+busy machine runs N.  Run as root, each test gets a network
 namespace of its own (loopback only), so the tests' masters, NTP servers
 and node ports never meet, whatever ports they hard-code; the namespace
 and every process left in it are removed when the test ends.  Not root,
@@ -60,7 +60,8 @@ TAIL = 60     # lines of a failed job's log printed
 NETNS_PREFIX = 'hrit'
 CPUACCT = '/sys/fs/cgroup/cpuacct'
 RAMP = 5.0          # s between starts above --jobs
-IDLE_WANTED = 0.25  # share of the CPU idle over the last RAMP for one more
+IDLE_MORE = 0.25    # CPU idle share over the last RAMP: one job more
+IDLE_FEWER = 0.05   # under it: one fewer (not below --jobs)
 
 
 def junit_counts(path):
@@ -186,33 +187,40 @@ def job_name(job):
     return os.path.splitext(os.path.basename(job))[0]
 
 
-def schedule(files, run, report, jobs, max_jobs, more, ramp=RAMP,
+def schedule(files, run, report, jobs, max_jobs, idle, ramp=RAMP,
              stop=lambda: None):
     """Runs ``run(file)`` for each of ``files`` in order, ``jobs`` at once
-    and up to ``max_jobs`` once ``more()`` is true, one every ``ramp`` s;
-    ``report`` gets each result as it comes.  Interrupted (SIGINT, or
-    SIGTERM as main sets it), it starts no more, calls ``stop()`` to end
-    the running ones and raises.  Returns the most that ran at once."""
+    and up to ``max_jobs`` while the CPU has time to spare: every
+    ``ramp`` s the limit goes up by one when ``idle()`` (the CPU's idle
+    share) is at least IDLE_MORE, and down by one, not below ``jobs``,
+    when it is under IDLE_FEWER.  ``report`` gets each result as it
+    comes.  Interrupted (SIGINT, or SIGTERM as main sets it), it starts
+    no more, calls ``stop()`` to end the running ones and raises.
+    Returns the most that ran at once."""
     with concurrent.futures.ThreadPoolExecutor(max_jobs) as pool:
         try:
             return _run_all(pool, list(files), run, report, jobs, max_jobs,
-                            more, ramp)
+                            idle, ramp)
         except BaseException:
             stop()
             raise
 
 
-def _run_all(pool, pending, run, report, jobs, max_jobs, more, ramp):
+def _run_all(pool, pending, run, report, jobs, max_jobs, idle, ramp):
     """schedule's loop, on ``pool``."""
     running = set()
-    last_extra = -ramp
+    limit = jobs
+    last_change = -ramp
     most = 0
     while pending or running:
-        while pending and (len(running) < jobs or (
-                len(running) < max_jobs
-                and time.monotonic() - last_extra >= ramp and more())):
-            if len(running) >= jobs:
-                last_extra = time.monotonic()
+        if pending and time.monotonic() - last_change >= ramp:
+            last_change = time.monotonic()
+            share = idle()
+            if share >= IDLE_MORE:
+                limit = min(max_jobs, limit + 1)
+            elif share < IDLE_FEWER:
+                limit = max(jobs, limit - 1)
+        while pending and len(running) < limit:
             running.add(pool.submit(run, pending.pop(0)))
             most = max(most, len(running))
         done, running = concurrent.futures.wait(
@@ -554,7 +562,7 @@ def main():
     mother = runner.start_mother()
     try:
         most = schedule(pool, runner.run, report, jobs, max_jobs,
-                        lambda: idle() >= IDLE_WANTED, stop=runner.kill_all)
+                        idle, stop=runner.kill_all)
     except KeyboardInterrupt:
         print('rostest: interrupted: the running jobs were killed',
               flush=True)

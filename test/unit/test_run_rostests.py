@@ -4,6 +4,7 @@ import importlib.util
 import os
 import subprocess
 import threading
+import time
 
 import pytest
 
@@ -43,25 +44,60 @@ class Fake:
         self.reported.append(result)
 
 
-@pytest.mark.parametrize('more, want', [(False, 2), (True, 4)])
-def test_more_tests_run_only_once_told(more, want):
-    # one more start per look (a second at most), up to 4
+@pytest.mark.parametrize('idle, want', [(0.0, 2), (0.2, 2), (0.3, 4)])
+def test_more_tests_run_only_while_the_cpu_is_idle(idle, want):
+    # the limit goes up by one per look (a second at most), up to 4
     t = Fake(enough=4)
     files = ['t%d' % i for i in range(4)]
     most = run_rostests.schedule(files, t.run, t.report, 2, 4,
-                                 lambda: more, ramp=0.0)
+                                 lambda: idle, ramp=0.0)
     assert sorted(t.reported) == sorted(files)
     assert t.most == most == want
 
 
-def test_the_tests_above_jobs_start_one_per_ramp():
+def test_the_limit_above_jobs_rises_one_per_ramp():
     t = Fake()
     files = ['t%d' % i for i in range(4)]
-    # a ramp longer than the run: one extra test at the start, no other
+    # a ramp longer than the run: the limit rises once, at the start
     most = run_rostests.schedule(files, t.run, t.report, 2, 5,
-                                 lambda: True, ramp=60.0)
+                                 lambda: 1.0, ramp=60.0)
     assert t.most == most == 3
     assert len(t.reported) == 4
+
+
+def test_the_limit_falls_back_to_jobs_when_the_cpu_is_busy():
+    # idle for three looks (the limit up to 3), then busy: the limit is
+    # back at 2 before the long tests end, so no quick test runs beside 2
+    lock = threading.Lock()
+    running = []
+    beside = []
+    gate = threading.Event()
+    looks = [0]
+
+    def run(name):
+        with lock:
+            running.append(name)
+            if name.startswith('q'):
+                beside.append(len(running))
+        if name.startswith('long'):
+            gate.wait(30)
+        else:
+            time.sleep(0.2)
+        with lock:
+            running.remove(name)
+        return name
+
+    def idle():
+        looks[0] += 1
+        if looks[0] > 3:
+            gate.set()
+            return 0.0
+        return 1.0
+
+    files = ['long%d' % i for i in range(3)] + ['q%d' % i for i in range(4)]
+    most = run_rostests.schedule(files, run, lambda r: None, 2, 3, idle,
+                                 ramp=0.0)
+    assert most == 3 and len(beside) == 4 and max(beside) <= 2
 
 
 def test_a_stage_is_a_named_shell_command():
@@ -100,7 +136,7 @@ def test_an_interrupted_schedule_stops_its_running_jobs():
 
     with pytest.raises(KeyboardInterrupt):
         run_rostests.schedule(['quick', 'long1', 'long2'], run, report, 3,
-                              3, lambda: False, stop=stopped.set)
+                              3, lambda: 0.0, stop=stopped.set)
     assert stopped.is_set()
 
 
