@@ -98,11 +98,11 @@ tracker-accuracy: setup
 
 # One pool runs the rostests (each in a network namespace of its own) and
 # the other stages, ROSTEST_JOBS (4) + 1 jobs at once, longest first, up
-# to ROSTEST_MAX_JOBS (2 JOBS + 2) while a quarter of the CPU is idle; a
+# to ROSTEST_MAX_JOBS (3 JOBS) while a fifth of the CPU is idle; a
 # failed stage's or test's log tail is printed (all logs: .ws/test_logs/).
 test: setup
 	@j=$${ROSTEST_JOBS:-4}; $(ROSTESTS) --jobs $$((j + 1)) \
-	  --max-jobs $${ROSTEST_MAX_JOBS:-$$((2 * j + 2))} \
+	  --max-jobs $${ROSTEST_MAX_JOBS:-$$((3 * j))} \
 	  --stage 'unit=$(UNIT)' --stage 'check=$(CHECK)' \
 	  --stage 'install_space=$(INSTALL_CHECK)' --stage 'site_multihost=$(SITE)' \
 	  --stage 'tracker_accuracy=$(TRACKER_ACCURACY)' \

@@ -44,7 +44,8 @@ class Fake:
         self.reported.append(result)
 
 
-@pytest.mark.parametrize('idle, want', [(0.0, 2), (0.2, 2), (0.3, 4)])
+@pytest.mark.parametrize('idle, want', [
+    (0.0, 2), (run_rostests.IDLE_MORE - 0.01, 2), (run_rostests.IDLE_MORE, 4)])
 def test_more_tests_run_only_while_the_cpu_is_idle(idle, want):
     # the limit goes up by one per look (a second at most), up to 4
     t = Fake(enough=4)

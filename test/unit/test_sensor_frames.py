@@ -144,3 +144,20 @@ def test_a_recording_read_back_scores_its_tracker_frames():
                                            100.0, 101.0)
     assert res.frames_used == 30 and res.frames_rejected == 0
     assert res.value > 0
+
+
+def test_frames_out_of_index_order_are_not_a_restart():
+    # A starved tracker's frames in stamp order, where the DPM's device
+    # clock map moved down between two: after a stall (frames 100-101
+    # skipped), frame 102 comes before frame 99.  Frame 99 is published,
+    # not a reopened sensor whose count of skipped frames since it started
+    # (40) would be the window's.
+    stream = [(d, i, k + 40) for d, i, k in tracker_stream(
+        180, stall=[99, 100])]
+    at = next(n for n, (_, i, _) in enumerate(stream) if i == 99)
+    stream[at], stream[at + 1] = stream[at + 1], stream[at]
+    s = count(stream, 6.0)
+    assert s['frames_published'] == 178
+    assert s['frames_skipped'] == 2
+    assert s['frames_published'] + s['frames_skipped'] <= \
+        s['frames_expected']

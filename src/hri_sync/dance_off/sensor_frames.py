@@ -22,8 +22,12 @@ tells the frames the sensor made apart:
 Skeletons without a frame index (0: a replayed or older sensor) are not
 counted; without two frames of known index and stamp the rate, and so
 ``frames_expected`` and ``frames_unpublished``, are NaN.  A frame index that
-goes back (the sensor reopened, a recording looping) starts a new stretch;
-a count that goes back (the tracker restarted) counts from its new value.
+goes back (the sensor reopened, a recording looping) starts a new stretch,
+unless the frame lies inside the stretch on both counts (index and device
+time): then it is a frame of the stretch that came after later ones (stamp
+order, when the device clock map moved between them), counted as published
+and not as a restart; a count that goes back (the tracker restarted)
+counts from its new value.
 """
 
 from __future__ import annotations
@@ -67,6 +71,10 @@ class SensorFrames:
         last = self._stretches[-1] if self._stretches else None
         if last is not None and index == last.last_index:
             return                       # another user of the same frame
+        if (last is not None and last.first_index <= index < last.last_index
+                and last.first_device <= device < last.last_device):
+            self.published += 1          # a frame of the stretch, late
+            return
         if last is None or index < last.last_index:
             between = index - 1          # a new stretch: frames before it
             self._stretches.append(_Stretch(index, device, index, device))
