@@ -12,12 +12,13 @@ site_multihost): on a CPU-bound suite one pool, longest job first, ends
 its jobs together, where a chain of stages run beside the pool ended
 up to a minute after it on half the cores.
 
-N jobs run at once, and up to M (--max-jobs, default N + 2) while the
-machine has CPU to spare: every 5 s the limit goes up by one when at
-least a fifth of the CPU time was idle over the last 5 s, and down by
-one (not below N) when under 5 % was.  Many rostests mostly wait (for a
-round, a timeout), so N of them leave cores idle that more can use; a
-busy machine runs N.  Run as root, each test gets a network
+N jobs run at once (N + 1 once every stage is done), and up to M
+(--max-jobs, default N + 2) while the machine has CPU to spare: every 5 s
+the limit goes up by one when at least a fifth of the CPU time was idle
+over the last 5 s, and down by one (not below those) when under 5 % was.
+Many rostests mostly wait (for a round, a timeout), so N of them leave
+cores idle that more can use; a busy machine runs N, then N + 1.  Run as
+root, each test gets a network
 namespace of its own (loopback only), so the tests' masters, NTP servers
 and node ports never meet, whatever ports they hard-code; the namespace
 and every process left in it are removed when the test ends.  Not root,
@@ -188,28 +189,28 @@ def job_name(job):
 
 
 def schedule(files, run, report, jobs, max_jobs, idle, ramp=RAMP,
-             stop=lambda: None):
+             stop=lambda: None, least=None):
     """Runs ``run(file)`` for each of ``files`` in order, ``jobs`` at once
     and up to ``max_jobs`` while the CPU has time to spare: every
     ``ramp`` s the limit goes up by one when ``idle()`` (the CPU's idle
-    share) is at least IDLE_MORE, and down by one, not below ``jobs``,
-    when it is under IDLE_FEWER.  ``report`` gets each result as it
-    comes.  Interrupted (SIGINT, or SIGTERM as main sets it), it starts
+    share) is at least IDLE_MORE, and down by one when it is under
+    IDLE_FEWER, never below ``least()`` (default ``jobs``).  ``report``
+    gets each result as it comes.  Interrupted (SIGINT, or SIGTERM as main sets it), it starts
     no more, calls ``stop()`` to end the running ones and raises.
     Returns the most that ran at once."""
     with concurrent.futures.ThreadPoolExecutor(max_jobs) as pool:
         try:
-            return _run_all(pool, list(files), run, report, jobs, max_jobs,
-                            idle, ramp)
+            return _run_all(pool, list(files), run, report, max_jobs, idle,
+                            ramp, least or (lambda: jobs))
         except BaseException:
             stop()
             raise
 
 
-def _run_all(pool, pending, run, report, jobs, max_jobs, idle, ramp):
+def _run_all(pool, pending, run, report, max_jobs, idle, ramp, least):
     """schedule's loop, on ``pool``."""
     running = set()
-    limit = jobs
+    limit = least()
     last_change = -ramp
     most = 0
     while pending or running:
@@ -217,9 +218,10 @@ def _run_all(pool, pending, run, report, jobs, max_jobs, idle, ramp):
             last_change = time.monotonic()
             share = idle()
             if share >= IDLE_MORE:
-                limit = min(max_jobs, limit + 1)
+                limit += 1
             elif share < IDLE_FEWER:
-                limit = max(jobs, limit - 1)
+                limit -= 1
+            limit = min(max_jobs, max(least(), limit))
         while pending and len(running) < limit:
             running.add(pool.submit(run, pending.pop(0)))
             most = max(most, len(running))
@@ -559,10 +561,16 @@ def main():
         (passed if ok else failed).append(name)
         print(line, flush=True)
     idle = IdleShare()
+    stage_names = {s.name for s in stages}
+
+    def least():
+        """JOBS, and one more once the stages are done (the cores they
+        left, whatever else the machine runs)."""
+        return jobs + (bool(stages) and stage_names <= set(passed + failed))
     mother = runner.start_mother()
     try:
-        most = schedule(pool, runner.run, report, jobs, max_jobs,
-                        idle, stop=runner.kill_all)
+        most = schedule(pool, runner.run, report, jobs, max_jobs, idle,
+                        stop=runner.kill_all, least=least)
     except KeyboardInterrupt:
         print('rostest: interrupted: the running jobs were killed',
               flush=True)

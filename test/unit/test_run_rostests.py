@@ -56,6 +56,15 @@ def test_more_tests_run_only_while_the_cpu_is_idle(idle, want):
     assert t.most == most == want
 
 
+def test_the_limit_is_never_below_least():
+    # a busy CPU, but the stages are done: JOBS + 1 (here from the start)
+    t = Fake(enough=3)
+    files = ['t%d' % i for i in range(3)]
+    most = run_rostests.schedule(files, t.run, t.report, 2, 4,
+                                 lambda: 0.0, ramp=0.0, least=lambda: 3)
+    assert t.most == most == 3
+
+
 def test_the_limit_above_jobs_rises_one_per_ramp():
     t = Fake()
     files = ['t%d' % i for i in range(4)]
