@@ -99,7 +99,7 @@ tracker-accuracy: setup
 # One pool runs the rostests (each in a network namespace of its own) and
 # the other stages, ROSTEST_JOBS (4) + 1 jobs at once, longest first (one
 # more once the stages are done), up to ROSTEST_MAX_JOBS (3 JOBS) while a
-# quarter of the CPU is idle; a failed stage's or test's log tail is printed
+# fifth of the CPU is idle; a failed stage's or test's log tail is printed
 # (all logs: .ws/test_logs/).
 test: setup
 	@j=$${ROSTEST_JOBS:-4}; $(ROSTESTS) --jobs $$((j + 1)) \

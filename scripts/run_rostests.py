@@ -14,7 +14,7 @@ up to a minute after it on half the cores.
 
 N jobs run at once (N + 1 once every stage is done), and up to M
 (--max-jobs, default N + 2) while the machine has CPU to spare: every 5 s
-the limit goes up by one when at least a quarter of the CPU time was idle
+the limit goes up by one when at least a fifth of the CPU time was idle
 over the last 5 s, and down by one (not below those) when under 5 % was.
 Many rostests mostly wait (for a round, a timeout), so N of them leave
 cores idle that more can use; a busy machine runs N, then N + 1.  Run as
@@ -61,7 +61,7 @@ TAIL = 60     # lines of a failed job's log printed
 NETNS_PREFIX = 'hrit'
 CPUACCT = '/sys/fs/cgroup/cpuacct'
 RAMP = 5.0          # s between starts above --jobs
-IDLE_MORE = 0.25    # CPU idle share over the last RAMP: one job more
+IDLE_MORE = 0.20    # CPU idle share over the last RAMP: one job more
 IDLE_FEWER = 0.05   # under it: one fewer (not below --jobs)
 
 
@@ -504,7 +504,7 @@ def main():
                         help='jobs at once (default $ROSTEST_JOBS or 4)')
     parser.add_argument('--max-jobs', type=int,
                         default=os.environ.get('ROSTEST_MAX_JOBS'),
-                        help='jobs at once while the CPU is a quarter idle '
+                        help='jobs at once while the CPU is a fifth idle '
                         '(default $ROSTEST_MAX_JOBS or JOBS + 2)')
     parser.add_argument('--stage', type=Stage, action='append', default=[],
                         metavar='NAME=COMMAND', help='a shell command run '
