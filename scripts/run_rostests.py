@@ -18,11 +18,11 @@ the limit goes up by one when at least a fifth of the CPU time was idle
 over the last 5 s, and down by one (not below those) when under 5 % was.
 Many rostests mostly wait (for a round, a timeout), so N of them leave
 cores idle that more can use; a busy machine runs N, then N + 1.  Run as
-root, each test gets a network
-namespace of its own (loopback only), so the tests' masters, NTP servers
-and node ports never meet, whatever ports they hard-code; the namespace
-and every process left in it are removed when the test ends.  Not root,
-the tests run one after another on this host's network (-j is ignored).
+root, each test gets a network namespace of its own (loopback only), so
+the tests' masters, NTP servers and node ports never meet, whatever
+ports they hard-code; the namespace and every process left in it are
+removed when the test ends.  Not root, the tests run one after another
+on this host's network (-j is ignored).
 The longest tests start first: by the durations of the last run, kept in
 .ws/test_logs/durations.json, or on a fresh clone by those of a run on
 this project's machine (TEST_DIR/durations.json, refreshed by hand).
@@ -60,9 +60,9 @@ STAGE_TIMEOUT = 3600  # s per stage (pytest beside the rostests on a busy machin
 TAIL = 60     # lines of a failed job's log printed
 NETNS_PREFIX = 'hrit'
 CPUACCT = '/sys/fs/cgroup/cpuacct'
-RAMP = 5.0          # s between starts above --jobs
+RAMP = 5.0          # s between changes of the limit of jobs at once
 IDLE_MORE = 0.20    # CPU idle share over the last RAMP: one job more
-IDLE_FEWER = 0.05   # under it: one fewer (not below --jobs)
+IDLE_FEWER = 0.05   # under it: one fewer (not below the floor)
 
 
 def junit_counts(path):
@@ -195,9 +195,9 @@ def schedule(files, run, report, jobs, max_jobs, idle, ramp=RAMP,
     ``ramp`` s the limit goes up by one when ``idle()`` (the CPU's idle
     share) is at least IDLE_MORE, and down by one when it is under
     IDLE_FEWER, never below ``least()`` (default ``jobs``).  ``report``
-    gets each result as it comes.  Interrupted (SIGINT, or SIGTERM as main sets it), it starts
-    no more, calls ``stop()`` to end the running ones and raises.
-    Returns the most that ran at once."""
+    gets each result as it comes.  Interrupted (SIGINT, or SIGTERM as
+    main sets it), it starts no more, calls ``stop()`` to end the running
+    ones and raises.  Returns the most that ran at once."""
     with concurrent.futures.ThreadPoolExecutor(max_jobs) as pool:
         try:
             return _run_all(pool, list(files), run, report, max_jobs, idle,

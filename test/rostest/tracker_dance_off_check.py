@@ -44,7 +44,9 @@ PKG = 'hri_sync'
 # Hz: a tracker that kept fewer frames than this over the part of the
 # window its sensor saw (30 Hz unstarved) was starved of CPU.
 STARVED_RATE = 10.0
-DROPPED_SHARE = 0.1   # of a window's frames a starved tracker dropped
+# A still client's partial window that lost this share of its frames: its
+# tracker was starved of CPU.
+DROPPED_SHARE = 0.1
 
 
 def at_in_window(at, windows, action):
