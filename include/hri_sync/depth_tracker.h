@@ -140,8 +140,14 @@ std::string notAPerson(const PointGrid& g, const Blob& p, const Plane& floor);
 /// centroid, its size weighted by how close its top is to 1.7 m; with one,
 /// its size over (0.1 m + its distance from it), 0 beyond 0.8 m.
 double personScore(const Blob& p, const Vec3* prev_centroid);
-/// Whether frag is a small piece of user cut off by occlusion or by the floor
-/// (a foot, a hand): at most a third of its size, within 0.9 m across the floor.
+/// Whether top rests on base as one body cut in two at a depth step (the upper
+/// body off the legs in a side view): it starts at base's top (0.5 m or more
+/// above its bottom), rises above it, and its centroid is within 0.5 m of
+/// base's across the floor (an arm may reach out of base's box).
+bool stacked(const Blob& top, const Blob& base);
+/// Whether frag is a piece of user: a small piece cut off by occlusion or by the
+/// floor (a foot, a hand: at most a third of its size, within 0.9 m across the
+/// floor), or the rest of a body cut in two (stacked, either way).
 bool isFragmentOf(const Blob& frag, const Blob& user);
 /// The segmentation of parts[user] with the given fragments joined (n: grid cells).
 Segmentation partSegmentation(int n, const std::vector<Blob>& parts, int user, const std::vector<int>& fragments);

@@ -23,6 +23,9 @@ constexpr double kSteadyRate = 0.1;
 constexpr double kSteadyMeanRate = 1.0 / 900;  // the shifts' mean over about 30 s
 constexpr int kSearchFitsPerFrame = 2;  // pose fits of the bone-length search per frame
 constexpr int kRefitEvery = 3;          // frames between two kept for the second search
+constexpr double kHeadAxis = 0.2;         // m: a head candidate's horizontal reach from the neck
+constexpr double kHeadBelowTop = 0.15;    // m a head may sit below the axis's top while calibrating
+constexpr double kBelowAxisTopCost = 4.0; // labelling cost per m below that
 constexpr size_t kRefitFrames = 8;      // frames the second search fits
 constexpr double kModelStepPerFrame = 0.003;  // a length's largest relative change per frame
 constexpr int kSeenPoints = 5;  // depth points a fitted joint needs to count as seen
@@ -519,7 +522,14 @@ double personScore(const Blob& p, const Vec3* prev_centroid) {
   return dist > 0.8 ? 0.0 : p.cells.size() / (0.1 + dist);
 }
 
+bool stacked(const Blob& top, const Blob& base) {
+  const Vec3 off = top.centroid - base.centroid;
+  return top.lo > base.lo + 0.5 && top.lo < base.hi + 0.1 && top.hi > base.hi && top.hi - base.lo < 2.5 &&
+         std::hypot(off.x, off.z) < 0.5;
+}
+
 bool isFragmentOf(const Blob& frag, const Blob& user) {
+  if (stacked(frag, user) || stacked(user, frag)) return true;
   if (frag.cells.size() > user.cells.size() / 3) return false;
   const Vec3 off = frag.centroid - user.centroid;
   return std::hypot(off.x, off.z) < 0.9 && frag.hi < user.hi + 0.3 && frag.lo > user.lo - 0.1;
@@ -533,8 +543,19 @@ Segmentation partSegmentation(int n, const std::vector<Blob>& parts, int user,
   seg.cells = u.cells;
   for (int k : fragments) seg.cells.insert(seg.cells.end(), parts[k].cells.begin(), parts[k].cells.end());
   for (int i : seg.cells) seg.mask[i] = 1;
-  seg.centroid = u.centroid;
+  // A body cut in two at a depth step is both parts: its height and centroid
+  // are theirs together.
+  double weight = static_cast<double>(u.cells.size());
+  seg.centroid = u.centroid * weight;
   seg.height = u.hi;
+  for (int k : fragments) {
+    const Blob& f = parts[k];
+    if (!stacked(f, u) && !stacked(u, f)) continue;
+    seg.centroid += f.centroid * static_cast<double>(f.cells.size());
+    weight += static_cast<double>(f.cells.size());
+    seg.height = std::max(seg.height, f.hi);
+  }
+  seg.centroid = seg.centroid * (1.0 / weight);
   seg.found = true;
   return seg;
 }
@@ -780,7 +801,7 @@ double aboveFloor(const Plane& floor, const Vec3& p) { return floor.found ? floo
 // Cost of label l for candidate k (< 0: impossible). thigh: the candidate's
 // path point 0.2 m below the hip centre (where a leg joins the pelvis).
 double labelCost(int l, const Vec3& e, const Vec3& thigh, const TrunkFrame& tf, const Plane& floor,
-                 const BodyModel& model, const LabelMemory& memory) {
+                 const BodyModel& model, const LabelMemory& memory, double axis_top) {
   const double arm = model.upper_arm + model.forearm + 0.05;
   const double rise = (e - tf.torso).dot(tf.up);
   const double above_floor = aboveFloor(floor, e);
@@ -788,6 +809,10 @@ double labelCost(int l, const Vec3& e, const Vec3& thigh, const TrunkFrame& tf, 
   if (l == LB_HEAD) {
     if (rise < 0.2) return -1;
     c = horizontal(e - tf.neck, tf.up).norm();
+    // While the bone lengths are calibrated the user stands: nothing of the
+    // body sits above the head on the trunk's axis (a shoulder or a chest
+    // seen side-on is no head; raised hands stand off the axis).
+    if (!model.calibrated) c += kBelowAxisTopCost * std::max(0.0, axis_top - above_floor - kHeadBelowTop);
   } else if (l == LB_LFOOT || l == LB_RFOOT) {
     if (above_floor > 0.45 || rise > -0.3) return -1;
     c = 0.5 * above_floor;
@@ -828,9 +853,15 @@ LabelAssignment labelExtremities(const PointGrid& g, const Geodesic& geo, const 
       if (off < best) { best = off; thigh[k] = g.points[c]; }
     }
   }
+  // The highest candidate on the trunk's axis above the torso (a head, or a
+  // hand held right above it).
+  double axis_top = -1e9;
+  for (const Vec3& e : ex.points)
+    if ((e - tf.torso).dot(tf.up) >= 0.2 && horizontal(e - tf.neck, tf.up).norm() < kHeadAxis)
+      axis_top = std::max(axis_top, aboveFloor(floor, e));
   std::vector<std::vector<double>> cost(NUM_LABELS, std::vector<double>(m));
   for (int l = 0; l < NUM_LABELS; ++l)
-    for (int k = 0; k < m; ++k) cost[l][k] = labelCost(l, ex.points[k], thigh[k], tf, floor, model, memory);
+    for (int k = 0; k < m; ++k) cost[l][k] = labelCost(l, ex.points[k], thigh[k], tf, floor, model, memory, axis_top);
   // Exhaustive branch and bound: 5 labels over at most 10 candidates.
   const double miss = 0.6, miss_hand = 0.45;
   LabelAssignment assign, cur;
