@@ -1,8 +1,10 @@
-// Several users (issue 18 item 3): MultiTracker on virtual Kinect scenes of 2,
-// 3 and 4 people (the scene's crowd keys), each user's id checked frame by
-// frame against the renderer's ground truth; the lost-user rule (same id back
-// within lost_timeout, a new id after it); one user alone gives the
-// single-user tracker's skeleton.
+// The tracker on virtual Kinect scenes. Several users: MultiTracker on scenes
+// of 2, 3 and 4 people (the scene's crowd keys), each user's id checked frame
+// by frame against the renderer's ground truth; the lost-user rule (same id
+// back within lost_timeout, a new id after it); one user alone gives the
+// single-user tracker's skeleton. Then a still person stays still (Kinect v1
+// noise, walls, frame depth offsets), ghosts are no users, and a person first
+// seen from behind or side-on is calibrated at its height.
 #include <gtest/gtest.h>
 
 #include <cmath>
