@@ -143,7 +143,8 @@ double personScore(const Blob& p, const Vec3* prev_centroid);
 /// Whether top rests on base as one body cut in two at a depth step (the upper
 /// body off the legs in a side view): it starts at base's top (0.5 m or more
 /// above its bottom), rises above it, and its centroid is within 0.5 m of
-/// base's across the floor (an arm may reach out of base's box).
+/// base's across the floor (an arm may reach out of base's box) and at most
+/// 0.2 m farther from the sensor (a taller person right behind is no part).
 bool stacked(const Blob& top, const Blob& base);
 /// Whether frag is a piece of user: a small piece cut off by occlusion or by the
 /// floor (a foot, a hand: at most a third of its size, within 0.9 m across the

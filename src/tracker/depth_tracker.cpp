@@ -29,6 +29,8 @@ constexpr double kBelowAxisTopCost = 4.0; // labelling cost per m below that
 constexpr size_t kRefitFrames = 8;      // frames the second search fits
 constexpr double kModelStepPerFrame = 0.003;  // a length's largest relative change per frame
 constexpr int kSeenPoints = 5;  // depth points a fitted joint needs to count as seen
+constexpr double kStackedBehind = 0.2;  // m an upper part may lie behind the part it rests on (a taller
+                                        // person right behind shows above the head)
 
 // Neighbouring points belong to one object when their depths differ by less than this.
 double maxJump(double z) { return 0.05 + 0.02 * z; }
@@ -525,7 +527,7 @@ double personScore(const Blob& p, const Vec3* prev_centroid) {
 bool stacked(const Blob& top, const Blob& base) {
   const Vec3 off = top.centroid - base.centroid;
   return top.lo > base.lo + 0.5 && top.lo < base.hi + 0.1 && top.hi > base.hi && top.hi - base.lo < 2.5 &&
-         std::hypot(off.x, off.z) < 0.5;
+         std::hypot(off.x, off.z) < 0.5 && off.z < kStackedBehind;
 }
 
 bool isFragmentOf(const Blob& frag, const Blob& user) {

@@ -16,6 +16,8 @@
 #include <tuple>
 #include <vector>
 
+#include <unistd.h>
+
 #include "hri_sync/depth_tracker.h"
 #include "hri_sync/multi_tracker.h"
 #include "hri_sync/scene.h"
@@ -598,4 +600,33 @@ TEST(Calibration, APersonSeenFromBehindAndSideOnGetsItsHeight) {
     EXPECT_TRUE(tracker.model().calibrated) << name;
     EXPECT_NEAR(tracker.model().height, 1.75, 0.1) << name;
   }
+}
+
+// A taller person (tall_slim, 1.93 m) standing still 0.35 m behind a shorter
+// one (short_broad, 1.55 m) shows head and shoulders above the shorter one's
+// head, a part resting on its top: it is someone else, farther from the
+// sensor, and joining it calibrated the shorter one at 1.25 m.
+TEST(Calibration, ATallerPersonRightBehindIsNoPartOfTheUser) {
+  const Track front = turnedStill(salsa(), 0.0, 4.0);
+  const std::string path = "/tmp/multi_tracker_gtest_behind_" + std::to_string(getpid()) + ".track";
+  FILE* out = std::fopen(path.c_str(), "w");
+  ASSERT_NE(out, nullptr);
+  for (double t : {0.0, 10.0}) {
+    std::fprintf(out, "%.1f", t);
+    for (const Vec3& p : front.frames()[0]) std::fprintf(out, " %.4f %.4f %.4f", p.x + 0.15, p.y, p.z + 0.35);
+    std::fprintf(out, "\n");
+  }
+  std::fclose(out);
+  const Scene scene = makeScene(front, "body=short_broad&noise=kinect1&crowd_tracks=" + path);
+  std::remove(path.c_str());
+  Camera cam;
+  DepthTracker tracker(cam);
+  SceneFrame f;
+  for (int n = 0; n < 120; ++n) {
+    scene.render(n / 30.0, n + 1, cam, &f);
+    tracker.update(f.depth_mm.data(), n / 30.0);
+  }
+  std::printf("a taller person 0.35 m behind: calibrated %.3f m (body 1.55 m)\n", tracker.model().height);
+  EXPECT_TRUE(tracker.model().calibrated);
+  EXPECT_NEAR(tracker.model().height, 1.55, 0.12);
 }
