@@ -581,24 +581,28 @@ Track turnedStill(const Track& clip, double yaw_deg, double seconds) {
   return Track::fromFrames(times, frames);
 }
 
+// The single-user tracker's body model after `frames` frames of the scene.
+BodyModel modelAfter(const Scene& scene, int frames) {
+  Camera cam;
+  DepthTracker tracker(cam);
+  SceneFrame f;
+  for (int n = 0; n < frames; ++n) {
+    scene.render(n / 30.0, n + 1, cam, &f);
+    tracker.update(f.depth_mm.data(), n / 30.0);
+  }
+  return tracker.model();
+}
+
 }  // namespace
 
 TEST(Calibration, APersonSeenFromBehindAndSideOnGetsItsHeight) {
   static const Track other = Track::load(kMotionDir + "cmu_61_01_salsa.track");
   for (auto [clip, name, yaw] : {std::tuple<const Track*, const char*, double>{&salsa(), "cmu_60_01", 315.0},
                                  {&other, "cmu_61_01", 225.0}}) {
-    const Scene scene = makeScene(turnedStill(*clip, yaw, 3.0), "noise=kinect1");
-    Camera cam;
-    DepthTracker tracker(cam);
-    SceneFrame f;
-    for (int n = 0; n < 90; ++n) {
-      scene.render(n / 30.0, n + 1, cam, &f);
-      tracker.update(f.depth_mm.data(), n / 30.0);
-    }
-    std::printf("%s's first pose turned %.0f degrees: calibrated %.3f m (body 1.75 m)\n", name, yaw,
-                tracker.model().height);
-    EXPECT_TRUE(tracker.model().calibrated) << name;
-    EXPECT_NEAR(tracker.model().height, 1.75, 0.1) << name;
+    const BodyModel model = modelAfter(makeScene(turnedStill(*clip, yaw, 3.0), "noise=kinect1"), 90);
+    std::printf("%s's first pose turned %.0f degrees: calibrated %.3f m (body 1.75 m)\n", name, yaw, model.height);
+    EXPECT_TRUE(model.calibrated) << name;
+    EXPECT_NEAR(model.height, 1.75, 0.1) << name;
   }
 }
 
@@ -619,14 +623,8 @@ TEST(Calibration, ATallerPersonRightBehindIsNoPartOfTheUser) {
   std::fclose(out);
   const Scene scene = makeScene(front, "body=short_broad&noise=kinect1&crowd_tracks=" + path);
   std::remove(path.c_str());
-  Camera cam;
-  DepthTracker tracker(cam);
-  SceneFrame f;
-  for (int n = 0; n < 120; ++n) {
-    scene.render(n / 30.0, n + 1, cam, &f);
-    tracker.update(f.depth_mm.data(), n / 30.0);
-  }
-  std::printf("a taller person 0.35 m behind: calibrated %.3f m (body 1.55 m)\n", tracker.model().height);
-  EXPECT_TRUE(tracker.model().calibrated);
-  EXPECT_NEAR(tracker.model().height, 1.55, 0.12);
+  const BodyModel model = modelAfter(scene, 120);
+  std::printf("a taller person 0.35 m behind: calibrated %.3f m (body 1.55 m)\n", model.height);
+  EXPECT_TRUE(model.calibrated);
+  EXPECT_NEAR(model.height, 1.55, 0.12);
 }
