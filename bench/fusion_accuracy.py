@@ -58,6 +58,7 @@ import argparse
 import concurrent.futures
 import functools
 import hashlib
+import importlib.util
 import json
 import math
 import os
@@ -82,6 +83,11 @@ from hri_sync.fusion.profile import Profile, fit_profile  # noqa: E402
 from hri_sync.fusion.truth import world_motion  # noqa: E402
 from hri_sync_support.fusion_people import (  # noqa: E402
     gait_cycle, match, score, walker)
+
+_SPEC = importlib.util.spec_from_file_location(
+    'tracker_accuracy', os.path.join(ROOT, 'bench', 'tracker_accuracy.py'))
+accuracy = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(accuracy)
 
 FPS = 30.0
 PROFILE = os.path.join(ROOT, 'config', 'fusion_depth_tracker.yaml')
@@ -427,12 +433,7 @@ def arguments():
 def rendered_views(args, motions):
     """The views' tracker dump files of ``motions`` (the person, then the
     crowd) and the views' poses."""
-    eval_path = subprocess.run(
-        ['catkin_find', '--first-only', '--libexec', 'hri_sync',
-         'tracker_eval'], capture_output=True, text=True).stdout.strip()
-    if not eval_path:
-        sys.exit('fusion_accuracy: tracker_eval is not built; run make '
-                 'build and source WS/devel/setup.bash')
+    eval_path = accuracy.find_eval()
     os.makedirs(args.cache, exist_ok=True)
     with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
         dumps = list(pool.map(lambda i: render(i, motions, args.cache,

@@ -103,13 +103,7 @@ def main():
     ap.add_argument('--baseline', help='a second tracker_eval to compare')
     ap.add_argument('--jobs', '-j', type=int, default=2)
     args = ap.parse_args()
-    eval_path = subprocess.run(
-        ['catkin_find', '--first-only', '--libexec', 'hri_sync',
-         'tracker_eval'], capture_output=True, text=True).stdout.strip()
-    if not eval_path:
-        sys.exit('tracker_views: tracker_eval is not built; run make build '
-                 'and source WS/devel/setup.bash')
-    builds = {'tracker': eval_path}
+    builds = {'tracker': fusion.accuracy.find_eval()}
     if args.baseline:
         builds['baseline'] = args.baseline
     with tempfile.TemporaryDirectory() as folder:

@@ -530,8 +530,15 @@ bool stacked(const Blob& top, const Blob& base) {
          std::hypot(off.x, off.z) < 0.5 && off.z < kStackedBehind;
 }
 
+namespace {
+
+// One body cut in two at a depth step: either part rests on the other.
+bool cutInTwo(const Blob& a, const Blob& b) { return stacked(a, b) || stacked(b, a); }
+
+}  // namespace
+
 bool isFragmentOf(const Blob& frag, const Blob& user) {
-  if (stacked(frag, user) || stacked(user, frag)) return true;
+  if (cutInTwo(frag, user)) return true;
   if (frag.cells.size() > user.cells.size() / 3) return false;
   const Vec3 off = frag.centroid - user.centroid;
   return std::hypot(off.x, off.z) < 0.9 && frag.hi < user.hi + 0.3 && frag.lo > user.lo - 0.1;
@@ -552,7 +559,7 @@ Segmentation partSegmentation(int n, const std::vector<Blob>& parts, int user,
   seg.height = u.hi;
   for (int k : fragments) {
     const Blob& f = parts[k];
-    if (!stacked(f, u) && !stacked(u, f)) continue;
+    if (!cutInTwo(f, u)) continue;
     seg.centroid += f.centroid * static_cast<double>(f.cells.size());
     weight += static_cast<double>(f.cells.size());
     seg.height = std::max(seg.height, f.hi);
@@ -855,12 +862,13 @@ LabelAssignment labelExtremities(const PointGrid& g, const Geodesic& geo, const 
       if (off < best) { best = off; thigh[k] = g.points[c]; }
     }
   }
-  // The highest candidate on the trunk's axis above the torso (a head, or a
-  // hand held right above it).
+  // While calibrating, the highest candidate on the trunk's axis above the
+  // torso (a head, or a hand held right above it).
   double axis_top = -1e9;
-  for (const Vec3& e : ex.points)
-    if ((e - tf.torso).dot(tf.up) >= 0.2 && horizontal(e - tf.neck, tf.up).norm() < kHeadAxis)
-      axis_top = std::max(axis_top, aboveFloor(floor, e));
+  if (!model.calibrated)
+    for (const Vec3& e : ex.points)
+      if ((e - tf.torso).dot(tf.up) >= 0.2 && horizontal(e - tf.neck, tf.up).norm() < kHeadAxis)
+        axis_top = std::max(axis_top, aboveFloor(floor, e));
   std::vector<std::vector<double>> cost(NUM_LABELS, std::vector<double>(m));
   for (int l = 0; l < NUM_LABELS; ++l)
     for (int k = 0; k < m; ++k) cost[l][k] = labelCost(l, ex.points[k], thigh[k], tf, floor, model, memory, axis_top);
