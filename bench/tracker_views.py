@@ -10,9 +10,11 @@ seen from behind or side-on is where the bone lengths' calibration is
 hardest: the head must be found among a shoulder, a chest and an arm, and
 the body may be cut in two at a depth step. Prints one JSON object: per run
 the calibrated height (the tracker's model) against the rendered body's,
-the mean joint error, the hands' p95 error and the tracked share; and a
-summary: runs whose height is more than 8 % and 15 % off, the mean error
-overall, per view and per body. ``--baseline EVAL`` runs a second
+the mean joint error, the hands' p95 error, the tracked share and the
+share of tracked frames facing the wrong way round (left and right
+exchanged); and a summary: runs whose height is more than 8 % and 15 %
+off, the mean error overall, per view and per body, the mean share facing
+wrong and the runs facing wrong in more than 5 % of their frames. ``--baseline EVAL`` runs a second
 tracker_eval on the same renders beside it (``baseline`` and ``paired``:
 runs better or worse by more than 5 mm).
 
@@ -50,7 +52,7 @@ SCENES = ('noise=kinect1', 'noise=kinect1&wall=0.3&body=tall_slim',
           'noise=kinect1&body=short_broad')
 SECONDS = 20.0
 KEYS = ('height_m', 'body_height_m', 'mean_error_m', 'hands_p95_error_m',
-        'tracked_share')
+        'tracked_share', 'facing_wrong_share')
 
 
 def tracks(clips, folder):
@@ -93,6 +95,10 @@ def summary(runs):
             'height_off_15pct': sum(o > 0.15 for o in off),
             'mean_error_m': round(float(np.mean(
                 [r['mean_error_m'] for r in runs])), 4),
+            'facing_wrong_share': round(float(np.mean(
+                [r['facing_wrong_share'] for r in runs])), 4),
+            'facing_wrong_over_5pct': sum(r['facing_wrong_share'] > 0.05
+                                          for r in runs),
             'mean_error_by_view_m': mean_by('view'),
             'mean_error_by_scene_m': mean_by('scene')}
 

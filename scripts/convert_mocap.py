@@ -22,7 +22,8 @@ from hri_sync.dance_off.bvh import BvhError  # noqa: E402
 from hri_sync.dance_off.motion import load_motion  # noqa: E402
 
 DEFAULT_SRC = os.path.join(os.path.dirname(ROOT), 'shared', 'data', 'mocap')
-DEFAULT_TRACKS = 'cmu_60_01_salsa,cmu_61_01_salsa,cmu_131_01_walk'
+DEFAULT_TRACKS = ('cmu_60_01_salsa,cmu_61_01_salsa,cmu_131_01_walk,'
+                  'cmu_60_07_salsa')
 MAX_BYTES = 2 * 1024 * 1024
 ACK = ('Motion data from mocap.cs.cmu.edu (CMU Graphics Lab Motion Capture '
        'Database, funded by NSF EIA-0196217).')

@@ -253,9 +253,10 @@ LabelAssignment labelExtremities(const PointGrid& g, const Geodesic& geo, const 
                                  const LabelMemory& memory);
 
 /// The horizontal direction the knees bend to (the body's front) from the
-/// candidates that look like feet, or a zero vector when too few bend.
+/// candidates that look like feet, or a zero vector when too few bend; each
+/// leg's own bend (m) in `legs` when given.
 Vec3 kneeBend(const PointGrid& g, const Geodesic& geo, const Extremities& ex, const TrunkFrame& tf,
-              const Plane& floor, const BodyModel& model);
+              const Plane& floor, const BodyModel& model, std::vector<Vec3>* legs = nullptr);
 
 /// Stage "body model": every joint placed from the trunk and the geodesic
 /// paths (tip first) of the labelled extremities, with a confidence each.
@@ -302,6 +303,8 @@ class DepthTracker {
   /// (the bone lengths are kept).
   void lose();
   const BodyModel& model() const { return model_; }
+  /// Times the facing check has turned the fitted pose round since the last reset.
+  int facingTurns() const { return facing_turns_; }
   const Plane& floor() const { return floor_; }
   const std::vector<Plane>& walls() const { return room_.walls(); }
   void reset();
@@ -314,6 +317,9 @@ class DepthTracker {
   /// Stage "fit": the model fit refines this frame's estimate and last frame's
   /// pose; the one explaining the depth better wins.
   void fit(const PointGrid& g, const Segmentation& seg, Joints* j, std::array<float, NUM_JOINTS>* conf);
+  /// Stage "facing": a fitted pose that both knees, bent the same way, say
+  /// faces the other way (after a fast spin) has its left and right exchanged.
+  void checkFacing(const std::vector<Vec3>& legs, const Vec3& up, Joints* j, std::array<float, NUM_JOINTS>* conf);
   /// Keeps every kRefitEvery-th fitted frame for the second bone-length search.
   void keepForRefit(const PointGrid& g, const Segmentation& seg);
   Joints smooth(const Joints& j, double t);
@@ -333,6 +339,8 @@ class DepthTracker {
   std::array<int, NUM_LABELS> tip_age_{};
   Vec3 lateral_{1, 0, 0};
   Vec3 facing_{1, 0, 0};        ///< smoothed lateral axis measured from the knees' bend
+  int facing_votes_ = 0;        ///< frames in a row whose knees say the fitted pose faces the wrong way
+  int facing_turns_ = 0;        ///< times the facing check turned the fitted pose round
   double torso_bias_ = 0;
   std::vector<FitFrame> calib_frames_;  ///< frames kept to fit the bone lengths
   std::unique_ptr<ModelSearch> search_;  ///< the bone-length search under way

@@ -29,6 +29,9 @@ constexpr double kBelowAxisTopCost = 4.0; // labelling cost per m below that
 constexpr size_t kRefitFrames = 8;      // frames the second search fits
 constexpr double kModelStepPerFrame = 0.003;  // a length's largest relative change per frame
 constexpr int kSeenPoints = 5;  // depth points a fitted joint needs to count as seen
+constexpr double kStrongBend = 0.15;  // m each knee must bend for the knees to say the facing
+constexpr double kBendsAgree = 0.5;   // cosine of the largest angle between the two knees' bends
+constexpr int kFacingVotes = 2;       // frames in a row the knees say the fit faces the wrong way
 constexpr double kStackedBehind = 0.2;  // m an upper part may lie behind the part it rests on (a taller
                                         // person right behind shows above the head)
 
@@ -751,6 +754,8 @@ void DepthTracker::reset() {
   tip_age_.fill(1 << 20);
   lateral_ = Vec3(1, 0, 0);
   facing_ = Vec3(1, 0, 0);
+  facing_votes_ = 0;
+  facing_turns_ = 0;
   torso_bias_ = 0;
   have_fit_ = false;
   for (auto& f : filters_) f.reset();
@@ -896,7 +901,7 @@ LabelAssignment labelExtremities(const PointGrid& g, const Geodesic& geo, const 
 }
 
 Vec3 kneeBend(const PointGrid& g, const Geodesic& geo, const Extremities& ex, const TrunkFrame& tf,
-              const Plane& floor, const BodyModel& model) {
+              const Plane& floor, const BodyModel& model, std::vector<Vec3>* legs_bend) {
   Vec3 bend_sum;
   int legs = 0;
   for (size_t k = 0; k < ex.points.size(); ++k) {
@@ -905,8 +910,10 @@ Vec3 kneeBend(const PointGrid& g, const Geodesic& geo, const Extremities& ex, co
     Vec3 knee = midJoint(path, tf.hipc, path.front(), model.thigh, model.shin, nullptr);
     Vec3 axis = (path.front() - tf.hipc).normalized();
     Vec3 off = knee - tf.hipc;
-    bend_sum += horizontal(off - axis * off.dot(axis), tf.up);
+    const Vec3 bend = horizontal(off - axis * off.dot(axis), tf.up);
+    bend_sum += bend;
     ++legs;
+    if (legs_bend) legs_bend->push_back(bend);
   }
   return legs > 0 && bend_sum.norm() > 0.04 * legs ? bend_sum : Vec3();
 }
@@ -1073,6 +1080,28 @@ void DepthTracker::fit(const PointGrid& g, const Segmentation& seg, Joints* j,
     (*conf)[k] = best.support[k] >= kSeenPoints ? std::max((*conf)[k], 0.6f) : std::min((*conf)[k], 0.3f);
 }
 
+void DepthTracker::checkFacing(const std::vector<Vec3>& legs, const Vec3& up, Joints* j,
+                               std::array<float, NUM_JOINTS>* conf) {
+  // One knee's bend, or two that disagree, say little: a leg kicked back, a
+  // noisy side view. Two bent the same way say where the front is.
+  if (legs.size() != 2 || legs[0].norm() < kStrongBend || legs[1].norm() < kStrongBend ||
+      legs[0].normalized().dot(legs[1].normalized()) < kBendsAgree)
+    return;
+  const Joints& b = *j;
+  const Vec3 fitted = horizontal(b[L_HIP] - b[R_HIP] + b[L_SHOULDER] - b[R_SHOULDER], up);
+  facing_votes_ = (legs[0] + legs[1]).cross(up).dot(fitted) < 0 ? facing_votes_ + 1 : 0;
+  if (facing_votes_ < kFacingVotes) return;
+  facing_votes_ = 0;
+  ++facing_turns_;
+  for (auto [l, r] : {std::pair<int, int>{L_SHOULDER, R_SHOULDER}, {L_ELBOW, R_ELBOW}, {L_HAND, R_HAND},
+                      {L_HIP, R_HIP}, {L_KNEE, R_KNEE}, {L_FOOT, R_FOOT}}) {
+    std::swap((*j)[l], (*j)[r]);
+    std::swap((*conf)[l], (*conf)[r]);
+    std::swap(prev_fit_[l], prev_fit_[r]);
+    std::swap(filters_[l], filters_[r]);
+  }
+}
+
 void DepthTracker::keepForRefit(const PointGrid& g, const Segmentation& seg) {
   if (refined_ || search_ || ++refit_count_ % kRefitEvery != 0) return;
   refine_frames_.push_back({g, seg, floor_, prev_fit_});
@@ -1130,7 +1159,8 @@ SkeletonEstimate DepthTracker::follow(const PointGrid& g, const Segmentation& se
   const Extremities ex = findExtremities(g, seg, geo, tf.trunk);
   out.extremity_points = ex.points;
   // Facing: knees bend forward. The lateral axis (right to left) follows it.
-  const Vec3 bend = kneeBend(g, geo, ex, tf, floor_, model_);
+  std::vector<Vec3> legs;
+  const Vec3 bend = kneeBend(g, geo, ex, tf, floor_, model_, &legs);
   if (bend.norm() > 0) {
     facing_ = facing_ * 0.7 + bend.normalized().cross(up) * 0.3;
     if (facing_.norm() > 0.2) lateral_ = horizontal(facing_, up).normalized();
@@ -1157,6 +1187,8 @@ SkeletonEstimate DepthTracker::follow(const PointGrid& g, const Segmentation& se
     // seconds to cross the gap.
     if (!have_fit_) for (auto& f : filters_) f.reset();
     fit(g, seg, &pose.joints, &pose.confidence);
+    // A fast spin can leave the fit facing the wrong way round; strong knee bends turn it back.
+    checkFacing(legs, up, &pose.joints, &pose.confidence);
   }
   out.joints = smooth(pose.joints, t);
   have_prev_ = true;

@@ -62,6 +62,7 @@ struct Stats {
   std::vector<std::vector<double>> err = std::vector<std::vector<double>>(NUM_JOINTS);
   std::vector<double> hands_seen;  ///< hand errors where the tracker's confidence is >= 0.5
   int frames = 0, tracked = 0, dropped = 0;
+  int facing_wrong = 0;  ///< tracked frames whose left-to-right axis points against the truth's
   int first_tracked = -1;  ///< frame index of the first tracked frame (calibration done)
   double cpu = 0;
 };
@@ -107,6 +108,8 @@ void account(Stats* s, const SkeletonEstimate& est, const Joints& truth) {
   if (!est.tracked) return;
   if (s->first_tracked < 0) s->first_tracked = s->frames - 1;
   ++s->tracked;
+  auto lateral = [](const Joints& j) { return j[L_SHOULDER] - j[R_SHOULDER] + j[L_HIP] - j[R_HIP]; };
+  s->facing_wrong += lateral(est.joints).dot(lateral(truth)) < 0;
   for (int k = 0; k < NUM_JOINTS; ++k) s->err[k].push_back((est.joints[k] - truth[k]).norm());
   for (int k : {L_HAND, R_HAND})
     if (est.confidence[k] >= 0.5f) s->hands_seen.push_back(s->err[k].back());
@@ -155,6 +158,8 @@ class Runner {
     return best;
   }
   double height() const { return single_ ? single_->model().height : -1.0; }
+  /// The single-user tracker's facing turns as JSON; null for the multi-user one.
+  std::string facingTurns() const { return single_ ? std::to_string(single_->facingTurns()) : "null"; }
   long trackedUsers() const { return users_; }  ///< summed over frames
   long ghostFrames() const { return ghost_frames_; }  ///< ghost users summed over frames
   size_t ghostUsers() const { return ghost_ids_.size(); }  ///< ids ever given to a ghost
@@ -436,13 +441,14 @@ int main(int argc, char** argv) {
               "\"fps\": %.1f, \"frames\": %d, \"dropped_frames\": %d, \"resolution\": \"%dx%d\", "
               "\"height_m\": %.3f, \"body\": \"%s\", \"body_height_m\": %.3f, \"scene\": \"%s\", "
               "\"users\": %d, \"mean_tracked_users\": %.3f, \"ghost_user_frames\": %s, "
-              "\"ghost_users_per_minute\": %s}\n",
+              "\"ghost_users_per_minute\": %s, \"facing_wrong_share\": %.4f, \"facing_turns\": %s}\n",
               mean, joints.c_str(), pct(hands, 0.95), pct(st.hands_seen, 0.95),
               hands.empty() ? 0.0 : double(st.hands_seen.size()) / hands.size(), st.frames ? double(st.tracked) / st.frames : 0.0,
               st.first_tracked >= 0 ? double(st.tracked) / (st.frames - st.first_tracked) : 0.0, st.first_tracked,
               st.cpu > 0 ? st.frames / st.cpu : 0.0, st.frames, st.dropped, cam.width, cam.height,
               tracker.height(), scene ? spec.body.name.c_str() : "model",
               scene ? spec.body.height : 0.0, scene_query.c_str(), users,
-              st.frames ? double(tracker.trackedUsers()) / st.frames : 0.0, ghost_frames.c_str(), ghost_rate.c_str());
+              st.frames ? double(tracker.trackedUsers()) / st.frames : 0.0, ghost_frames.c_str(), ghost_rate.c_str(),
+              st.tracked ? double(st.facing_wrong) / st.tracked : 0.0, tracker.facingTurns().c_str());
   return st.frames > 0 ? 0 : 1;
 }
