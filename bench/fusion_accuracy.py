@@ -134,13 +134,13 @@ def build_id(path):
 
 def render(i, motions, cache, scene, eval_path):
     """View ``i``'s tracker dump file (rendered once, then cached for this
-    build of tracker_eval): the first motion is the person (tracked alone,
-    ``--dump``); more are the crowd (``crowd_tracks``), every user tracked
-    (``--dump-users``)."""
+    build of tracker_eval and these motions): the first motion is the person
+    (tracked alone, ``--dump``); more are the crowd (``crowd_tracks``), every
+    user tracked (``--dump-users``)."""
     world = motions[0]
     n = int(world.duration * FPS) - 2
-    ident = (world.name, world.positions.shape, VIEWS[i], scene, n,
-             build_id(eval_path))
+    ident = (world.name, hashlib.sha1(np.round(world.positions, 4).tobytes())
+             .hexdigest(), VIEWS[i], scene, n, build_id(eval_path))
     if len(motions) > 1:
         ident += (USERS, hashlib.sha1(np.round(np.concatenate(
             [m.positions for m in motions[1:]]), 4).tobytes()).hexdigest())
