@@ -3,7 +3,7 @@
 // error against the motion's true joints, the tracked share and the speed.
 //   tracker_eval --track FILE.track [--res 320x240] [--seconds S] [--background 0|1]
 //                [--noise SIGMA] [--scene KEY=V&KEY=V...] [--direct] [--step N] [--dump FILE]
-//                [--snapshot N] [--users N] [--dump-users FILE]
+//                [--snapshot N] [--users N] [--dump-users FILE] [--fps N]
 //   tracker_eval --oni FILE.oni [--loops N] [--users N] [--dump FILE]
 // --scene: the virtual Kinect's scene keys (body, wall, bystander, noise=kinect1, ...;
 // docs/tracker.md); the truth is then the rendered (reshaped) body's joints.
@@ -15,7 +15,8 @@
 // --dump-users (with --direct and --users N) writes per frame: index, the user count, per
 // user its id, tracked, 15 estimated joints and 15 confidences, then the person count
 // and each rendered person's 15 true joints (the person, the bystander, the crowd).
-// --direct renders in-process instead of through OpenNI (same renderer).
+// --direct renders in-process instead of through OpenNI (same renderer); --fps N
+// (with --direct) renders N frames a second of motion (default 30).
 // --users N (1-4): the multi-user tracker the node runs (MultiTracker, N users at
 // most), scored on the tracked user whose torso is nearest the person's (as a
 // participant zone picks them); 0 (default): the single-user DepthTracker. With
@@ -241,7 +242,7 @@ int main(int argc, char** argv) {
   double seconds = 0, noise = 0.0015;
   std::string scene_query;
   bool direct = false, background = false;
-  int users = 0, loops = 4;
+  int users = 0, loops = 4, fps = 30;
   std::string oni;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
@@ -266,6 +267,7 @@ int main(int argc, char** argv) {
     else if (a == "--dump-users") g_dump_users = std::fopen(next().c_str(), "w");
     else if (a == "--oni") oni = next();
     else if (a == "--loops") loops = std::stoi(next());
+    else if (a == "--fps") fps = std::stoi(next());
     else { std::fprintf(stderr, "tracker_eval: unknown argument %s\n", a.c_str()); return 2; }
   }
   if (!oni.empty()) {
@@ -308,7 +310,8 @@ int main(int argc, char** argv) {
   Camera cam;
   cam.width = res == "640x480" ? 640 : 320;
   cam.height = res == "640x480" ? 480 : 240;
-  const int fps = 30;
+  if (fps != 30 && !direct) { std::fprintf(stderr, "tracker_eval: --fps needs --direct\n"); return 2; }
+  if (fps < 1 || fps > 120) { std::fprintf(stderr, "tracker_eval: --fps 1-120\n"); return 2; }
   const int total = static_cast<int>(seconds * fps);
   if (users < 0 || users > 4) { std::fprintf(stderr, "tracker_eval: --users must be 0-4\n"); return 2; }
   if (g_dump_users && (users == 0 || !direct || !scene)) {
