@@ -132,6 +132,12 @@ def build_id(path):
         return hashlib.sha1(f.read()).hexdigest()
 
 
+def positions_id(positions):
+    """A digest of joint positions to 0.1 mm: motions that differ (a clip's
+    .npz and its .track) get renders of their own."""
+    return hashlib.sha1(np.round(positions, 4).tobytes()).hexdigest()
+
+
 def render(i, motions, cache, scene, eval_path):
     """View ``i``'s tracker dump file (rendered once, then cached for this
     build of tracker_eval and these motions): the first motion is the person
@@ -139,11 +145,11 @@ def render(i, motions, cache, scene, eval_path):
     user tracked (``--dump-users``)."""
     world = motions[0]
     n = int(world.duration * FPS) - 2
-    ident = (world.name, hashlib.sha1(np.round(world.positions, 4).tobytes())
-             .hexdigest(), VIEWS[i], scene, n, build_id(eval_path))
+    ident = (world.name, positions_id(world.positions), VIEWS[i], scene, n,
+             build_id(eval_path))
     if len(motions) > 1:
-        ident += (USERS, hashlib.sha1(np.round(np.concatenate(
-            [m.positions for m in motions[1:]]), 4).tobytes()).hexdigest())
+        ident += (USERS, positions_id(np.concatenate(
+            [m.positions for m in motions[1:]])))
     key = hashlib.sha1(repr(ident).encode()).hexdigest()[:12]
     dump = os.path.join(cache, '%s_%s%s_%s.dump' % (
         world.name, VIEWS[i][0], '_%dp' % len(motions) if len(motions) > 1

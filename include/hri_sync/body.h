@@ -35,6 +35,10 @@ extern const char* const kJointNames[NUM_JOINTS];
 
 using Joints = std::array<Vec3, NUM_JOINTS>;
 
+/// The body's right-to-left axis, shoulders' and hips' together (not normalized):
+/// it and the truth's pointing apart is a skeleton facing the wrong way round.
+inline Vec3 rightToLeft(const Joints& j) { return j[L_SHOULDER] - j[R_SHOULDER] + j[L_HIP] - j[R_HIP]; }
+
 /// Pinhole model of a depth camera with OpenNI's world convention (metres,
 /// x right as seen by the sensor, y up, z along the optical axis).
 struct Camera {

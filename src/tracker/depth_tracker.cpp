@@ -1087,8 +1087,7 @@ void DepthTracker::checkFacing(const std::vector<Vec3>& legs, const Vec3& up, Jo
   if (legs.size() != 2 || legs[0].norm() < kStrongBend || legs[1].norm() < kStrongBend ||
       legs[0].normalized().dot(legs[1].normalized()) < kBendsAgree)
     return;
-  const Joints& b = *j;
-  const Vec3 fitted = horizontal(b[L_HIP] - b[R_HIP] + b[L_SHOULDER] - b[R_SHOULDER], up);
+  const Vec3 fitted = horizontal(rightToLeft(*j), up);
   facing_votes_ = (legs[0] + legs[1]).cross(up).dot(fitted) < 0 ? facing_votes_ + 1 : 0;
   if (facing_votes_ < kFacingVotes) return;
   facing_votes_ = 0;

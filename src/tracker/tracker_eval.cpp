@@ -109,8 +109,7 @@ void account(Stats* s, const SkeletonEstimate& est, const Joints& truth) {
   if (!est.tracked) return;
   if (s->first_tracked < 0) s->first_tracked = s->frames - 1;
   ++s->tracked;
-  auto lateral = [](const Joints& j) { return j[L_SHOULDER] - j[R_SHOULDER] + j[L_HIP] - j[R_HIP]; };
-  s->facing_wrong += lateral(est.joints).dot(lateral(truth)) < 0;
+  s->facing_wrong += rightToLeft(est.joints).dot(rightToLeft(truth)) < 0;
   for (int k = 0; k < NUM_JOINTS; ++k) s->err[k].push_back((est.joints[k] - truth[k]).norm());
   for (int k : {L_HAND, R_HAND})
     if (est.confidence[k] >= 0.5f) s->hands_seen.push_back(s->err[k].back());

@@ -641,13 +641,12 @@ TEST(Facing, AFastSpinDoesNotLeaveTheDancerTurnedRound) {
   Camera cam;
   DepthTracker tracker(cam);
   SceneFrame f;
-  auto lateral = [](const Joints& j) { return j[L_SHOULDER] - j[R_SHOULDER] + j[L_HIP] - j[R_HIP]; };
   int wrong = 0, wrong_late = 0, tracked_late = 0;
   for (int n = 0; n < 14 * 30; ++n) {
     scene.render(n / 30.0, n + 1, cam, &f);
     const SkeletonEstimate est = tracker.update(f.depth_mm.data(), n / 30.0);
     if (!est.tracked) continue;
-    const bool turned = lateral(est.joints).dot(lateral(f.truth)) < 0;
+    const bool turned = rightToLeft(est.joints).dot(rightToLeft(f.truth)) < 0;
     wrong += turned;
     if (n >= 12 * 30) { wrong_late += turned; ++tracked_late; }
   }
