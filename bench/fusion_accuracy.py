@@ -280,8 +280,8 @@ def single_view_errors(views, poses, profile, truth):
 
 def fitted_profile(views, poses, truth):
     """The tracker profile measured on these views: the delay that fits
-    best (10 ms steps), then offsets, sigmas and the confidence power
-    (delay_spread: the delay)."""
+    best (10 ms steps), then offsets, sigmas, the confidence power and the
+    arms' growth from behind (delay_spread: the delay)."""
     t = np.arange(math.ceil(FPS), int(len(views[0][0]) - FPS)) / FPS
     est, conf, ok = [], [], np.ones(len(t), bool)
     for i, (tracked, e, _, c) in enumerate(views):
@@ -294,7 +294,8 @@ def fitted_profile(views, poses, truth):
             for d in np.arange(0.0, 0.101, 0.01)}
     delay = float(min(scan, key=scan.get))
     return fit_profile(est, truth(t[ok] - delay), delay, delay,
-                       np.array(conf)[:, ok])
+                       np.array(conf)[:, ok],
+                       np.array([p.translation() for p in poses]))
 
 
 def figures(frames, captured, truth, best_track):

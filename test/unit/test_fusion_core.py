@@ -10,7 +10,9 @@ from hri_sync.fusion.associate import Associator
 from hri_sync.fusion.calibration import Residuals, refine_pose, shared_points
 from hri_sync.fusion.frames import SensorPose, facing, parse_pose
 from hri_sync.fusion.fuse import FuseParams, Observation, fuse
-from hri_sync.fusion.profile import Profile, confidence_power
+from hri_sync.fusion.pipeline import Fusion, FusionParams
+from hri_sync.fusion.profile import (ARMS, Profile, back_growth, back_view,
+                                     confidence_power)
 
 RNG = np.random.default_rng(36)
 
@@ -232,6 +234,64 @@ def test_profile_error_grows_with_falling_confidence_as_measured():
     sure.power = unsure.power = 0.5
     f = fuse([sure, unsure], FuseParams(agreement=0))
     assert f.positions[0, 0] == pytest.approx(0.1 / 5)
+
+
+def test_back_view_is_how_much_of_the_back_a_sensor_sees():
+    # body() faces +x: a sensor ahead sees its front, one to its side
+    # half, one behind its back; a body without hips has none.
+    assert back_view(body(), (3, 0, 1)) == pytest.approx(0.0)
+    assert back_view(body(), (0, 3, 1)) == pytest.approx(0.5)
+    assert back_view(body(), (-3, 0, 1)) == pytest.approx(1.0)
+    hipless = body()
+    hipless[INDEX['left_hip']] = np.nan
+    assert back_view(hipless, (3, 0, 1)) is None
+
+
+def test_the_arms_growth_from_behind_is_measured():
+    # Arm errors (in units of their modelled sigma) 1 + 0.6 * back_view,
+    # the rest 1 everywhere: b is found from four views around a body
+    # turning on the spot; errors that do not grow give 0.
+    rng = np.random.default_rng(7)
+    turns = np.linspace(0, 2 * np.pi, 500)
+    truth = np.array([body() @ np.array([[math.cos(a), math.sin(a), 0],
+                                         [-math.sin(a), math.cos(a), 0],
+                                         [0, 0, 1]]) for a in turns])
+    sensors = np.array([(3, 0, 1), (0, 3, 1), (-3, 0, 1), (0, -3, 1)])
+    back = np.array([[back_view(b, s) for b in truth] for s in sensors])
+    norm = np.linalg.norm(rng.normal(size=(4, 500, NUM_JOINTS, 3)),
+                          axis=-1) / math.sqrt(3)
+    grown = norm.copy()
+    grown[..., ARMS] *= (1 + 0.6 * back)[..., None]
+    assert back_growth(grown, truth, sensors) == pytest.approx(0.6, abs=0.1)
+    assert back_growth(norm, truth, sensors) < 0.1
+    profile = Profile(back_arms=0.6)
+    assert Profile.from_dict(profile.to_dict()).back_arms == 0.6
+
+
+def test_a_view_behind_the_body_gives_less_of_its_arms():
+    # Two views 0.1 m apart on every joint, one in front of the body and
+    # one behind it: with the profile's growth from behind the fused arms
+    # lean to the front view (weights 1.5 ** 2 : 1), the trunk stays
+    # half way; without it both stay half way.
+    poses = {'front': facing(3.0, 0.0, 1.0), 'back': facing(-3.0, 0.0, 1.0)}
+    truth = body()
+    for back_arms, share in ((0.5, 1.5 ** 2 / (1 + 1.5 ** 2)), (0.0, 0.5)):
+        clock = {'now': 0.0}
+        fusion = Fusion(poses, FusionParams(fuse=FuseParams(agreement=0)),
+                        lambda: clock['now'], profiles={v: Profile(back_arms=back_arms)
+                                  for v in poses})
+        frames = []
+        for k in range(10):
+            clock['now'] = k / 30 + 0.05
+            for view, shift in (('front', 0.0), ('back', 0.1)):
+                fusion.add(view, 1, k / 30, poses[view].from_world(
+                    truth + [0, shift, 0]), np.full(NUM_JOINTS, 0.9), 0.001)
+            frames += fusion.poll()
+        fused = frames[-1].people[0].body.positions
+        hand, head = INDEX['left_hand'], INDEX['head']
+        moved = fused[:, 1] - truth[:, 1]
+        assert moved[hand] == pytest.approx(0.1 * (1 - share), abs=1e-3)
+        assert moved[head] == pytest.approx(0.05, abs=1e-3)
 
 
 def test_residuals_blame_the_view_that_disagrees():

@@ -2,7 +2,9 @@
 
 Each view's joint is weighted by the inverse of its variance: the
 view's own error at that confidence, ``sigma * confidence ** -power`` (m,
-one axis; the tracker's profile), plus the timing term, the view's stamp
+one axis; the tracker's profile) times ``scale`` (where the view stands:
+its arms' error grows as it sees more of the body's back), plus the
+timing term, the view's stamp
 uncertainty (95 %, s) times the joint's speed; times the view's weight (1,
 less for a suspect view). A joint hidden in one view (low confidence) thus
 comes from the views that see it. With three or more views a joint farther
@@ -20,9 +22,11 @@ the timing part from the weight-averaged stamp uncertainty and speed.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Dict, List
+from typing import Dict, List, Optional
 
 import numpy as np
+
+from hri_sync.dance_off.joints import NUM_JOINTS
 
 
 @dataclass
@@ -38,6 +42,7 @@ class Observation:
     sigma: float = 0.05         # m, one axis, at confidence 1
     sigma_common: float = 0.0   # m, one axis, shared by all views
     power: float = 1.0          # sigma grows as confidence ** -power
+    scale: Optional[np.ndarray] = None  # (15,) sigma multipliers; None: 1
 
 
 @dataclass
@@ -72,7 +77,9 @@ def _stack(obs: List[Observation], p: FuseParams) -> Dict[str, np.ndarray]:
         & (a['conf'] >= p.min_confidence) & (weight > 0)
     a['own'] = np.array([o.sigma for o in obs])[:, None] \
         * np.maximum(a['conf'], p.min_confidence) \
-        ** -np.array([o.power for o in obs])[:, None]
+        ** -np.array([o.power for o in obs])[:, None] \
+        * np.array([np.ones(NUM_JOINTS) if o.scale is None else o.scale
+                    for o in obs])
     a['common'] = np.array([o.sigma_common for o in obs])[:, None] \
         + np.zeros_like(a['conf'])
     var = a['own'] ** 2 + (a['timing'] / p.k) ** 2

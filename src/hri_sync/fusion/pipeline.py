@@ -9,7 +9,10 @@ extrapolation, brings each view there), or a view is late past its own
 period plus its p95 pipeline latency (it is then extrapolated a little or
 left out). A stalled view or one with a lost clock is not waited for.
 Each view's tracker profile (hri_sync.fusion.profile) dates its skeletons
-(stamp minus the tracker's delay) and corrects its joints first.
+(stamp minus the tracker's delay) and corrects its joints first; where a
+profile says a view errs more on the arms as it sees more of the body's
+back, each person is fused twice: once to find where the body faces, then
+with each view's arms weighted by its vantage on that body.
 
 A view is suspect while its residuals blame it (calibration.Residuals), or
 while none of its users joins a person other views agree on and one is
@@ -200,7 +203,10 @@ class Fusion:
         people, bodies = [], {}
         for pid in sorted(groups):
             views = [obs[k][0] for k in groups[pid]]
-            body = bodies[pid] = fuse(views, self.params.fuse)
+            body = fuse(views, self.params.fuse)
+            if len(views) > 1 and self._by_vantage(body.positions, views):
+                body = fuse(views, self.params.fuse)
+            bodies[pid] = body
             self.associator.update(pid, body.positions, t)
             if self.associator.held(pid, t):
                 continue
@@ -218,6 +224,18 @@ class Fusion:
         for view, health in self.health.items():
             health.wrong_pose = view in blamed or view in self.fitted
         return Frame(t, people, self.clock())
+
+    def _by_vantage(self, positions: np.ndarray,
+                    views: List[Observation]) -> bool:
+        """Scale each view's sigma by where its sensor stands to the body
+        at ``positions`` (its profile's ``vantage``); whether any
+        changed."""
+        changed = False
+        for o in views:
+            o.scale = self.profiles[o.view].vantage(
+                positions, self.poses[o.view].translation())
+            changed |= o.scale is not None
+        return changed
 
     def _check_poses(self, t: float, obs: Dict[Key, Tuple[Observation,
                                                          float]],

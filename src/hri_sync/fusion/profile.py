@@ -11,8 +11,10 @@ dates the skeleton ``delay`` s before its stamp. ``delay_spread`` (95 %,
 s) is the timing uncertainty that delay adds (it varies with speed in a
 filter); ``sigma`` (m, one axis, at confidence 1) is the error a view has
 on its own, growing as ``confidence ** -confidence_power`` (1: as one
-over the confidence), ``sigma_common`` (m, one axis) the error left that
-all views share. ``fit_profile`` measures them from views of a motion with
+over the confidence) and, for the elbows and hands, by ``1 + back_arms *
+back_view`` with how much of the body's back the view sees (a tracker
+seeing the back mistakes the arms more than its confidences say);
+``sigma_common`` (m, one axis) the error left that all views share. ``fit_profile`` measures them from views of a motion with
 its truth (bench/fusion_accuracy.py --fit-profile).
 """
 
@@ -23,8 +25,31 @@ from typing import Any, Dict, List, Optional
 
 import numpy as np
 
-from hri_sync.dance_off.joints import NUM_JOINTS
+from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
 from hri_sync.people.rep155 import body_axes
+
+ARMS = [INDEX[n] for n in ('left_elbow', 'right_elbow', 'left_hand',
+                           'right_hand')]
+KEYS = ('delay', 'delay_spread', 'sigma', 'sigma_common',
+        'confidence_power', 'back_arms')
+
+
+def back_view(positions: np.ndarray, sensor: np.ndarray
+              ) -> Optional[float]:
+    """How much of a body's back a sensor sees: ``(1 - cos a) / 2``, a
+    the angle at the body between its front and the sensor along the floor
+    (0 front-on, 0.5 side-on, 1 from behind); None when the body has no
+    axes (hips or neck missing). World (z up) positions (15, 3) and
+    sensor position."""
+    axes = body_axes(positions)
+    if axes is None:
+        return None
+    front = axes[:2, 0]
+    to = np.asarray(sensor, float)[:2] - positions[INDEX['torso'], :2]
+    norm = np.linalg.norm(front) * np.linalg.norm(to)
+    if not np.isfinite(norm) or norm < 1e-9:
+        return None
+    return float((1.0 - front @ to / norm) / 2.0)
 
 
 @dataclass
@@ -36,6 +61,7 @@ class Profile:
     sigma: float = 0.05
     sigma_common: float = 0.0
     confidence_power: float = 1.0
+    back_arms: float = 0.0
     offsets: np.ndarray = field(
         default_factory=lambda: np.zeros((NUM_JOINTS, 3)))
 
@@ -47,6 +73,20 @@ class Profile:
             return positions
         return positions - self.offsets @ axes.T
 
+    def vantage(self, positions: np.ndarray, sensor: np.ndarray
+                ) -> Optional[np.ndarray]:
+        """(15,) multipliers of a view's sigma from where its sensor
+        stands to the (fused) body: the arms' ``1 + back_arms *
+        back_view``; None when they are all 1."""
+        if self.back_arms <= 0:
+            return None
+        back = back_view(positions, sensor)
+        if back is None:
+            return None
+        scale = np.ones(NUM_JOINTS)
+        scale[ARMS] += self.back_arms * back
+        return scale
+
     def to_dict(self) -> Dict[str, Any]:
         """Plain values (a YAML param)."""
         return {'delay': round(self.delay, 4),
@@ -54,6 +94,7 @@ class Profile:
                 'sigma': round(self.sigma, 4),
                 'sigma_common': round(self.sigma_common, 4),
                 'confidence_power': round(self.confidence_power, 3),
+                'back_arms': round(self.back_arms, 3),
                 'offsets': np.round(self.offsets, 4).tolist()}
 
     @classmethod
@@ -65,8 +106,7 @@ class Profile:
         if offsets.shape != (NUM_JOINTS, 3) or \
                 not np.isfinite(offsets).all():
             raise ValueError('a profile has 15 finite (x, y, z) offsets')
-        unknown = set(d) - {'delay', 'delay_spread', 'sigma',
-                            'sigma_common', 'confidence_power'}
+        unknown = set(d) - set(KEYS)
         if unknown:
             raise ValueError('unknown profile keys: %s' % sorted(unknown))
         values = {k: float(v) for k, v in d.items()}
@@ -90,11 +130,12 @@ def body_frame_errors(estimates: np.ndarray, truth: np.ndarray
 
 
 def fit_profile(estimates: np.ndarray, truth: np.ndarray, delay: float,
-                delay_spread: float, confidence: Optional[np.ndarray] = None
-                ) -> Profile:
+                delay_spread: float, confidence: Optional[np.ndarray] = None,
+                sensors: Optional[np.ndarray] = None) -> Profile:
     """The offsets and error model of views of one tracker (frames where
     every view tracks), given its delay (estimates already at it);
-    ``confidence`` (views, frames, 15): the confidence power too."""
+    ``confidence`` (views, frames, 15): the confidence power too, and with
+    ``sensors`` (views, 3; world) the arms' growth from behind."""
     err = body_frame_errors(estimates, truth)
     ok = np.isfinite(err).all(axis=(0, 2, 3))
     err = err[:, ok]
@@ -108,8 +149,40 @@ def fit_profile(estimates: np.ndarray, truth: np.ndarray, delay: float,
                                      - sigma ** 2 / n, 0.0)))
     power = 1.0 if confidence is None else \
         confidence_power(own, confidence[:, ok])
-    return Profile(delay, delay_spread, sigma, sigma_common, power,
+    back = 0.0 if confidence is None or sensors is None else back_growth(
+        np.linalg.norm(own, axis=-1) / (sigma * np.maximum(
+            confidence[:, ok], 0.05) ** -power), truth[ok], sensors)
+    return Profile(delay, delay_spread, sigma, sigma_common, power, back,
                    offsets)
+
+
+def back_growth(norm: np.ndarray, truth: np.ndarray, sensors: np.ndarray,
+                bins: int = 5, least: int = 30) -> float:
+    """b in the arms' rms error ~ 1 + b * back_view: a line through the
+    rms of ``norm`` (views, frames, 15: each error over its modelled
+    sigma) on the elbows and hands in ``bins`` equal steps of the views'
+    back_view (each with ``least`` errors or more) over its value at 0;
+    0 when the line does not rise. ``truth``: (frames, 15, 3), world;
+    ``sensors``: (views, 3)."""
+    xs: List[float] = []
+    es: List[float] = []
+    for v, sensor in enumerate(sensors):
+        for k, body in enumerate(truth):
+            back = back_view(body, sensor)
+            if back is not None:
+                xs.extend([back] * len(ARMS))
+                es.extend(norm[v, k, ARMS])
+    x, e = np.array(xs), np.array(es)
+    ok = np.isfinite(e)
+    x, e = x[ok], e[ok]
+    step = np.minimum((x * bins).astype(int), bins - 1)
+    points = [(x[step == b].mean(), np.sqrt((e[step == b] ** 2).mean()))
+              for b in range(bins) if (step == b).sum() >= least]
+    if len(points) < 2:
+        return 0.0
+    px, py = np.array(points).T
+    slope, at_zero = np.polyfit(px, py, 1)
+    return float(max(slope / at_zero, 0.0)) if at_zero > 0 else 0.0
 
 
 def confidence_power(own: np.ndarray, confidence: np.ndarray,
