@@ -89,7 +89,7 @@ _SPEC = importlib.util.spec_from_file_location(
 accuracy = importlib.util.module_from_spec(_SPEC)
 _SPEC.loader.exec_module(accuracy)
 
-FPS = 30.0
+FPS = 30            # each view's frame rate (--fps)
 PROFILE = os.path.join(ROOT, 'config', 'fusion_depth_tracker.yaml')
 HIDDEN = 0.5        # confidence under which a joint is hidden
 # name, position (m, the dancer's mean torso at the origin, facing +x),
@@ -146,7 +146,7 @@ def render(i, motions, cache, scene, eval_path):
     world = motions[0]
     n = int(world.duration * FPS) - 2
     ident = (world.name, positions_id(world.positions), VIEWS[i], scene, n,
-             build_id(eval_path))
+             build_id(eval_path)) + ((FPS,) if FPS != 30 else ())
     if len(motions) > 1:
         ident += (USERS, positions_id(np.concatenate(
             [m.positions for m in motions[1:]])))
@@ -169,7 +169,8 @@ def render(i, motions, cache, scene, eval_path):
         scene += '&crowd_tracks=' + ','.join(tracks[1:])
         out = ['--users', str(USERS), '--dump-users', dump + '.part']
     subprocess.run([eval_path, '--track', tracks[0], '--direct', '--scene',
-                    scene, '--seconds', '%.3f' % (n / FPS)] + out,
+                    scene, '--seconds', '%.3f' % (n / FPS),
+                    '--fps', '%g' % FPS] + out,
                    check=True, stdout=subprocess.DEVNULL)
     os.replace(dump + '.part', dump)
     return dump
@@ -415,6 +416,8 @@ def arguments():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--motion', required=True, help='.bvh, .npz or .track')
     ap.add_argument('--views', type=int, default=3, choices=(2, 3, 4))
+    ap.add_argument('--fps', type=int, default=FPS,
+                    help="each view's frame rate (the fusion's stays 30 Hz)")
     ap.add_argument('--scene', default='noise=kinect1')
     ap.add_argument('--seed', type=int, default=1)
     ap.add_argument('--cache', default='/tmp/hri_sync_fusion')
@@ -549,7 +552,9 @@ def people_main(args, names, profile):
 
 
 def main():
+    global FPS  # every view's frame times follow it
     args = arguments()
+    FPS = args.fps
     names = [v[0] for v in VIEWS[:args.views]]
     with open(args.profile) as f:
         profile = Profile.from_dict(yaml.safe_load(f))

@@ -21,10 +21,11 @@ then SIGCONT) for that many s ~stall_at s into the window, as a machine
 too busy to run it would: the tracker's result must count the frames it
 skipped apart (diagnostics frames_skipped: at least 80 % of the stall's
 frames at the sensor's rate, at most what its /diagnostics dropped_frames
-counted; frames_expected the window's at that rate).  With ~still_client
-(a tracker client too, of a person standing still), that client's score
-must be below the noise rule's bar, ~noise_factor times its noise floor,
-and below ~min_expressiveness, with its tracker tracking.
+counted; frames_expected the window's at that rate, the frames counted
+within it to 2 plus its stamps' error bound at both ends).  With
+~still_client (a tracker client too, of a person standing still), that
+client's score must be below the noise rule's bar, ~noise_factor times its
+noise floor, and below ~min_expressiveness, with its tracker tracking.
 """
 import math
 import os
@@ -283,12 +284,18 @@ class TrackerDanceOffTest(unittest.TestCase):
         self.assertGreaterEqual(n['frames_skipped'],
                                 0.8 * self.frozen[0] * n['sensor_rate'])
         # A window holds its length x rate frames +/- 1 by its phase, and
-        # the rate is estimated from the frames: within 2 frames.
+        # the rate is estimated from the frames: within 2 frames; which
+        # frames fall in it is known to within its stamps' error bound at
+        # either end (a tracker starved for long has a loose device clock
+        # map: 0.58 s once, where 0.02-0.05 s is usual).
+        u = r.timing_uncertainty
+        slack = 2 + (math.ceil(2 * u * n['sensor_rate'])
+                     if math.isfinite(u) else 0)
         self.assertLessEqual(n['frames_published'] + n['frames_skipped'],
-                             n['frames_expected'] + 2)
+                             n['frames_expected'] + slack)
         self.assertAlmostEqual(n['frames_published'] + n['frames_skipped']
                                + n['frames_unpublished'],
-                               n['frames_expected'], delta=2)
+                               n['frames_expected'], delta=slack)
         self.assertGreaterEqual(n['frames_published'], r.frames)
         # The tracker's own count (all it skipped since it started).
         dropped = [d for _, d in self.tracker_diags.get(tracker, [])]
