@@ -27,6 +27,7 @@ constexpr double kHeadAxis = 0.2;         // m: a head candidate's horizontal re
 constexpr double kHeadBelowTop = 0.15;    // m a head may sit below the axis's top while calibrating
 constexpr double kBelowAxisTopCost = 4.0; // labelling cost per m below that
 constexpr size_t kRefitFrames = 8;      // frames the second search fits
+constexpr double kMaxReach = 1.25;      // a limb's reach, at most, over its proportions' (scaled up to 1.2)
 constexpr double kModelStepPerFrame = 0.003;  // a length's largest relative change per frame
 constexpr int kSeenPoints = 5;  // depth points a fitted joint needs to count as seen
 constexpr double kStrongBend = 0.15;  // m each knee must bend for the knees to say the facing
@@ -715,8 +716,12 @@ BodyModel calibrateBody(const std::vector<CalibrationSample>& samples) {
     legs.insert(legs.end(), s.leg_reach.begin(), s.leg_reach.end());
   }
   BodyModel m = BodyModel::fromHeight(heights.empty() ? 1.70 : median(heights));
-  // Limb reach (shoulder or hip to the tip) refines each limb's scale.
+  // Limb reach (shoulder or hip to the tip) refines each limb's scale. A tip
+  // farther than any limb reaches is something else (seen side-on, a still
+  // person's far hand was a tip 1.3-1.4 times an arm away in 12 frames of 15,
+  // and made the arms 20 % long): it is left out, not taken as the most.
   auto scale = [](std::vector<double> v, double expected) {
+    v.erase(std::remove_if(v.begin(), v.end(), [&](double r) { return r > kMaxReach * expected; }), v.end());
     if (v.size() < 5) return 1.0;
     std::sort(v.begin(), v.end());
     double reach = v[v.size() * 9 / 10];
