@@ -277,9 +277,9 @@ def test_a_view_behind_the_body_gives_less_of_its_arms():
     truth = body()
     for back_arms, share in ((0.5, 1.5 ** 2 / (1 + 1.5 ** 2)), (0.0, 0.5)):
         clock = {'now': 0.0}
+        profiles = {v: Profile(back_arms=back_arms) for v in poses}
         fusion = Fusion(poses, FusionParams(fuse=FuseParams(agreement=0)),
-                        lambda: clock['now'], profiles={v: Profile(back_arms=back_arms)
-                                  for v in poses})
+                        lambda: clock['now'], profiles)
         frames = []
         for k in range(10):
             clock['now'] = k / 30 + 0.05

@@ -4,11 +4,11 @@ Each view's joint is weighted by the inverse of its variance: the
 view's own error at that confidence, ``sigma * confidence ** -power`` (m,
 one axis; the tracker's profile) times ``scale`` (where the view stands:
 its arms' error grows as it sees more of the body's back), plus the
-timing term, the view's stamp
-uncertainty (95 %, s) times the joint's speed; times the view's weight (1,
-less for a suspect view). A joint hidden in one view (low confidence) thus
-comes from the views that see it. With three or more views a joint farther
-than ``outlier`` m from the views' median is left out; then each view's
+timing term, the view's stamp uncertainty (95 %, s) times the joint's
+speed; times the view's weight (1, less for a suspect view). A joint
+hidden in one view (low confidence) thus comes from the views that see
+it. With three or more views a joint farther than ``outlier`` m from the
+views' median is left out; then each view's
 weight is scaled by its agreement with the others, ``1 / (1 + (d / (c *
 s)) ** 2)`` (Cauchy, c = ``agreement``: 2.385, its usual 95 %-efficient
 constant), d its distance from the fused joint, s its expected error,

@@ -14,8 +14,9 @@ on its own, growing as ``confidence ** -confidence_power`` (1: as one
 over the confidence) and, for the elbows and hands, by ``1 + back_arms *
 back_view`` with how much of the body's back the view sees (a tracker
 seeing the back mistakes the arms more than its confidences say);
-``sigma_common`` (m, one axis) the error left that all views share. ``fit_profile`` measures them from views of a motion with
-its truth (bench/fusion_accuracy.py --fit-profile).
+``sigma_common`` (m, one axis) the error left that all views share.
+``fit_profile`` measures them from views of a motion with its truth
+(bench/fusion_accuracy.py --fit-profile).
 """
 
 from __future__ import annotations
