@@ -28,6 +28,16 @@ import numpy as np
 
 from hri_sync.dance_off.joints import NUM_JOINTS
 
+LEAST_CONFIDENCE = 0.05     # a joint below it is not used; the floor of
+                            # the error model's confidence
+
+
+def own_sigma(sigma, confidence, power, least=LEAST_CONFIDENCE):
+    """A view's own error (m, one axis) at ``confidence``: the tracker
+    profile's ``sigma * confidence ** -power``, the confidence floored at
+    ``least`` (arrays broadcast)."""
+    return sigma * np.maximum(confidence, least) ** -power
+
 
 @dataclass
 class Observation:
@@ -49,7 +59,7 @@ class Observation:
 class FuseParams:
     """How joints are fused."""
 
-    min_confidence: float = 0.05
+    min_confidence: float = LEAST_CONFIDENCE
     k: float = 2.8              # 95 % of a 3-D normal: sqrt(chi2(3, .95))
     outlier: float = 0.3        # m
     agreement: float = 2.385    # Cauchy constant (0: no reweighting)
@@ -75,9 +85,9 @@ def _stack(obs: List[Observation], p: FuseParams) -> Dict[str, np.ndarray]:
     weight = np.array([o.weight for o in obs], float)[:, None]
     usable = np.isfinite(a['pts']).all(axis=2) \
         & (a['conf'] >= p.min_confidence) & (weight > 0)
-    a['own'] = np.array([o.sigma for o in obs])[:, None] \
-        * np.maximum(a['conf'], p.min_confidence) \
-        ** -np.array([o.power for o in obs])[:, None] \
+    a['own'] = own_sigma(np.array([o.sigma for o in obs])[:, None],
+                         a['conf'], np.array([o.power for o in obs])[:, None],
+                         p.min_confidence) \
         * np.array([np.ones(NUM_JOINTS) if o.scale is None else o.scale
                     for o in obs])
     a['common'] = np.array([o.sigma_common for o in obs])[:, None] \

@@ -27,6 +27,7 @@ from typing import Any, Dict, List, Optional
 import numpy as np
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
+from hri_sync.fusion.fuse import own_sigma
 from hri_sync.people.rep155 import body_axes
 
 ARMS = [INDEX[n] for n in ('left_elbow', 'right_elbow', 'left_hand',
@@ -151,8 +152,8 @@ def fit_profile(estimates: np.ndarray, truth: np.ndarray, delay: float,
     power = 1.0 if confidence is None else \
         confidence_power(own, confidence[:, ok])
     back = 0.0 if confidence is None or sensors is None else back_growth(
-        np.linalg.norm(own, axis=-1) / (sigma * np.maximum(
-            confidence[:, ok], 0.05) ** -power), truth[ok], sensors)
+        np.linalg.norm(own, axis=-1)
+        / own_sigma(sigma, confidence[:, ok], power), truth[ok], sensors)
     return Profile(delay, delay_spread, sigma, sigma_common, power, back,
                    offsets)
 
