@@ -73,7 +73,9 @@ BodyModel towards(const BodyModel& from, const BodyModel& to, double max_step);
 /// a start, a few pose fits at a time so that tracking goes on meanwhile.
 class ModelSearch {
  public:
-  ModelSearch(const Camera& cam, std::vector<FitFrame> frames, const BodyModel& start);
+  /// grow_arms false: the arms' lengths may only shrink (frames of one pose
+  /// cannot tell a longer arm seen end-on from the start's).
+  ModelSearch(const Camera& cam, std::vector<FitFrame> frames, const BodyModel& start, bool grow_arms = true);
   /// Runs up to fits pose fits; true once the search is over.
   bool advance(int fits);
   /// The best model so far.
@@ -90,6 +92,7 @@ class ModelSearch {
   int step_ = 0, round_ = 0, param_ = 0;
   int dir_ = -1;  ///< -1: evaluating the start; 0: scaling up; 1: scaling down
   bool moved_ = false, done_ = false;
+  bool grow_arms_ = true;
 };
 
 }  // namespace hri_sync

@@ -1031,7 +1031,12 @@ void DepthTracker::calibrate(const PointGrid& g, const Segmentation& seg, const 
     if (static_cast<int>(calib_.size()) >= params_.calibration_frames) {
       model_ = calibrateBody(calib_);
       target_ = model_;
-      if (model_.calibrated) search_ = std::make_unique<ModelSearch>(cam_, std::move(calib_frames_), model_);
+      // The calibration's frames span half a second: about one pose, which
+      // cannot tell a longer arm seen end-on from the calibrated one (a
+      // still person seen side-on had the search take the upper arm from
+      // 0.36 to 0.47 m). The arms grow only in the second search.
+      if (model_.calibrated)
+        search_ = std::make_unique<ModelSearch>(cam_, std::move(calib_frames_), model_, /*grow_arms=*/false);
       calib_.clear();  // done (or no head seen yet: start over)
       calib_frames_.clear();
     }

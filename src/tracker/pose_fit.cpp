@@ -334,8 +334,8 @@ BodyModel towards(const BodyModel& from, const BodyModel& to, double max_step) {
   return out;
 }
 
-ModelSearch::ModelSearch(const Camera& cam, std::vector<FitFrame> frames, const BodyModel& start)
-    : cam_(cam), frames_(std::move(frames)), prior_(start), best_(start), cand_(start) {
+ModelSearch::ModelSearch(const Camera& cam, std::vector<FitFrame> frames, const BodyModel& start, bool grow_arms)
+    : cam_(cam), frames_(std::move(frames)), prior_(start), best_(start), cand_(start), grow_arms_(grow_arms) {
   done_ = frames_.empty();
 }
 
@@ -387,6 +387,8 @@ void ModelSearch::next(double energy) {
     }
   }
   cand_ = best_;
+  const bool arm = kLengths[param_] == &BodyModel::upper_arm || kLengths[param_] == &BodyModel::forearm;
+  if (arm && !grow_arms_ && dir_ == 0) dir_ = 1;  // straight to scaling down
   cand_.*kLengths[param_] *= 1 + (dir_ == 0 ? 1 : -1) * kSearchSteps[step_];
 }
 
