@@ -11,10 +11,12 @@ expressiveness over the run and its largest 2 s window (the project's
 expressiveness, joints below confidence 0.5 left out, as the DPM does);
 head-to-foot (head joint to the feet joints' midpoint, median over the
 last 5 s, once the bone lengths are known) against the rendered truth's;
-the torso's largest error.
+the torso's largest error. --seeds renders each row with each scene seed
+(the Kinect noise's; a row per seed); --eval runs another tracker_eval.
 
     bench/tracker_still.py                        # the table in docs/tracker.md
     bench/tracker_still.py --distances 2,3 --walls none,0.1 --centre
+    bench/tracker_still.py --distances 2.5,3,3.5,4 --walls 0.1 --seconds 12 --seeds 1,2,3,4,5,6
 
 Needs the built workspace sourced (source WS/devel/setup.bash).
 """
@@ -99,16 +101,21 @@ def figures(dump):
     return row
 
 
-def run_row(exe, track, distance, wall, args, tmp):
-    name = '%g_%s' % (distance, wall)
+def run_row(exe, track, distance, wall, seed, args, tmp):
+    name = '%g_%s_%s' % (distance, wall, seed)
     still = os.path.join(tmp, name + '.track')
     still_at(track, distance, args.centre, args.seconds, still)
     scene = 'noise=kinect1' if wall == 'none' else \
         'wall=%s&noise=kinect1' % wall
+    if seed is not None:
+        scene += '&seed=%d' % seed
     dump = os.path.join(tmp, name + '.dump')
     subprocess.run([exe, '--track', still, '--direct', '--scene', scene,
                     '--dump', dump], check=True, capture_output=True)
-    return dict(distance_m=distance, wall_m=wall, **figures(dump))
+    row = dict(distance_m=distance, wall_m=wall)
+    if seed is not None:
+        row['seed'] = seed
+    return dict(row, **figures(dump))
 
 
 def main():
@@ -120,15 +127,21 @@ def main():
     ap.add_argument('--seconds', type=float, default=20.0)
     ap.add_argument('--centre', action='store_true',
                     help='the torso on the optical axis')
+    ap.add_argument('--seeds', default='',
+                    help='scene seeds, comma-separated (default: the '
+                    "scene's own)")
+    ap.add_argument('--eval', default='',
+                    help='a tracker_eval to run (default: the built one)')
     ap.add_argument('--jobs', type=int, default=2)
     args = ap.parse_args()
-    exe = accuracy.find_eval()
-    cells = [(float(z), w) for z in args.distances.split(',')
-             for w in args.walls.split(',')]
+    exe = args.eval or accuracy.find_eval()
+    seeds = [int(s) for s in args.seeds.split(',')] if args.seeds else [None]
+    cells = [(float(z), w, s) for z in args.distances.split(',')
+             for w in args.walls.split(',') for s in seeds]
     with tempfile.TemporaryDirectory() as tmp, \
             concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
-        rows = list(pool.map(lambda c: run_row(exe, args.motion, c[0], c[1],
-                                               args, tmp), cells))
+        rows = list(pool.map(lambda c: run_row(exe, args.motion, *c, args,
+                                               tmp), cells))
     print(json.dumps({'motion': os.path.basename(args.motion),
                       'seconds': args.seconds, 'centre': args.centre,
                       'commit': accuracy.git_commit(), 'rows': rows}))
