@@ -349,7 +349,9 @@ TEST(Calibration, ModelSearchWithoutArmGrowthLeavesShortArms) {
   auto run = [&](bool grow_arms) {
     ModelSearch search(cam, frames, start, grow_arms);
     int fits = 0;
-    while (!search.advance(1)) EXPECT_LT(++fits, 2000) << "the search does not end";
+    while (!search.advance(1) && ++fits < 2000) {
+    }
+    EXPECT_LT(fits, 2000) << "the search does not end";
     return search.best();
   };
   const BodyModel held = run(false), grown = run(true);
