@@ -68,6 +68,17 @@ FitFrame fitFrame(const Camera& cam, const Joints& truth, double shake, std::mt1
   return f;
 }
 
+constexpr int kMostSearchFits = 2000;  // a search not over by then does not end
+
+// Runs a bone-length search a fit at a time until it is over, or for
+// kMostSearchFits fits: the fits it took.
+int runToEnd(ModelSearch* search) {
+  int fits = 0;
+  while (!search->advance(1) && ++fits < kMostSearchFits) {
+  }
+  return fits;
+}
+
 }  // namespace
 
 TEST(Track, RejectsMalformedLines) {
@@ -323,8 +334,8 @@ TEST(Calibration, ModelSearchMovesTheLegsTowardsTheirLength) {
   for (int k = 0; k < 6; ++k) frames.push_back(fitFrame(cam, m.at(0.2 + 0.1 * k, false), 0.03, &rng));
   const BodyModel start = BodyModel::fromHeight(1.74);
   ModelSearch search(cam, frames, start);
-  int fits = 0;
-  while (!search.advance(1)) ASSERT_LT(++fits, 2000) << "the search does not end";
+  const int fits = runToEnd(&search);
+  ASSERT_LT(fits, kMostSearchFits) << "the search does not end";
   const Joints& j0 = m.frames().front();
   const double leg = boneLength(j0, L_HIP, L_KNEE) + boneLength(j0, L_KNEE, L_FOOT);
   const BodyModel& b = search.best();
@@ -348,10 +359,7 @@ TEST(Calibration, ModelSearchWithoutArmGrowthLeavesShortArms) {
   start.forearm *= 0.85;
   auto run = [&](bool grow_arms) {
     ModelSearch search(cam, frames, start, grow_arms);
-    int fits = 0;
-    while (!search.advance(1) && ++fits < 2000) {
-    }
-    EXPECT_LT(fits, 2000) << "the search does not end";
+    EXPECT_LT(runToEnd(&search), kMostSearchFits) << "the search does not end";
     return search.best();
   };
   const BodyModel held = run(false), grown = run(true);
