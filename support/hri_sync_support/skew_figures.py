@@ -227,6 +227,9 @@ def summarize(args, rounds, failures, clocks, extra, same_sensor=True):
         'start_skew_per_round_ms': [round(r['skew'] * 1e3, 3)
                                     if 'skew' in r else None
                                     for r in rounds],
+        'clock_model_errors_per_round_us': [
+            {c: round(e * 1e6, 1) for c, e in sorted(
+                r.get('model_errors', {}).items())} for r in rounds],
         'clock_error_mean_ms': {c: mean_ms(v)
                                 for c, v in sorted(signed.items())},
         'clocks': {c: {'offset_s': round(k.offset, 6),
