@@ -12,7 +12,10 @@ Each view's tracker profile (hri_sync.fusion.profile) dates its skeletons
 (stamp minus the tracker's delay) and corrects its joints first; where a
 profile says a view errs more on the arms as it sees more of the body's
 back, each person is fused twice: once to find where the body faces, then
-with each view's arms weighted by its vantage on that body.
+with each view's arms weighted by its vantage on that body. Before that,
+a view whose tracker exchanged the left and right arms has them put back
+(hri_sync.fusion.arms), against the person's body predicted from its last
+two fused instants.
 
 A view is suspect while its residuals blame it (calibration.Residuals), or
 while none of its users joins a person other views agree on and one is
@@ -36,6 +39,7 @@ from typing import Callable, Dict, Hashable, List, Optional, Tuple
 import numpy as np
 
 from hri_sync.fusion.align import Sample, Track
+from hri_sync.fusion.arms import ArmParams, arms_to_exchange, exchanged
 from hri_sync.fusion.associate import Associator, Key, body_distance, views_of
 from hri_sync.fusion.calibration import Fit, PoseFit, Residuals
 from hri_sync.fusion.frames import SensorPose
@@ -56,6 +60,7 @@ class FusionParams:
     suspect_weight: float = 0.1         # a wrong-pose view's weight
     skip_after: float = 1.0             # s behind the newest: skip ahead
     fuse: FuseParams = field(default_factory=FuseParams)
+    arms: ArmParams = field(default_factory=ArmParams)
     health: HealthParams = field(default_factory=HealthParams)
     gate: float = 0.5                   # m, association (associate.py)
     residual_threshold: float = 0.2     # m, wrong pose (calibration.py)
@@ -102,6 +107,8 @@ class Fusion:
         self.tried: Dict[str, float] = {}   # view: when its pose was fitted
         self.sightlines = Sightlines(self.params.sight)
         self.next_k: Optional[int] = None
+        # Each person's last two fused instants: (t, positions).
+        self.past: Dict[int, List[Tuple[float, np.ndarray]]] = {}
 
     def add(self, view: str, user: Hashable, stamp: float,
             positions: np.ndarray, confidence: np.ndarray,
@@ -203,9 +210,12 @@ class Fusion:
         people, bodies = [], {}
         for pid in sorted(groups):
             views = [obs[k][0] for k in groups[pid]]
+            self._put_arms_right(pid, t, views)
             body = fuse(views, self.params.fuse)
             if len(views) > 1 and self._by_vantage(body.positions, views):
                 body = fuse(views, self.params.fuse)
+            past = self.past.get(pid, []) + [(t, body.positions)]
+            self.past[pid] = past[-2:]
             bodies[pid] = body
             self.associator.update(pid, body.positions, t)
             if self.associator.held(pid, t):
@@ -219,11 +229,32 @@ class Fusion:
                                          {k[0] for k in keys})
                                    for pid, keys in groups.items()},
                                self.poses)
+        for pid in [p for p, past in self.past.items()
+                    if past[-1][0] < t - 1.0]:
+            del self.past[pid]
         blamed, _ = self.residuals.wrong()
         self._check_poses(t, obs, ids, bodies, blamed)
         for view, health in self.health.items():
             health.wrong_pose = view in blamed or view in self.fitted
         return Frame(t, people, self.clock())
+
+    def _put_arms_right(self, pid: int, t: float,
+                        views: List[Observation]) -> None:
+        """Exchange the arms of the views whose tracker exchanged them
+        (hri_sync.fusion.arms), against person ``pid``'s body predicted
+        at ``t`` from its fused instants just before; counted per view."""
+        past = self.past.get(pid, [])
+        step = 1.0 / self.params.rate
+        if len(past) < 2 or abs(t - past[1][0] - step) > step / 2 \
+                or abs(past[1][0] - past[0][0] - step) > step / 2:
+            return
+        predicted = 2 * past[1][1] - past[0][1]
+        for o, swap in zip(views, arms_to_exchange(
+                views, predicted, self.params.arms, self.params.fuse)):
+            if swap:
+                o.positions = exchanged(o.positions)
+                o.confidence = exchanged(o.confidence)
+                self.health[o.view].arms_exchanged += 1
 
     def _by_vantage(self, positions: np.ndarray,
                     views: List[Observation]) -> bool:

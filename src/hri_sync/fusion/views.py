@@ -4,8 +4,10 @@ A view is ``stalled`` when no skeleton came for ``stall_after`` s (the
 fusion stops waiting for it), its clock is ``lost`` when its samples'
 stamp uncertainty is over ``max_uncertainty`` s (they are left out),
 ``nan_joints`` counts skeletons with NaN joints in the last ``window`` s
-(those joints are left out), and ``wrong_pose`` is set by the
-calibration check (the view is down-weighted). The view's pipeline
+(those joints are left out), ``wrong_pose`` is set by the
+calibration check (the view is down-weighted), and ``arms_exchanged``
+counts the instants its tracker's left and right arms were exchanged
+back (hri_sync.fusion.arms). The view's pipeline
 latency (arrival minus capture) is kept to know how long to wait for it.
 """
 
@@ -42,6 +44,7 @@ class ViewHealth:
         default_factory=lambda: collections.deque(maxlen=30))
     nan_times: Deque[float] = field(default_factory=collections.deque)
     wrong_pose: bool = False
+    arms_exchanged: int = 0         # instants its arms were put right
     rejected: Dict[str, int] = field(default_factory=dict)
     _latency: float = 0.0
     _period: float = 0.0
