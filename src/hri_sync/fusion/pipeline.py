@@ -15,7 +15,9 @@ back, each person is fused twice: once to find where the body faces, then
 with each view's arms weighted by its vantage on that body. Before that,
 a view whose tracker exchanged the left and right arms has them put back
 (hri_sync.fusion.arms), against the person's body predicted from its last
-two fused instants.
+two fused instants. A view's skeleton of someone farther than its sensor
+tracks (``sight.far``) is taken to err ``far_sigma`` times its profile's
+sigma.
 
 A view is suspect while its residuals blame it (calibration.Residuals), or
 while none of its users joins a person other views agree on and one is
@@ -45,7 +47,7 @@ from hri_sync.fusion.calibration import Fit, PoseFit, Residuals
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import FuseParams, Fused, Observation, fuse
 from hri_sync.fusion.profile import Profile
-from hri_sync.fusion.sightlines import SightParams, Sightlines
+from hri_sync.fusion.sightlines import SightParams, Sightlines, place
 from hri_sync.fusion.views import HealthParams, ViewHealth
 
 
@@ -58,6 +60,8 @@ class FusionParams:
     max_gap: float = 0.25               # s between samples interpolated
     wait_margin: float = 0.005          # s past a view's expected arrival
     suspect_weight: float = 0.1         # a wrong-pose view's weight
+    far_sigma: float = 3.0              # a view's error beyond its range,
+                                        # times its profile's
     skip_after: float = 1.0             # s behind the newest: skip ahead
     fuse: FuseParams = field(default_factory=FuseParams)
     arms: ArmParams = field(default_factory=ArmParams)
@@ -193,9 +197,12 @@ class Fusion:
             weight = self.params.suspect_weight \
                 if self.health[view].wrong_pose else 1.0
             profile = self.profiles[view]
+            sigma = profile.sigma * (self.params.far_sigma if
+                                     self._beyond_range(view, a.positions)
+                                     else 1.0)
             out[key] = (Observation(view, a.positions, a.confidence,
-                                    a.speed, a.uncertainty, weight,
-                                    profile.sigma, profile.sigma_common,
+                                    a.speed, a.uncertainty, weight, sigma,
+                                    profile.sigma_common,
                                     profile.confidence_power), a.newest)
         return out
 
@@ -237,6 +244,20 @@ class Fusion:
         for view, health in self.health.items():
             health.wrong_pose = view in blamed or view in self.fitted
         return Frame(t, people, self.clock())
+
+    def _beyond_range(self, view: str, positions: np.ndarray) -> bool:
+        """Whether the body at ``positions`` (world) stands farther from
+        ``view``'s sensor along the floor than the sensors track
+        (``sight.far``): the view's joints are then far worse than its
+        profile says (``far_sigma`` times), its confidence unchanged;
+        counted."""
+        xy = place(positions)
+        pose = self.poses[view]
+        if xy is None or math.hypot(xy[0] - pose.x, xy[1] - pose.y) \
+                <= self.params.sight.far:
+            return False
+        self.health[view].beyond_range += 1
+        return True
 
     def _put_arms_right(self, pid: int, t: float,
                         views: List[Observation]) -> None:

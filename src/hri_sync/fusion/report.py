@@ -32,7 +32,8 @@ def view_status(fusion: Fusion, view: str) -> Status:
               ('period (ms)', '%.1f' % (health.period() * 1e3)),
               ('stamp uncertainty (ms)',
                '%.3f' % (health.last_uncertainty * 1e3)),
-              ('arms exchanged back', str(health.arms_exchanged))]
+              ('arms exchanged back', str(health.arms_exchanged)),
+              ('beyond range', str(health.beyond_range))]
     values += [('rejected ' + r, str(n))
                for r, n in sorted(health.rejected.items())]
     return 'view %s' % view, level, message, values

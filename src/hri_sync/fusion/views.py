@@ -7,7 +7,8 @@ stamp uncertainty is over ``max_uncertainty`` s (they are left out),
 (those joints are left out), ``wrong_pose`` is set by the
 calibration check (the view is down-weighted), and ``arms_exchanged``
 counts the instants its tracker's left and right arms were exchanged
-back (hri_sync.fusion.arms). The view's pipeline
+back (hri_sync.fusion.arms), ``beyond_range`` its skeletons of someone
+farther than the sensor tracks (down-weighted). The view's pipeline
 latency (arrival minus capture) is kept to know how long to wait for it.
 """
 
@@ -45,6 +46,7 @@ class ViewHealth:
     nan_times: Deque[float] = field(default_factory=collections.deque)
     wrong_pose: bool = False
     arms_exchanged: int = 0         # instants its arms were put right
+    beyond_range: int = 0           # its skeletons of someone too far
     rejected: Dict[str, int] = field(default_factory=dict)
     _latency: float = 0.0
     _period: float = 0.0
