@@ -44,7 +44,7 @@ class FusionNode:
         params.residual_threshold = param('residual_threshold', 0.2, float,
                                           positive)
         params.arms.margin = param('arms_margin', 0.2, float,
-                                   lambda x: x > 0, '> 0 m (.inf: never)')
+                                   lambda x: x > 0, '> 0 m (inf: never)')
         params.sight.fov_deg = param('fov_deg', 57.0, float,
                                      lambda x: 0 < x < 360, '0-360 degrees')
         params.sight.far = param('max_range', 4.5, float, positive)
