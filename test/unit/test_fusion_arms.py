@@ -2,37 +2,20 @@
 arms is put right when both the person's predicted body and the person's
 other views say so, never on one of them alone, and counted."""
 import math
-import os
 
 import numpy as np
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
-from hri_sync.dance_off.motion import load_motion
 from hri_sync.fusion.arms import (ARMS, ArmParams, arms_to_exchange,
                                   exchanged)
 from hri_sync.fusion.frames import SensorPose, parse_pose
 from hri_sync.fusion.fuse import FuseParams, Observation
-from hri_sync.fusion.pipeline import Fusion, FusionParams
+from hri_sync.fusion.pipeline import FusionParams
 from hri_sync.fusion.report import view_status
+from test_fusion_core import body
+from test_fusion_wrong_pose import ORIGINAL, dancer, run as feed
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(
-    os.path.abspath(__file__))))
 RNG = np.random.default_rng(38)
-
-
-def body():
-    """A standing body in world, its hands apart."""
-    p = np.zeros((NUM_JOINTS, 3))
-    rows = {'head': (0, 1.6), 'neck': (0, 1.4), 'torso': (0, 1.2),
-            'left_shoulder': (0.2, 1.4), 'right_shoulder': (-0.2, 1.4),
-            'left_elbow': (0.35, 1.2), 'right_elbow': (-0.35, 1.2),
-            'left_hand': (0.5, 1.3), 'right_hand': (-0.5, 1.0),
-            'left_hip': (0.1, 0.9), 'right_hip': (-0.1, 0.9),
-            'left_knee': (0.1, 0.45), 'right_knee': (-0.1, 0.45),
-            'left_foot': (0.1, 0.05), 'right_foot': (-0.1, 0.05)}
-    for name, (dy, z) in rows.items():
-        p[INDEX[name]] = (0.0, dy, z)
-    return p
 
 
 def views(names, swapped=()):
@@ -72,11 +55,24 @@ def test_one_reference_alone_exchanges_nothing():
     # views do not agree, so nothing is exchanged.
     obs = views('abcd')
     assert not any(decide(obs, exchanged(body())).values())
+    # The other views blame 'c', but the prediction carries c's labels:
+    # c is left as it is.
+    obs = views('abcd', swapped='c')
+    assert not any(decide(obs, exchanged(body())).values())
     # Three views exchanged together: the fourth, right one, is left alone
     # though the other views blame it; the three are blamed by the
     # prediction but not by their others (two of which exchanged too).
     obs = views('abcd', swapped='abc')
     assert not any(decide(obs, body()).values())
+    # The wrong prediction blames one view alone: the others hold their
+    # hands together in front, so their body says nothing of its labels.
+    obs = views('abcd')
+    for o in obs:
+        if o.view != 'c':
+            for side in ('left', 'right'):
+                o.positions[INDEX[side + '_elbow']] = (0.2, 0.0, 1.15)
+                o.positions[INDEX[side + '_hand']] = (0.4, 0.0, 1.2)
+    assert not any(decide(obs, exchanged(body())).values())
 
 
 def test_nothing_without_a_prediction_or_with_three_views():
@@ -100,31 +96,20 @@ POSES = {'front': SensorPose(3.3, 0.0, 1.0, math.pi),
          'right': parse_pose('0.0 -3.3 1.0 1.571')}
 
 
-def run(arms, swap_from=2.0, swap_to=4.0, seconds=6.0, rate=30.0):
-    """A Fusion of four views of the salsa dancer, 1 cm noise, 50 ms late;
-    the back view's tracker exchanges the arms from ``swap_from`` to
-    ``swap_to`` s. Returns the fusion, its frames and the truth."""
-    motion = load_motion(os.path.join(ROOT, 'data', 'motion',
-                                      'cmu_60_01_salsa.track'))
-    place = SensorPose(2.5, 0.0, 1.0, math.pi)   # the motion's sensor
-    rng = np.random.default_rng(7)
-    clock = {'now': 0.0}
-    fusion = Fusion(POSES, FusionParams(arms=arms),
-                    clock=lambda: clock['now'])
-    frames = []
-    for k in range(int(seconds * rate)):
-        t = k / rate
-        clock['now'] = t + 0.05
-        world = place.to_world(motion.positions_at([t])[0])
-        for view, pose in POSES.items():
-            local = pose.from_world(world) + rng.normal(0, 0.01, world.shape)
-            if view == 'back' and swap_from <= t < swap_to:
-                local = exchanged(local)
-            fusion.add(view, 1, t, local, np.full(15, 0.9), 0.001)
-        frames += fusion.poll()
+def run(arms, swap_from=2.0, swap_to=4.0, seconds=6.0):
+    """A Fusion of four views of the salsa dancer (1 cm noise, 50 ms
+    late); the back view's tracker exchanges the arms from ``swap_from``
+    to ``swap_to`` s. Returns the fusion, its frames and the truth."""
+    motion = dancer()
 
     def truth(t):
-        return place.to_world(motion.positions_at([t])[0])
+        return ORIGINAL.to_world(motion.positions_at([t])[0])
+
+    def seen(view, t):
+        swapped = view == 'back' and swap_from <= t < swap_to
+        return exchanged(truth(t)) if swapped else truth(t)
+    fusion, frames = feed(seconds, {}, [seen], poses=POSES,
+                          params=FusionParams(arms=arms))
     return fusion, frames, truth
 
 

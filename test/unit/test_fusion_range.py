@@ -5,40 +5,28 @@ import math
 
 import numpy as np
 
-from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
+from hri_sync.dance_off.joints import INDEX
 from hri_sync.fusion.frames import SensorPose
-from hri_sync.fusion.pipeline import Fusion, FusionParams
+from hri_sync.fusion.pipeline import FusionParams
 from hri_sync.fusion.report import view_status
+from test_fusion_core import body
+from test_fusion_wrong_pose import run as feed
 
-
-def standing(x, y):
-    """A still body in world at (x, y): joints at its height, 0.2 m wide."""
-    p = np.zeros((NUM_JOINTS, 3))
-    for j in range(NUM_JOINTS):
-        p[j] = (x, y + (0.2 if j % 2 else -0.2), 1.6 - 0.1 * j)
-    return p
+POSES = {'near': SensorPose(3.0, 0.0, 1.0, math.pi),
+         'side': SensorPose(0.0, 3.0, 1.0, -math.pi / 2),
+         'far': SensorPose(-5.5, 0.0, 1.0, 0.0)}
 
 
 def fused(far_sigma, person=(0.0, 0.0)):
     """The fused head over 2 s of three views of one still person at
     ``person``: 'near' and 'side' see them right, 'far' (5.5 m from the
     origin) 0.2 m off."""
-    poses = {'near': SensorPose(3.0, 0.0, 1.0, math.pi),
-             'side': SensorPose(0.0, 3.0, 1.0, -math.pi / 2),
-             'far': SensorPose(-5.5, 0.0, 1.0, 0.0)}
-    clock = {'now': 0.0}
-    fusion = Fusion(poses, FusionParams(far_sigma=far_sigma),
-                    clock=lambda: clock['now'])
-    truth = standing(*person)
-    frames = []
-    for k in range(60):
-        t = k / 30.0
-        clock['now'] = t + 0.05
-        for view, pose in poses.items():
-            world = truth + ([0.0, 0.2, 0.0] if view == 'far' else 0.0)
-            fusion.add(view, 1, t, pose.from_world(world),
-                       np.full(NUM_JOINTS, 0.9), 0.001)
-        frames += fusion.poll()
+    truth = body(*person)
+
+    def seen(view, t):
+        return truth + ([0.0, 0.2, 0.0] if view == 'far' else 0.0)
+    fusion, frames = feed(2.0, {}, [seen], poses=POSES,
+                          params=FusionParams(far_sigma=far_sigma))
     head = frames[-1].people[0].body.positions[INDEX['head']]
     return fusion, float(np.linalg.norm(head - truth[INDEX['head']]))
 

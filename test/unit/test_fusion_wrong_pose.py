@@ -25,15 +25,16 @@ def dancer():
                                     'cmu_60_01_salsa.track'))
 
 
-def run(seconds, seen, people, wrong_from=0.0, rate=30.0, poses=POSES):
-    """Frames of a Fusion of the views of ``poses`` (their declared poses)
-    over ``seconds``: each view sees ``people`` (functions of view and t:
-    world joints, or None when that view does not see them) from its pose
-    in ``seen`` (its declared one before ``wrong_from``), 1 cm noise, 50
-    ms late."""
+def run(seconds, seen, people, wrong_from=0.0, rate=30.0, poses=POSES,
+        params=None):
+    """Frames of a Fusion of the views of ``poses`` (their declared poses;
+    FusionParams ``params``) over ``seconds``: each view sees ``people``
+    (functions of view and t: world joints, or None when that view does not
+    see them) from its pose in ``seen`` (its declared one before
+    ``wrong_from``), 1 cm noise, 50 ms late."""
     rng = np.random.default_rng(5)
     clock = {'now': 0.0}
-    fusion = Fusion(poses, clock=lambda: clock['now'])
+    fusion = Fusion(poses, params, clock=lambda: clock['now'])
     frames = []
     for k in range(int(seconds * rate)):
         t = k / rate

@@ -27,10 +27,10 @@ import numpy as np
 
 from hri_sync.dance_off.joints import INDEX
 from hri_sync.fusion.fuse import FuseParams, Observation, fuse
+from hri_sync.fusion.profile import ARMS
 
 LEFT = [INDEX['left_elbow'], INDEX['left_hand']]
 RIGHT = [INDEX['right_elbow'], INDEX['right_hand']]
-ARMS = LEFT + RIGHT
 
 
 @dataclass
