@@ -260,7 +260,8 @@ def best_view_track(msgs, view, poses, aligned, profile):
         if m['view'] == view:
             stamp = m['stamp'] if aligned else m['arrival']
             track.add(Sample(stamp - profile.delay,
-                             profile.correct(pose.to_world(m['positions'])),
+                             profile.correct(pose.to_world(m['positions']),
+                                             pose.translation()),
                              m['confidence'], m['uncertainty']))
     return track
 
@@ -272,7 +273,8 @@ def single_view_errors(views, poses, profile, truth):
     for i, (tracked, est, own_truth, _) in enumerate(views):
         raw.append(np.linalg.norm(est[tracked] - own_truth[tracked],
                                   axis=-1).mean())
-        world = [profile.correct(p) for p in poses[i].to_world(est[tracked])]
+        world = [profile.correct(p, poses[i].translation())
+                 for p in poses[i].to_world(est[tracked])]
         when = capture_times(i, len(tracked))[tracked] - profile.delay
         fixed.append(np.linalg.norm(np.array(world) - truth(when),
                                     axis=-1).mean())

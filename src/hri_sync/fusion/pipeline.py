@@ -136,7 +136,7 @@ class Fusion:
         uncertainty += profile.delay_spread
         world = self.poses[view].to_world(positions)
         world[missing] = np.nan
-        world = profile.correct(world)
+        world = profile.correct(world, self.poses[view].translation())
         track = self.tracks.setdefault(
             (view, user), Track(max_gap=self.params.max_gap))
         if not track.add(Sample(stamp, world, np.clip(confidence, 0, 1),

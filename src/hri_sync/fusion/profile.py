@@ -6,8 +6,12 @@ motion-capture neck) and filters them over time (its joints describe the
 body ``delay`` s before the frame's capture). Views of one tracker share
 these errors, so fusing views cannot average them away; the profile
 removes them: the fusion moves each joint by ``-offsets[j]`` in the
-body's own axes (x forward, y left, z up, from the hips and neck) and
-dates the skeleton ``delay`` s before its stamp. ``delay_spread`` (95 %,
+body's own axes (x forward, y left, z up, from the hips and neck), and
+by ``-depth[j]`` along the line from the view's sensor to the joint (a
+depth tracker fits its body model to the surface it sees and places the
+joints a few centimetres nearer the sensor than they are, whichever way
+the body faces: views from different sides do not share that, in world),
+and dates the skeleton ``delay`` s before its stamp. ``delay_spread`` (95 %,
 s) is the timing uncertainty that delay adds (it varies with speed in a
 filter); ``sigma`` (m, one axis, at confidence 1) is the error a view has
 on its own, growing as ``confidence ** -confidence_power`` (1: as one
@@ -66,10 +70,16 @@ class Profile:
     back_arms: float = 0.0
     offsets: np.ndarray = field(
         default_factory=lambda: np.zeros((NUM_JOINTS, 3)))
+    depth: np.ndarray = field(default_factory=lambda: np.zeros(NUM_JOINTS))
 
-    def correct(self, positions: np.ndarray) -> np.ndarray:
-        """World joints (15, 3) with the offsets removed (unchanged when
-        the hips or neck are missing)."""
+    def correct(self, positions: np.ndarray,
+                sensor: Optional[np.ndarray] = None) -> np.ndarray:
+        """World joints (15, 3) with the depth offsets removed along the
+        lines from ``sensor`` (world; None: not), then the body-axes offsets
+        (not when the hips or neck are missing)."""
+        if sensor is not None and self.depth.any():
+            positions = positions - self.depth[:, None] * rays(positions,
+                                                              sensor)
         axes = body_axes(positions)
         if axes is None or not self.offsets.any():
             return positions
@@ -97,7 +107,8 @@ class Profile:
                 'sigma_common': round(self.sigma_common, 4),
                 'confidence_power': round(self.confidence_power, 3),
                 'back_arms': round(self.back_arms, 3),
-                'offsets': np.round(self.offsets, 4).tolist()}
+                'offsets': np.round(self.offsets, 4).tolist(),
+                'depth': np.round(self.depth, 4).tolist()}
 
     @classmethod
     def from_dict(cls, d: Optional[Dict[str, Any]]) -> 'Profile':
@@ -108,13 +119,22 @@ class Profile:
         if offsets.shape != (NUM_JOINTS, 3) or \
                 not np.isfinite(offsets).all():
             raise ValueError('a profile has 15 finite (x, y, z) offsets')
+        depth = np.array(d.pop('depth', np.zeros(NUM_JOINTS)), float)
+        if depth.shape != (NUM_JOINTS,) or not np.isfinite(depth).all():
+            raise ValueError('a profile has 15 finite depth offsets')
         unknown = set(d) - set(KEYS)
         if unknown:
             raise ValueError('unknown profile keys: %s' % sorted(unknown))
         values = {k: float(v) for k, v in d.items()}
         if not all(np.isfinite(v) and v >= 0 for v in values.values()):
             raise ValueError('profile values are finite and >= 0: %r' % d)
-        return cls(offsets=offsets, **values)
+        return cls(offsets=offsets, depth=depth, **values)
+
+
+def rays(positions: np.ndarray, sensor: np.ndarray) -> np.ndarray:
+    """Unit vectors from ``sensor`` to each of ``positions`` (..., 3)."""
+    d = positions - np.asarray(sensor, float)
+    return d / np.maximum(np.linalg.norm(d, axis=-1, keepdims=True), 1e-9)
 
 
 def body_frame_errors(estimates: np.ndarray, truth: np.ndarray
@@ -137,7 +157,14 @@ def fit_profile(estimates: np.ndarray, truth: np.ndarray, delay: float,
     """The offsets and error model of views of one tracker (frames where
     every view tracks), given its delay (estimates already at it);
     ``confidence`` (views, frames, 15): the confidence power too, and with
-    ``sensors`` (views, 3; world) the arms' growth from behind."""
+    ``sensors`` (views, 3; world) the depth offsets (first) and the arms'
+    growth from behind."""
+    depth = np.zeros(NUM_JOINTS)
+    if sensors is not None:
+        ray = np.array([rays(e, s) for e, s in zip(estimates, sensors)])
+        along = ((estimates - truth) * ray).sum(axis=-1)
+        depth = np.nanmean(along.reshape(-1, NUM_JOINTS), axis=0)
+        estimates = estimates - depth[:, None] * ray
     err = body_frame_errors(estimates, truth)
     ok = np.isfinite(err).all(axis=(0, 2, 3))
     err = err[:, ok]
@@ -155,7 +182,7 @@ def fit_profile(estimates: np.ndarray, truth: np.ndarray, delay: float,
         np.linalg.norm(own, axis=-1)
         / own_sigma(sigma, confidence[:, ok], power), truth[ok], sensors)
     return Profile(delay, delay_spread, sigma, sigma_common, power, back,
-                   offsets)
+                   offsets, depth)
 
 
 def back_growth(norm: np.ndarray, truth: np.ndarray, sensors: np.ndarray,
