@@ -164,6 +164,28 @@ def test_association_merges_duplicates_and_forgets():
     assert not assoc.persons
 
 
+def test_a_fusion_that_falls_behind_keeps_its_people():
+    # Two views give one person all along, but the fusion is not polled
+    # for 2.5 s (its node starved on a busy machine): it skips ahead, and
+    # the person its views never stopped seeing keeps the id; a person the
+    # views did stop seeing for over a second is a new one.
+    poses = {'a': facing(3.0, 0.0, 1.0), 'b': facing(0.0, 3.0, 1.0)}
+    for gap, same in ((True, True), (False, False)):
+        clock = {'now': 0.0}
+        fusion = Fusion(poses, FusionParams(), lambda: clock['now'])
+        ids = []
+        for k in range(150):
+            t = k / 30
+            clock['now'] = t + 0.05
+            if gap or not 30 <= k < 105:        # the views see the person
+                for view, pose in poses.items():
+                    fusion.add(view, 1, t, pose.from_world(body()),
+                               np.full(NUM_JOINTS, 0.9), 0.001)
+            if not 30 <= k < 105:               # the fusion is polled
+                ids += [p.person for f in fusion.poll() for p in f.people]
+        assert (set(ids) == {ids[0]}) == same, ids
+
+
 def obs(view, positions, conf=0.9, speed=0.0, u=0.001, weight=1.0):
     return Observation(view, positions, np.full(NUM_JOINTS, conf),
                        np.full(NUM_JOINTS, speed), u, weight)

@@ -49,6 +49,15 @@ class Track:
         """Stamp of the newest sample (-inf when empty)."""
         return self.samples[-1].stamp if self.samples else -np.inf
 
+    def unbroken_since(self) -> float:
+        """Stamp of the first sample of the newest run with no gap over
+        ``max_gap`` (inf when empty)."""
+        s = self.samples
+        i = len(s) - 1
+        while i > 0 and s[i].stamp - s[i - 1].stamp <= self.max_gap:
+            i -= 1
+        return s[i].stamp if s else np.inf
+
     def add(self, sample: Sample) -> bool:
         """Insert in stamp order; False for a repeated stamp."""
         stamps = [s.stamp for s in self.samples]

@@ -24,14 +24,16 @@ that view has never shared a person with another view, within
 else (``release``, or a second view joins them) they are someone else. Two persons whose bodies overlap
 (``merge_gate``) for ``merge_after`` s while no view sees both are one: the
 younger id joins the older. A person seen by no view for ``forget_after``
-s is dropped; ids are never reused.
+s is dropped; ids are never reused: not a person whose view gives it now
+and gave it without a break since it was last fused (a fusion that fell
+behind skips instants, while its views went on seeing the person).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Dict, Hashable, Optional, Set, Tuple
+from typing import Callable, Dict, Hashable, Optional, Set, Tuple
 
 import numpy as np
 
@@ -99,11 +101,15 @@ class Associator:
         self.next_id = 1
         self.switches = 0          # keys moved from one person to another
 
-    def assign(self, t: float, bodies: Dict[Key, np.ndarray]
+    def assign(self, t: float, bodies: Dict[Key, np.ndarray],
+               since: Optional[Callable[[Key], float]] = None
                ) -> Dict[Key, int]:
-        """Person id of each key's body (15, 3) at instant ``t``."""
+        """Person id of each key's body (15, 3) at instant ``t``;
+        ``since(key)``: when that key's samples began without a break (the
+        fusion's tracks; None: not known)."""
         for pid in [p for p, person in self.persons.items()
-                    if t - person.seen > self.forget_after]:
+                    if t - person.seen > self.forget_after
+                    and not self._followed(p, bodies, since)]:
             del self.persons[pid]
         out: Dict[Key, int] = {}
         moved, doubtful = set(), {}
@@ -132,6 +138,16 @@ class Associator:
         out = self._merge(t, bodies, out)
         self._hold(t, out)
         return out
+
+    def _followed(self, pid: int, bodies: Dict[Key, np.ndarray],
+                  since: Optional[Callable[[Key], float]]) -> bool:
+        """Whether a key of person ``pid`` gives a body now and has given
+        one without a break of ``forget_after`` s since the person was
+        last fused (the fusion skipped the instants between)."""
+        seen = self.persons[pid].seen
+        return since is not None and any(
+            self.owner.get(k) == pid and since(k) <= seen + self.forget_after
+            for k in bodies)
 
     def held(self, pid: int, t: float) -> bool:
         """Whether person ``pid`` is held back at ``t``."""

@@ -210,7 +210,8 @@ class Fusion:
         """Associate, fuse and check the calibration at instant ``t``."""
         obs = self._observe(t)
         ids = self.associator.assign(
-            t, {k: o.positions for k, (o, _) in obs.items()})
+            t, {k: o.positions for k, (o, _) in obs.items()},
+            lambda key: self.tracks[key].unbroken_since())
         groups: Dict[int, List[Key]] = {}
         for key, pid in ids.items():
             groups.setdefault(pid, []).append(key)
