@@ -102,3 +102,20 @@ def test_the_table_compares_the_fused_body_with_the_best_profiled_view():
     assert '25.0 % below the best view (left profiled, 0.080 m)' in last
     assert '96.0 %' in last and '40.0 ms beyond' in last
     assert 'nothing received' in table({}, 'fused')[-1]
+
+
+def test_the_fused_latency_after_the_newest_capture_it_used():
+    # A fused body published 0.12 s after its instant, from captures up to
+    # 0.07 s after it, is 0.05 s after its newest capture; the table gives
+    # both beyond the slowest view's (50 ms), and a view has neither.
+    s = score()
+    stamp = EPOCH + 3.0
+    body = Body(s.truth_at(stamp), np.ones(15), np.full(15, 0.2), 0.07)
+    s.add('fused', stamp, [body], 0.12)
+    s.add('left', stamp, [Body(s.truth_at(stamp) + 0.1, np.ones(15))], 0.05)
+    summary = s.summary()
+    assert summary['fused']['latency_newest_p95_ms'] == pytest.approx(50.0)
+    assert 'latency_newest_p95_ms' not in summary['left']
+    last = table(summary, 'fused')[-1]
+    assert '70.0 ms beyond the slowest view\'s after the instant' in last
+    assert '0.0 ms after the newest capture used' in last

@@ -116,7 +116,7 @@ class FusionNode:
         cloud = PointCloud()
         cloud.header.stamp, cloud.header.frame_id = stamp, self.world
         channels = {n: [] for n in ('person', 'joint', 'confidence',
-                                    'bound_95_m')}
+                                    'bound_95_m', 'newest_after_s')}
         for person in frame.people:
             body = person.body
             found = np.isfinite(body.positions).all(axis=1)
@@ -133,8 +133,9 @@ class FusionNode:
             self.skel_pub.publish(msg)
             for j in np.flatnonzero(found):
                 cloud.points.append(Point32(*body.positions[j]))
-                for name, value in zip(channels, (person.person, j,
-                                       body.confidence[j], body.bound[j])):
+                for name, value in zip(channels, (
+                        person.person, j, body.confidence[j], body.bound[j],
+                        person.newest - frame.stamp)):
                     channels[name].append(float(value))
         cloud.channels = [ChannelFloat32(n, v) for n, v in channels.items()]
         self.joint_pub.publish(cloud)
