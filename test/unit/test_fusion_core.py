@@ -13,6 +13,7 @@ from hri_sync.fusion.fuse import FuseParams, Observation, fuse
 from hri_sync.fusion.pipeline import Fusion, FusionParams
 from hri_sync.fusion.profile import (ARMS, Profile, back_growth, back_view,
                                      confidence_power, fit_profile, rays)
+from hri_sync.fusion.report import people_status
 from hri_sync.people.rep155 import body_axes
 
 RNG = np.random.default_rng(36)
@@ -184,6 +185,27 @@ def test_a_fusion_that_falls_behind_keeps_its_people():
             if not 30 <= k < 105:               # the fusion is polled
                 ids += [p.person for f in fusion.poll() for p in f.people]
         assert (set(ids) == {ids[0]}) == same, ids
+
+
+def test_the_fused_latency_is_output_time_less_the_newest_capture():
+    # Each view's skeleton arrives 50 ms after its capture and the
+    # fusion is polled on arrival: every body is out 50 ms after the
+    # newest capture it used, as /diagnostics says.
+    poses = {'a': facing(3.0, 0.0, 1.0), 'b': facing(0.0, 3.0, 1.0)}
+    clock = {'now': 0.0}
+    fusion = Fusion(poses, FusionParams(), lambda: clock['now'])
+    assert math.isnan(fusion.latency())
+    frames = []
+    for k in range(30):
+        clock['now'] = k / 30 + 0.05
+        for view, pose in poses.items():
+            fusion.add(view, 1, k / 30, pose.from_world(body()),
+                       np.full(NUM_JOINTS, 0.9), 0.001)
+        frames += fusion.poll()
+    assert len(frames) >= 25
+    assert fusion.latency() == pytest.approx(0.05, abs=1e-9)
+    values = dict(people_status(fusion, frames[-1])[3])
+    assert values['latency p95 after the newest capture (ms)'] == '50.0'
 
 
 def obs(view, positions, conf=0.9, speed=0.0, u=0.001, weight=1.0):

@@ -119,3 +119,6 @@ def test_the_fused_latency_after_the_newest_capture_it_used():
     last = table(summary, 'fused')[-1]
     assert '70.0 ms beyond the slowest view\'s after the instant' in last
     assert '0.0 ms after the newest capture used' in last
+    summary['fused']['fusion_node_latency_p95_ms'] = 12.0
+    assert "the fusion node's own latency p95 12.0 ms" in table(
+        summary, 'fused')[-1]

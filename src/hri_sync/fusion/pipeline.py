@@ -35,8 +35,9 @@ view to agree with, which pose is wrong cannot be told.
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass, field
-from typing import Callable, Dict, Hashable, List, Optional, Tuple
+from typing import Callable, Deque, Dict, Hashable, List, Optional, Tuple
 
 import numpy as np
 
@@ -113,6 +114,8 @@ class Fusion:
         self.next_k: Optional[int] = None
         # Each person's last two fused instants: (t, positions).
         self.past: Dict[int, List[Tuple[float, np.ndarray]]] = {}
+        # Each fused body's output time less the newest capture it used.
+        self.latencies: Deque[float] = deque(maxlen=300)
 
     def add(self, view: str, user: Hashable, stamp: float,
             positions: np.ndarray, confidence: np.ndarray,
@@ -178,8 +181,16 @@ class Fusion:
         frames = []
         while self._ready(self.next_k / rate, now):
             frames.append(self._fuse_at(self.next_k / rate))
+            self.latencies.extend(frames[-1].published - p.newest
+                                  for p in frames[-1].people)
             self.next_k += 1
         return frames
+
+    def latency(self) -> float:
+        """p95 (s) of the last 300 fused bodies' output time less the
+        newest capture each used (NaN before any)."""
+        return float(np.percentile(list(self.latencies), 95)) \
+            if self.latencies else math.nan
 
     def _observe(self, t: float) -> Dict[Key, Tuple[Observation, float]]:
         """Each usable track's observation at ``t`` and its newest stamp."""

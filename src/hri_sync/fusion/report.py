@@ -4,7 +4,8 @@
 clock lost; WARN: no data yet, NaN joints, wrong pose), its pipeline
 latency and stamp uncertainty; ``calibration``: the residual (mm) of each
 pair of views (WARN over the threshold); ``people``: the fused people,
-with the views each is fused from, id switches and left-out jumps.
+with the views each is fused from, id switches, left-out jumps and the
+fused latency (output time less the newest capture used, p95).
 """
 
 from __future__ import annotations
@@ -77,7 +78,9 @@ def people_status(fusion: Fusion, last: Frame | None) -> Status:
     values = [('person %d views' % p.person, ' '.join(p.body.views))
               for p in people]
     values += [('id switches', str(fusion.associator.switches)),
-               ('jumps left out', str(fusion.associator.jumps))]
+               ('jumps left out', str(fusion.associator.jumps)),
+               ('latency p95 after the newest capture (ms)',
+                '%.1f' % (fusion.latency() * 1e3))]
     return 'people', OK, '%d fused' % len(people), values
 
 

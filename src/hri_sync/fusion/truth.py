@@ -175,4 +175,7 @@ def table(summary: Dict[str, Dict[str, float]], fused: str,
             lines[-1] += (' after the instant, %.1f ms after the newest '
                           'capture used' % (got['latency_newest_p95_ms']
                                             - slowest))
+        if 'fusion_node_latency_p95_ms' in got:
+            lines[-1] += ('; the fusion node\'s own latency p95 %.1f ms '
+                          '(/diagnostics)' % got['fusion_node_latency_p95_ms'])
     return lines
