@@ -20,6 +20,7 @@ rendered truth. Prints one JSON object:
 - ``duplicate_people``: person ids beyond the one dancer;
   ``missing_frames``: instants without a person once tracking started;
 - ``bound_coverage``: share of fused joints within their 95 % bound;
+  ``bound_median_m``: the bounds' median;
 - ``unmatched_instants``: per view, the fused instants it was reported
   ``unmatched`` (sharing no person with any view though one's people are
   in the other's sight: hri_sync.fusion.sightlines), which should be none
@@ -335,6 +336,7 @@ def figures(frames, captured, truth, best_track):
         'missing_frames': sum(not f.people for f in frames
                               if f.stamp >= first),
         'bound_coverage': round(float((err[ok] <= bound[ok]).mean()), 4),
+        'bound_median_m': round(float(np.median(bound[ok])), 4),
         'fused_frames': len(people),
     }
 
