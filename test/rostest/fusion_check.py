@@ -5,12 +5,12 @@ Before the fault (~fault_after s) and after it: fused skeletons keep
 coming (3 s windows of fused instants, by their stamps, with at least
 ~min_rate per s: low, for a busy machine; counted once 2 s more have
 passed, so that a checker or fusion starved for a moment still counts
-what it published late), one person, every joint with a confidence unless only the
-faulty view gave the body (on a busy machine the others may be left out
-of an instant) and the fault hides that joint (``nan_joints``: the
-hands), and the healthy views in at least half the bodies; the
-diagnostics name the fault (~expect, a fault of hri_sync.fusion.views) on
-view ~faulty's status, and no other view's.
+what it published late), one person, every joint with a confidence
+unless only the faulty view gave the body (on a busy machine the others
+may be left out of an instant) and the fault hides that joint
+(``nan_joints``: the hands), and the healthy views in at least half the
+bodies; the diagnostics name the fault (~expect, a fault of
+hri_sync.fusion.views) on view ~faulty's status, and no other view's.
 """
 import threading
 import time

@@ -16,8 +16,9 @@ large offset and a drift, collects /<client_id>/skeleton and checks that
 - the joints are near the recorded motion's true joints (the recording's
   device clock starts at the motion's t = 0): mean error and hands p95
   within the issue's targets (0.10 m, 0.25 m) on this short fixture (measured
-  0.046 m and 0.101 m; the hands only when the tracker skipped no frame). On whole clips the hands p95 is above the target:
-  bench/tracker_accuracy.py measures it and docs/tracker.md reports it.
+  0.046 m and 0.101 m; the hands only when the tracker skipped no frame).
+  On whole clips the hands p95 is above the target: bench/tracker_accuracy.py
+  measures it and docs/tracker.md reports it.
 """
 import os
 import time

@@ -15,6 +15,7 @@ from hri_sync.fusion.profile import (ARMS, Profile, back_growth, back_view,
                                      confidence_power, fit_profile, rays)
 from hri_sync.fusion.report import people_status
 from hri_sync.people.rep155 import body_axes
+from test_fusion_wrong_pose import run
 
 RNG = np.random.default_rng(36)
 
@@ -191,17 +192,8 @@ def test_the_fused_latency_is_output_time_less_the_newest_capture():
     # Each view's skeleton arrives 50 ms after its capture and the
     # fusion is polled on arrival: every body is out 50 ms after the
     # newest capture it used, as /diagnostics says.
-    poses = {'a': facing(3.0, 0.0, 1.0), 'b': facing(0.0, 3.0, 1.0)}
-    clock = {'now': 0.0}
-    fusion = Fusion(poses, FusionParams(), lambda: clock['now'])
-    assert math.isnan(fusion.latency())
-    frames = []
-    for k in range(30):
-        clock['now'] = k / 30 + 0.05
-        for view, pose in poses.items():
-            fusion.add(view, 1, k / 30, pose.from_world(body()),
-                       np.full(NUM_JOINTS, 0.9), 0.001)
-        frames += fusion.poll()
+    assert math.isnan(Fusion({}).latency())
+    fusion, frames = run(1.0, {}, [lambda view, t: body()])
     assert len(frames) >= 25
     assert fusion.latency() == pytest.approx(0.05, abs=1e-9)
     values = dict(people_status(fusion, frames[-1])[3])

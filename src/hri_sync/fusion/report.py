@@ -15,6 +15,7 @@ from typing import List, Tuple
 from hri_sync.fusion.pipeline import Frame, Fusion
 
 OK, WARN, ERROR = 0, 1, 2       # diagnostic_msgs/DiagnosticStatus levels
+LATENCY = 'latency p95 after the newest capture (ms)'   # people's key
 LEFT_OUT = ('stalled', 'clock_lost')
 
 Status = Tuple[str, int, str, List[Tuple[str, str]]]
@@ -79,8 +80,7 @@ def people_status(fusion: Fusion, last: Frame | None) -> Status:
               for p in people]
     values += [('id switches', str(fusion.associator.switches)),
                ('jumps left out', str(fusion.associator.jumps)),
-               ('latency p95 after the newest capture (ms)',
-                '%.1f' % (fusion.latency() * 1e3))]
+               (LATENCY, '%.1f' % (fusion.latency() * 1e3))]
     return 'people', OK, '%d fused' % len(people), values
 
 
