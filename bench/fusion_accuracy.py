@@ -234,7 +234,7 @@ def run_fusion(msgs, poses, aligned, profile):
         if m is None:
             break
         stamp = m['stamp'] if aligned else m['arrival']
-        captured[stamp - profile.delay] = m['capture']
+        captured[stamp] = m['capture']
         sim.update(now=m['arrival'], wall=time.thread_time())
         fusion.add(m['view'], m['user'], stamp, m['positions'],
                    m['confidence'], m['uncertainty'])

@@ -26,15 +26,16 @@ def dancer():
 
 
 def run(seconds, seen, people, wrong_from=0.0, rate=30.0, poses=POSES,
-        params=None):
+        params=None, profiles=None):
     """Frames of a Fusion of the views of ``poses`` (their declared poses;
-    FusionParams ``params``) over ``seconds``: each view sees ``people``
+    FusionParams ``params``, tracker ``profiles``) over ``seconds``: each
+    view sees ``people``
     (functions of view and t: world joints, or None when that view does not
     see them) from its pose in ``seen`` (its declared one before
     ``wrong_from``), 1 cm noise, 50 ms late."""
     rng = np.random.default_rng(5)
     clock = {'now': 0.0}
-    fusion = Fusion(poses, params, clock=lambda: clock['now'])
+    fusion = Fusion(poses, params, lambda: clock['now'], profiles)
     frames = []
     for k in range(int(seconds * rate)):
         t = k / rate

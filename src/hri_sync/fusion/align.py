@@ -19,10 +19,17 @@ import numpy as np
 class Sample:
     """One skeleton of one view, in world."""
 
-    stamp: float                # s, global capture time
+    stamp: float                # s, global time of the body it shows
     positions: np.ndarray       # (15, 3) world, NaN: missing
     confidence: np.ndarray      # (15,) 0..1
     uncertainty: float          # s, 95 % bound of the stamp's error
+    captured: Optional[float] = None    # s, global capture time (the
+                                        # stamp before a tracker's delay
+                                        # is taken off); None: stamp
+
+    def capture(self) -> float:
+        """Global capture time (s)."""
+        return self.stamp if self.captured is None else self.captured
 
 
 @dataclass
@@ -33,7 +40,7 @@ class Aligned:
     confidence: np.ndarray      # (15,)
     speed: np.ndarray           # (15,) m/s, 0 where unknown
     uncertainty: float          # s
-    newest: float               # stamp of the newest sample used
+    newest: float               # capture time of the newest sample used
 
 
 class Track:
@@ -82,7 +89,7 @@ class Track:
                 return None
             return Aligned(s[0].positions.copy(), s[0].confidence.copy(),
                            np.zeros(len(s[0].confidence)),
-                           s[0].uncertainty, s[0].stamp)
+                           s[0].uncertainty, s[0].capture())
         i = bisect.bisect_right([x.stamp for x in s], t)
         a, b = (s[i - 1], s[i]) if i < len(s) else (s[-2], s[-1])
         if b.stamp - a.stamp > self.max_gap:
@@ -101,6 +108,6 @@ def _between(a: Sample, b: Sample, t: float) -> Aligned:
     positions[missing] = np.nan
     confidence[missing] = 0.0
     speed[missing] = 0.0
-    newest = b.stamp if t > a.stamp else a.stamp
+    newest = b.capture() if t > a.stamp else a.capture()
     return Aligned(positions, confidence, speed,
                    max(a.uncertainty, b.uncertainty), newest)

@@ -134,8 +134,8 @@ class Fusion:
         missing = ~np.isfinite(positions).all(axis=1)
         confidence[missing] = 0.0
         profile = self.profiles[view]
-        stamp -= profile.delay
         health.arrived(self.clock(), stamp, uncertainty, int(missing.sum()))
+        captured, stamp = stamp, stamp - profile.delay
         uncertainty += profile.delay_spread
         world = self.poses[view].to_world(positions)
         world[missing] = np.nan
@@ -143,14 +143,17 @@ class Fusion:
         track = self.tracks.setdefault(
             (view, user), Track(max_gap=self.params.max_gap))
         if not track.add(Sample(stamp, world, np.clip(confidence, 0, 1),
-                                uncertainty)):
+                                uncertainty, captured)):
             health.reject('repeated_stamp')
             return 'repeated_stamp'
         return None
 
     def _newest(self, view: str) -> float:
+        """The newest instant ``view`` shows a body at: its newest capture
+        less its tracker's delay."""
         stamps = self.health[view].stamps
-        return stamps[-1] if stamps else -math.inf
+        return stamps[-1] - self.profiles[view].delay if stamps \
+            else -math.inf
 
     def _ready(self, t: float, now: float) -> bool:
         """Whether instant ``t`` can be fused now."""
@@ -160,7 +163,8 @@ class Fusion:
             return False
         for v in live:
             h = self.health[v]
-            due = t + h.period() + h.latency() + self.params.wait_margin
+            due = t + self.profiles[v].delay + h.period() + h.latency() \
+                + self.params.wait_margin
             if self._newest(v) < t and now < due:
                 return False
         return True
@@ -193,7 +197,8 @@ class Fusion:
             if self.latencies else math.nan
 
     def _observe(self, t: float) -> Dict[Key, Tuple[Observation, float]]:
-        """Each usable track's observation at ``t`` and its newest stamp."""
+        """Each usable track's observation at ``t`` and the capture time
+        of its newest sample used."""
         out = {}
         for key, track in list(self.tracks.items()):
             view = key[0]
