@@ -57,6 +57,7 @@ built workspace sourced (source WS/devel/setup.bash).
 """
 import argparse
 import concurrent.futures
+import dataclasses
 import functools
 import hashlib
 import importlib.util
@@ -79,6 +80,7 @@ from hri_sync.dance_off.motion import Motion, load_motion  # noqa: E402
 from hri_sync.fusion.align import Sample, Track  # noqa: E402
 from hri_sync.fusion.associate import body_distance  # noqa: E402
 from hri_sync.fusion.frames import SensorPose, facing  # noqa: E402
+from hri_sync.fusion.lag import FilterLag  # noqa: E402
 from hri_sync.fusion.pipeline import Fusion, FusionParams  # noqa: E402
 from hri_sync.fusion.profile import Profile, fit_profile  # noqa: E402
 from hri_sync.fusion.truth import world_motion  # noqa: E402
@@ -255,16 +257,25 @@ def truth_at(views, poses, t):
 def best_view_track(msgs, view, poses, aligned, profile):
     """The best view's Track (as the fusion keeps it: its profile
     applied)."""
-    track = Track(keep=1e9)
+    track, lag = Track(keep=1e9), profile.filter_lag()
     pose = poses[[v[0] for v in VIEWS].index(view)]
     for m in msgs:
         if m['view'] == view:
             stamp = m['stamp'] if aligned else m['arrival']
             track.add(Sample(stamp - profile.delay,
-                             profile.correct(pose.to_world(m['positions']),
-                                             pose.translation()),
+                             profiled(m['positions'], stamp, pose, profile,
+                                      lag),
                              m['confidence'], m['uncertainty']))
     return track
+
+
+def profiled(positions, stamp, pose, profile, lag):
+    """A view's Skeleton-frame joints captured at ``stamp`` in world
+    through the tracker profile: re-dated by ``lag`` (its FilterLag, or
+    None), placed, corrected."""
+    if lag is not None:
+        positions = lag.redate(stamp, positions)
+    return profile.correct(pose.to_world(positions), pose.translation())
 
 
 def single_view_errors(views, poses, profile, truth):
@@ -274,32 +285,60 @@ def single_view_errors(views, poses, profile, truth):
     for i, (tracked, est, own_truth, _) in enumerate(views):
         raw.append(np.linalg.norm(est[tracked] - own_truth[tracked],
                                   axis=-1).mean())
-        world = [profile.correct(p, poses[i].translation())
-                 for p in poses[i].to_world(est[tracked])]
-        when = capture_times(i, len(tracked))[tracked] - profile.delay
-        fixed.append(np.linalg.norm(np.array(world) - truth(when),
+        caught = capture_times(i, len(tracked))[tracked]
+        lag = profile.filter_lag()
+        world = [profiled(p, t, poses[i], profile, lag)
+                 for p, t in zip(est[tracked], caught)]
+        fixed.append(np.linalg.norm(np.array(world)
+                                    - truth(caught - profile.delay),
                                     axis=-1).mean())
     return fixed, raw
 
 
-def fitted_profile(views, poses, truth):
+def fitted_profile(views, poses, truth, tracker_filter):
     """The tracker profile measured on these views: the delay that fits
-    best (10 ms steps), then offsets, sigmas, the confidence power and the
-    arms' growth from behind (delay_spread: the delay)."""
+    best (10 ms steps; with the tracker's filter, ``tracker_filter``, the
+    delay and the cap on its lag that fit best together), then offsets,
+    sigmas, the confidence power and the arms' growth from behind
+    (delay_spread: the delay)."""
     t = np.arange(math.ceil(FPS), int(len(views[0][0]) - FPS)) / FPS
-    est, conf, ok = [], [], np.ones(len(t), bool)
-    for i, (tracked, e, _, c) in enumerate(views):
+    conf, ok = [], np.ones(len(t), bool)
+    for i, (tracked, _, _, c) in enumerate(views):
         caught = capture_times(i, len(tracked))
-        est.append(Motion(caught, poses[i].to_world(e)).positions_at(t))
         conf.append(c[np.clip(np.searchsorted(caught, t), 0, len(c) - 1)])
         ok &= np.interp(t, caught, tracked.astype(float)) >= 1.0
-    est = np.array(est)[:, ok]
-    scan = {d: np.linalg.norm(est - truth(t[ok] - d), axis=-1).mean()
-            for d in np.arange(0.0, 0.101, 0.01)}
-    delay = float(min(scan, key=scan.get))
-    return fit_profile(est, truth(t[ok] - delay), delay, delay,
-                       np.array(conf)[:, ok],
-                       np.array([p.translation() for p in poses]))
+    caps = [None] if tracker_filter is None else np.arange(0.03, 0.101, 0.01)
+    scan = {}
+    for delay in np.arange(0.0, 0.101, 0.01):
+        for cap in caps:
+            params = None if cap is None else dataclasses.replace(
+                tracker_filter, max_lag=float(cap))
+            est = redated(views, poses, params, delay, t)[:, ok]
+            scan[(delay, cap)] = (np.linalg.norm(
+                est - truth(t[ok] - delay), axis=-1).mean(), params, est)
+    delay, cap = min(scan, key=lambda k: scan[k][0])
+    _, params, est = scan[(delay, cap)]
+    profile = fit_profile(est, truth(t[ok] - delay), float(delay),
+                          float(delay), np.array(conf)[:, ok],
+                          np.array([p.translation() for p in poses]))
+    profile.filter = params
+    return profile
+
+
+def redated(views, poses, params, delay, t):
+    """Each view's joints in world at instants ``t``, each skeleton
+    re-dated by the tracker's filter ``params`` (None: not) to ``delay``
+    s before its capture."""
+    out = []
+    for i, (tracked, e, _, _) in enumerate(views):
+        caught = capture_times(i, len(tracked))
+        e = np.array(e, float)
+        if params is not None:
+            lag = FilterLag(params, delay)
+            for n in np.flatnonzero(tracked):
+                e[n] = lag.redate(caught[n], e[n])
+        out.append(Motion(caught, poses[i].to_world(e)).positions_at(t))
+    return np.array(out)
 
 
 def figures(frames, captured, truth, best_track):
@@ -573,7 +612,8 @@ def main():
         return truth_at(views, poses, t)
 
     if args.fit_profile:
-        print(yaml.safe_dump(fitted_profile(views, poses, truth).to_dict(),
+        print(yaml.safe_dump(fitted_profile(views, poses, truth,
+                                            profile.filter).to_dict(),
                              default_flow_style=None, sort_keys=False))
         return
     msgs = messages(views, np.random.default_rng(args.seed))

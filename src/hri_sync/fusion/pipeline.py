@@ -46,6 +46,7 @@ from hri_sync.fusion.arms import ArmParams, arms_to_exchange, exchanged
 from hri_sync.fusion.associate import Associator, Key, body_distance, views_of
 from hri_sync.fusion.calibration import Fit, PoseFit, Residuals
 from hri_sync.fusion.frames import SensorPose
+from hri_sync.fusion.lag import FilterLag
 from hri_sync.fusion.fuse import FuseParams, Fused, Observation, fuse
 from hri_sync.fusion.profile import Profile
 from hri_sync.fusion.sightlines import SightParams, Sightlines, place
@@ -105,6 +106,7 @@ class Fusion:
                          for v in poses}
         self.health = {v: ViewHealth(self.params.health) for v in poses}
         self.tracks: Dict[Key, Track] = {}
+        self.lags: Dict[Key, Optional[FilterLag]] = {}  # per track
         self.associator = Associator(gate=self.params.gate)
         self.residuals = Residuals(threshold=self.params.residual_threshold)
         self.pose_fit = PoseFit(threshold=self.params.residual_threshold)
@@ -137,11 +139,16 @@ class Fusion:
         health.arrived(self.clock(), stamp, uncertainty, int(missing.sum()))
         captured, stamp = stamp, stamp - profile.delay
         uncertainty += profile.delay_spread
+        track = self.tracks.setdefault(
+            (view, user), Track(max_gap=self.params.max_gap))
+        if (view, user) not in self.lags:
+            self.lags[(view, user)] = profile.filter_lag()
+        lag = self.lags[(view, user)]
+        if lag is not None:
+            positions = lag.redate(captured, positions)
         world = self.poses[view].to_world(positions)
         world[missing] = np.nan
         world = profile.correct(world, self.poses[view].translation())
-        track = self.tracks.setdefault(
-            (view, user), Track(max_gap=self.params.max_gap))
         if not track.add(Sample(stamp, world, np.clip(confidence, 0, 1),
                                 uncertainty, captured)):
             health.reject('repeated_stamp')
@@ -204,6 +211,7 @@ class Fusion:
             view = key[0]
             if track.newest < t - 2.0:
                 del self.tracks[key]
+                self.lags.pop(key, None)
                 continue
             if self.health[view].clock_lost():
                 continue

@@ -19,6 +19,9 @@ over the confidence) and, for the elbows and hands, by ``1 + back_arms *
 back_view`` with how much of the body's back the view sees (a tracker
 seeing the back mistakes the arms more than its confidences say);
 ``sigma_common`` (m, one axis) the error left that all views share.
+A profile with a ``filter`` (hri_sync.fusion.lag: the tracker's one-euro
+filter) re-dates each joint by its own lag first, so that every joint
+shows the body ``delay`` s before the capture.
 ``fit_profile`` measures them from views of a motion with its truth
 (bench/fusion_accuracy.py --fit-profile).
 """
@@ -32,6 +35,7 @@ import numpy as np
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
 from hri_sync.fusion.fuse import own_sigma
+from hri_sync.fusion.lag import FilterLag, FilterParams
 from hri_sync.people.rep155 import body_axes
 
 ARMS = [INDEX[n] for n in ('left_elbow', 'right_elbow', 'left_hand',
@@ -71,6 +75,13 @@ class Profile:
     offsets: np.ndarray = field(
         default_factory=lambda: np.zeros((NUM_JOINTS, 3)))
     depth: np.ndarray = field(default_factory=lambda: np.zeros(NUM_JOINTS))
+    filter: Optional[FilterParams] = None
+
+    def filter_lag(self) -> Optional[FilterLag]:
+        """A new track's re-dating by the tracker's filter (None: the
+        profile has none; one ``delay`` for every joint)."""
+        return None if self.filter is None else FilterLag(self.filter,
+                                                          self.delay)
 
     def correct(self, positions: np.ndarray,
                 sensor: Optional[np.ndarray] = None) -> np.ndarray:
@@ -101,7 +112,7 @@ class Profile:
 
     def to_dict(self) -> Dict[str, Any]:
         """Plain values (a YAML param)."""
-        return {'delay': round(self.delay, 4),
+        out = {'delay': round(self.delay, 4),
                 'delay_spread': round(self.delay_spread, 4),
                 'sigma': round(self.sigma, 4),
                 'sigma_common': round(self.sigma_common, 4),
@@ -109,6 +120,9 @@ class Profile:
                 'back_arms': round(self.back_arms, 3),
                 'offsets': np.round(self.offsets, 4).tolist(),
                 'depth': np.round(self.depth, 4).tolist()}
+        if self.filter is not None:
+            out['filter'] = self.filter.to_dict()
+        return out
 
     @classmethod
     def from_dict(cls, d: Optional[Dict[str, Any]]) -> 'Profile':
@@ -122,13 +136,15 @@ class Profile:
         depth = np.array(d.pop('depth', np.zeros(NUM_JOINTS)), float)
         if depth.shape != (NUM_JOINTS,) or not np.isfinite(depth).all():
             raise ValueError('a profile has 15 finite depth offsets')
+        filtered = d.pop('filter', None)
         unknown = set(d) - set(KEYS)
         if unknown:
             raise ValueError('unknown profile keys: %s' % sorted(unknown))
         values = {k: float(v) for k, v in d.items()}
         if not all(np.isfinite(v) and v >= 0 for v in values.values()):
             raise ValueError('profile values are finite and >= 0: %r' % d)
-        return cls(offsets=offsets, depth=depth, **values)
+        return cls(offsets=offsets, depth=depth, filter=None if filtered
+                   is None else FilterParams.from_dict(filtered), **values)
 
 
 def rays(positions: np.ndarray, sensor: np.ndarray) -> np.ndarray:
