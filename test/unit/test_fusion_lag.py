@@ -82,7 +82,7 @@ def test_a_slow_joints_lag_is_capped():
     assert lag.lags() == pytest.approx([0.07, 0.07])
 
 
-def test_a_jump_a_gap_or_an_old_stamp_is_not_moved():
+def test_a_jump_a_gap_a_repeated_or_late_stamp_is_not_moved():
     lag = FilterLag(FilterParams(), delay=0.04)
     t, truth = moving(np.array([2.0]), seconds=1.0)
     for tk, p in zip(t, truth):
@@ -90,9 +90,13 @@ def test_a_jump_a_gap_or_an_old_stamp_is_not_moved():
     step = t[-1] + 1 / RATE
     jumped = truth[-1] + [[0.5, 0, 0]]          # 15 m/s: the tracker jumped
     assert (lag.redate(step, jumped) == jumped).all()
+    speed = lag.speed.copy()
+    assert (lag.redate(step, jumped + 1) == jumped + 1).all()   # repeated
+    assert (lag.redate(step - 0.1, jumped) == jumped).all()     # late
+    assert (lag.speed == speed).all()
     later = jumped + [[0.02, 0, 0]]
     assert (lag.redate(step + 0.5, later) == later).all()       # a gap
-    assert (lag.redate(step, later) == later).all()             # older
+    assert (lag.speed == 0).all()
     nan = np.array([[np.nan, np.nan, np.nan]])
     assert np.isnan(lag.redate(step + 0.5 + 1 / RATE, nan)).all()
 

@@ -88,11 +88,14 @@ class FilterLag:
     def redate(self, stamp: float, positions: np.ndarray) -> np.ndarray:
         """``positions`` (joints, 3; the view's frame, NaN: missing) of the
         skeleton captured at ``stamp`` moved to where each joint was
-        ``delay`` s before it. A skeleton after a gap over ``max_gap`` s,
-        or not after the one before, starts the estimate over (no move)."""
+        ``delay`` s before it. One not after the skeleton before (repeated,
+        or late on the way) is not moved and leaves the estimate as it
+        was; one after a gap over ``max_gap`` s starts it over (no move)."""
         positions = np.asarray(positions, float)
         last = self.history[-1] if self.history else None
-        if last is None or not 0 < stamp - last[0] <= self.max_gap \
+        if last is not None and stamp <= last[0]:
+            return positions.copy()
+        if last is None or stamp - last[0] > self.max_gap \
                 or last[1].shape != positions.shape:
             self.history.clear()
             self.speed = np.zeros(len(positions))
