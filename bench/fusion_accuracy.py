@@ -82,7 +82,8 @@ from hri_sync.fusion.associate import body_distance  # noqa: E402
 from hri_sync.fusion.frames import SensorPose, facing  # noqa: E402
 from hri_sync.fusion.lag import FilterLag  # noqa: E402
 from hri_sync.fusion.pipeline import Fusion, FusionParams  # noqa: E402
-from hri_sync.fusion.profile import Profile, fit_profile  # noqa: E402
+from hri_sync.fusion.profile import (  # noqa: E402
+    Profile, fit_profile, timing_spread)
 from hri_sync.fusion.truth import world_motion  # noqa: E402
 from hri_sync_support.fusion_people import (  # noqa: E402
     gait_cycle, match, score, walker)
@@ -299,8 +300,8 @@ def fitted_profile(views, poses, truth, tracker_filter):
     """The tracker profile measured on these views: the delay that fits
     best (10 ms steps; with the tracker's filter, ``tracker_filter``, the
     delay and the cap on its lag that fit best together), then offsets,
-    sigmas, the confidence power and the arms' growth from behind
-    (delay_spread: the delay)."""
+    sigmas, the confidence power and the arms' growth from behind, and
+    the timing spread of the views so corrected (delay_spread)."""
     t = np.arange(math.ceil(FPS), int(len(views[0][0]) - FPS)) / FPS
     conf, ok = [], np.ones(len(t), bool)
     for i, (tracked, _, _, c) in enumerate(views):
@@ -318,10 +319,16 @@ def fitted_profile(views, poses, truth, tracker_filter):
                 est - truth(t[ok] - delay), axis=-1).mean(), params, est)
     delay, cap = min(scan, key=lambda k: scan[k][0])
     _, params, est = scan[(delay, cap)]
-    profile = fit_profile(est, truth(t[ok] - delay), float(delay),
-                          float(delay), np.array(conf)[:, ok],
-                          np.array([p.translation() for p in poses]))
+    sensors = [p.translation() for p in poses]
+    when = t[ok] - delay
+    profile = fit_profile(est, truth(when), float(delay), float(delay),
+                          np.array(conf)[:, ok], np.array(sensors))
     profile.filter = params
+    fixed = np.array([[profile.correct(e, s) for e in view]
+                      for view, s in zip(est, sensors)])
+    profile.delay_spread = timing_spread(
+        fixed - truth(when), (truth(when + 0.005) - truth(when - 0.005))
+        / 0.01)
     return profile
 
 

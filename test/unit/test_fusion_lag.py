@@ -6,7 +6,7 @@ import pytest
 
 from hri_sync.fusion.lag import FilterLag, FilterParams
 from hri_sync.fusion.pipeline import Fusion
-from hri_sync.fusion.profile import Profile
+from hri_sync.fusion.profile import Profile, timing_spread
 from test_fusion_core import body
 from test_fusion_wrong_pose import POSES
 
@@ -139,3 +139,15 @@ def test_the_fusion_redates_each_views_skeletons():
                           for f in late))
     assert errors[0] == pytest.approx(0.014, abs=0.002)
     assert errors[1] < 0.003, errors
+
+
+def test_the_timing_spread_is_the_error_that_grows_with_speed():
+    # Views dated with a 10 ms (one sigma) timing error, beside 2 cm of
+    # noise that does not grow with speed: the spread is 1.96 * 10 ms.
+    rng = np.random.default_rng(3)
+    velocity = rng.normal(0, 1.5, (400, 15, 3))
+    dt = rng.normal(0, 0.01, (4, 400, 15, 1))
+    errors = dt * velocity + rng.normal(0, 0.02, (4, 400, 15, 3))
+    assert timing_spread(errors, velocity) == pytest.approx(0.0196, rel=0.1)
+    assert timing_spread(rng.normal(0, 0.02, (4, 400, 15, 3)),
+                         velocity) < 0.004

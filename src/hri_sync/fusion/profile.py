@@ -12,8 +12,8 @@ depth tracker fits its body model to the surface it sees and places the
 joints a few centimetres nearer the sensor than they are, whichever way
 the body faces: views from different sides do not share that, in world),
 and dates the skeleton ``delay`` s before its stamp. ``delay_spread`` (95 %,
-s) is the timing uncertainty that delay adds (it varies with speed in a
-filter); ``sigma`` (m, one axis, at confidence 1) is the error a view has
+s) is the timing uncertainty that dating adds (``timing_spread``: the part
+of a view's error along a joint's motion that grows with its speed); ``sigma`` (m, one axis, at confidence 1) is the error a view has
 on its own, growing as ``confidence ** -confidence_power`` (1: as one
 over the confidence) and, for the elbows and hands, by ``1 + back_arms *
 back_view`` with how much of the body's back the view sees (a tracker
@@ -228,6 +228,22 @@ def back_growth(norm: np.ndarray, truth: np.ndarray, sensors: np.ndarray,
     px, py = np.array(points).T
     slope, at_zero = np.polyfit(px, py, 1)
     return float(max(slope / at_zero, 0.0)) if at_zero > 0 else 0.0
+
+
+def timing_spread(errors: np.ndarray, velocity: np.ndarray) -> float:
+    """The 95 % bound (s) of the part of the views' errors along each
+    joint's motion that grows with its speed, as a time: ``1.96 *
+    sqrt(b)`` in ``along ** 2 = a + b * speed ** 2`` (least squares).
+    ``errors``: (views, frames, 15, 3), ``velocity``: (frames, 15, 3),
+    world, the truth's."""
+    speed = np.linalg.norm(velocity, axis=-1)
+    along = (errors * velocity).sum(axis=-1) / np.maximum(speed, 1e-9)
+    speed = np.broadcast_to(speed, along.shape)
+    ok = np.isfinite(along) & (speed > 0)
+    x, y = speed[ok] ** 2, along[ok] ** 2
+    b = np.linalg.lstsq(np.vstack([np.ones_like(x), x]).T, y,
+                        rcond=None)[0][1]
+    return float(1.96 * np.sqrt(max(b, 0.0)))
 
 
 def confidence_power(own: np.ndarray, confidence: np.ndarray,
