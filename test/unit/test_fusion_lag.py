@@ -61,7 +61,7 @@ def test_each_joint_is_redated_by_its_own_lag():
     speeds = np.array([0.8, 1.5, 3.0])
     t, truth = moving(speeds)
     filtered = one_euro(list(zip(t, truth)))
-    lag = FilterLag(FilterParams(max_lag=0.07), delay=0.04)
+    lag = FilterLag(FilterParams(), delay=0.04)
     out = [lag.redate(tk, f) for tk, f in zip(t, filtered)]
     settled = t >= 1.5
     want = np.array([np.outer(speeds, [tk - 0.04, 0, 0]) for tk in t])
@@ -75,7 +75,7 @@ def test_each_joint_is_redated_by_its_own_lag():
 
 
 def test_a_slow_joints_lag_is_capped():
-    lag = FilterLag(FilterParams(max_lag=0.07), delay=0.04)
+    lag = FilterLag(FilterParams(), delay=0.04)
     t, truth = moving(np.array([0.0, 0.2]))
     for tk, p in zip(t, truth):
         lag.redate(tk, p)
@@ -102,7 +102,7 @@ def test_a_jump_a_gap_a_repeated_or_late_stamp_is_not_moved():
 
 
 def test_a_profiles_filter_round_trips_and_bad_values_are_refused():
-    profile = Profile(delay=0.04, filter=FilterParams(max_lag=0.07))
+    profile = Profile(delay=0.04, filter=FilterParams())
     again = Profile.from_dict(profile.to_dict())
     assert again.filter == profile.filter
     assert isinstance(again.filter_lag(), FilterLag)

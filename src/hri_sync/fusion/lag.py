@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import asdict, dataclass
-from typing import Any, Deque, Dict, Optional, Tuple
+from typing import Any, Deque, Dict, Tuple
 
 import numpy as np
 
@@ -39,7 +39,7 @@ class FilterParams:
     dead_zone: float = 0.3      # m/s of block-mean speed taken as jitter
     block: float = 0.133        # s per block of the speed estimate
     speed_cutoff: float = 1.0   # Hz, the low-pass on the speed estimate
-    max_lag: float = 0.06       # s, the lag's cap
+    max_lag: float = 0.07       # s, the lag's cap
     max_speed: float = 10.0     # m/s: a joint faster jumped (not moved)
 
     def to_dict(self) -> Dict[str, float]:
@@ -132,9 +132,3 @@ class FilterLag:
             p_new = np.mean([p for _, p in new], axis=0)
             p_old = np.mean([p for _, p in old], axis=0)
         return np.linalg.norm(p_new - p_old, axis=1) / (t_new - t_old)
-
-
-def filter_lag(params: Optional[FilterParams], delay: float
-               ) -> Optional[FilterLag]:
-    """A FilterLag for a new track, or None for a tracker without one."""
-    return None if params is None else FilterLag(params, delay)

@@ -9,15 +9,16 @@ extrapolation, brings each view there), or a view is late past its own
 period plus its p95 pipeline latency (it is then extrapolated a little or
 left out). A stalled view or one with a lost clock is not waited for.
 Each view's tracker profile (hri_sync.fusion.profile) dates its skeletons
-(stamp minus the tracker's delay) and corrects its joints first; where a
-profile says a view errs more on the arms as it sees more of the body's
-back, each person is fused twice: once to find where the body faces, then
-with each view's arms weighted by its vantage on that body. Before that,
-a view whose tracker exchanged the left and right arms has them put back
-(hri_sync.fusion.arms), against the person's body predicted from its last
-two fused instants. A view's skeleton of someone farther than its sensor
-tracks (``sight.far``) is taken to err ``far_sigma`` times its profile's
-sigma.
+(stamp minus the tracker's delay; each joint re-dated by the tracker
+filter's lag at its speed, hri_sync.fusion.lag) and corrects its joints
+first; where a profile says a view errs more on the arms as it sees more
+of the body's back, each person is fused twice: once to find where the
+body faces, then with each view's arms weighted by its vantage on that
+body. Before that, a view whose tracker exchanged the left and right arms
+has them put back (hri_sync.fusion.arms), against the person's body
+predicted from its last two fused instants. A view's skeleton of someone
+farther than its sensor tracks (``sight.far``) is taken to err
+``far_sigma`` times its profile's sigma.
 
 A view is suspect while its residuals blame it (calibration.Residuals), or
 while none of its users joins a person other views agree on and one is
@@ -46,8 +47,8 @@ from hri_sync.fusion.arms import ArmParams, arms_to_exchange, exchanged
 from hri_sync.fusion.associate import Associator, Key, body_distance, views_of
 from hri_sync.fusion.calibration import Fit, PoseFit, Residuals
 from hri_sync.fusion.frames import SensorPose
-from hri_sync.fusion.lag import FilterLag
 from hri_sync.fusion.fuse import FuseParams, Fused, Observation, fuse
+from hri_sync.fusion.lag import FilterLag
 from hri_sync.fusion.profile import Profile
 from hri_sync.fusion.sightlines import SightParams, Sightlines, place
 from hri_sync.fusion.views import HealthParams, ViewHealth
@@ -139,11 +140,11 @@ class Fusion:
         health.arrived(self.clock(), stamp, uncertainty, int(missing.sum()))
         captured, stamp = stamp, stamp - profile.delay
         uncertainty += profile.delay_spread
-        track = self.tracks.setdefault(
-            (view, user), Track(max_gap=self.params.max_gap))
-        if (view, user) not in self.lags:
-            self.lags[(view, user)] = profile.filter_lag()
-        lag = self.lags[(view, user)]
+        key = (view, user)
+        track = self.tracks.setdefault(key, Track(max_gap=self.params.max_gap))
+        if key not in self.lags:
+            self.lags[key] = profile.filter_lag()
+        lag = self.lags[key]
         if lag is not None:
             positions = lag.redate(captured, positions)
         world = self.poses[view].to_world(positions)

@@ -11,9 +11,10 @@ by ``-depth[j]`` along the line from the view's sensor to the joint (a
 depth tracker fits its body model to the surface it sees and places the
 joints a few centimetres nearer the sensor than they are, whichever way
 the body faces: views from different sides do not share that, in world),
-and dates the skeleton ``delay`` s before its stamp. ``delay_spread`` (95 %,
-s) is the timing uncertainty that dating adds (``timing_spread``: the part
-of a view's error along a joint's motion that grows with its speed); ``sigma`` (m, one axis, at confidence 1) is the error a view has
+and dates the skeleton ``delay`` s before its stamp. ``delay_spread``
+(95 %, s) is the timing uncertainty that dating adds (``timing_spread``:
+the part of a view's error along a joint's motion that grows with its
+speed); ``sigma`` (m, one axis, at confidence 1) is the error a view has
 on its own, growing as ``confidence ** -confidence_power`` (1: as one
 over the confidence) and, for the elbows and hands, by ``1 + back_arms *
 back_view`` with how much of the body's back the view sees (a tracker
