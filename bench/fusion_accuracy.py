@@ -163,20 +163,23 @@ def render(i, motions, cache, scene, eval_path):
     tau = np.arange(int(n / FPS * 60) + 2) / 60.0
     _, _, phase, drift, _, _ = VIEWS[i]
     t_world = np.clip(phase + tau * (1 + drift), 0, world.duration)
+    part = '%s.%d.part' % (dump, os.getpid())  # runs side by side
     tracks = []
     for k, motion in enumerate(motions):
-        tracks.append('%s_%d.track' % (dump[:-5], k))
+        tracks.append('%s_%d.%d.track' % (dump[:-5], k, os.getpid()))
         Motion(tau, view_pose(i).from_world(motion.positions_at(
             t_world, 'clamp'))).save_track(tracks[-1])
-    out = ['--dump', dump + '.part']
+    out = ['--dump', part]
     if len(motions) > 1:
         scene += '&crowd_tracks=' + ','.join(tracks[1:])
-        out = ['--users', str(USERS), '--dump-users', dump + '.part']
+        out = ['--users', str(USERS), '--dump-users', part]
     subprocess.run([eval_path, '--track', tracks[0], '--direct', '--scene',
                     scene, '--seconds', '%.3f' % (n / FPS),
                     '--fps', '%g' % FPS] + out,
                    check=True, stdout=subprocess.DEVNULL)
-    os.replace(dump + '.part', dump)
+    os.replace(part, dump)
+    for track in tracks:
+        os.remove(track)
     return dump
 
 

@@ -56,7 +56,13 @@ def main():
     ap.add_argument('--options', default='res=320x240&noise=kinect1&fps=15',
                     help='virtual Kinect URI options (docs/tracker.md); on '
                     'two cores three trackers at 30 fps lose frames')
+    ap.add_argument('--profile', default='',
+                    help="the trackers' profile (default: the one measured "
+                    "at the views' fps, 15 or 30)")
     args = ap.parse_args()
+    profile = args.profile or os.path.join(
+        ROOT, 'config', 'fusion_depth_tracker%s.yaml'
+        % ('_15fps' if 'fps=15' in args.options.split('&') else ''))
     world = world_motion(load_motion(args.motion))
     with tempfile.TemporaryDirectory(prefix='hri_sync_demo_fusion_') as d:
         for name, pose in view_poses().items():
@@ -71,6 +77,7 @@ def main():
             'motion:=' + os.path.abspath(args.motion),
             'epoch:=%.3f' % epoch, 'seconds:=%g' % args.seconds,
             'options:=' + args.options,
+            'profile:=' + os.path.abspath(profile),
             'markers:=%s' % str(args.markers).lower(),
             'out:=' + (os.path.abspath(args.out) if args.out else '')])
 
