@@ -89,6 +89,30 @@ def test_a_pose_gone_wrong_mid_session_is_fitted_before_a_second_person():
     assert abs(fusion.poses['right'].yaw - off.yaw) < math.radians(1)
 
 
+def test_a_fitted_pose_is_refined_on_the_skeletons_that_follow():
+    # The right view's pose is wrong from the start and its tracker's
+    # first 3.5 s are 0.15 m off (still finding the dancer): the first
+    # fit takes that in; the skeletons after it refine the pose.
+    motion = dancer()
+    right = POSES['right']
+    off = SensorPose(right.x, right.y + 0.5, right.z,
+                     right.yaw + math.radians(15))
+
+    def seen(view, t):
+        body = ORIGINAL.to_world(motion.positions_at([t])[0])
+        return body + [0.15, 0, 0] if view == 'right' and t < 3.5 else body
+
+    errors = []
+    for seconds in (4.0, 14.0):
+        fusion, _ = run(seconds, {'right': off}, [seen])
+        fitted = fusion.poses['right']
+        errors.append(math.hypot(fitted.x - off.x, fitted.y - off.y))
+    assert errors[0] > 0.08, errors
+    assert errors[1] < 0.05, errors
+    _, level, message, _ = calibration_status(fusion)
+    assert level == 1 and 'right' in message and 'fitted' in message
+
+
 def test_someone_only_one_view_sees_is_a_person_not_a_wrong_pose():
     # The dancer is seen by left and back; someone else dancing around
     # them 1 m away by right only: held back while right's pose is in

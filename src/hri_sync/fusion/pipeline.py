@@ -25,8 +25,10 @@ while none of its users joins a person other views agree on and one is
 near (a pose wrong by more than the association gate). Its skeletons are
 then paired with the others' bodies (calibration.PoseFit); a pose that fits
 them becomes the view's (``fitted``: its skeletons, those kept included,
-are placed by it), and the view stays ``wrong_pose`` (down-weighted,
-reported) for the session; when none does, the people it alone gives are
+are placed by it; refined on the skeletons that follow, paired with the
+bodies the other views fuse of the same people, over ``refine_window``
+s), and the view stays ``wrong_pose`` (down-weighted, reported) for the
+session; when none does, the people it alone gives are
 other people (the associator holds them back until then). Two views that
 share no person with any view though the people one of them gives stand in
 the other's sight are reported ``unmatched`` (sightlines): with no third
@@ -72,6 +74,10 @@ class FusionParams:
     gate: float = 0.5                   # m, association (associate.py)
     residual_threshold: float = 0.2     # m, wrong pose (calibration.py)
     refit: float = 0.5                  # s between a suspect view's fits
+    refine_window: float = 20.0         # s of pairs a fitted pose is
+                                        # refined on
+    refine_gain: float = 0.1            # share of the residual a refined
+                                        # pose must take off
     sight: SightParams = field(default_factory=SightParams)
 
 
@@ -111,6 +117,8 @@ class Fusion:
         self.associator = Associator(gate=self.params.gate)
         self.residuals = Residuals(threshold=self.params.residual_threshold)
         self.pose_fit = PoseFit(threshold=self.params.residual_threshold)
+        self.pose_refine = PoseFit(window=self.params.refine_window,
+                                   threshold=self.params.residual_threshold)
         self.fitted: Dict[str, Fit] = {}    # view: (pose, before, after)
         self.tried: Dict[str, float] = {}   # view: when its pose was fitted
         self.sightlines = Sightlines(self.params.sight)
@@ -326,6 +334,12 @@ class Fusion:
         suspects = set()
         for key, (o, _) in obs.items():
             view, pid = key[0], ids.get(key)
+            if view in self.fitted and pid in agreed:
+                self.pose_refine.add(
+                    t, view, self.poses[view].from_world(o.positions),
+                    fuse([p for k, (p, _) in obs.items()
+                          if k[0] != view and ids.get(k) == pid],
+                         self.params.fuse).positions, o.confidence)
             if view in blamed and pid in agreed:
                 target: Optional[np.ndarray] = bodies[pid].positions
             elif view not in shared:
@@ -344,6 +358,20 @@ class Fusion:
                     self._adopt(view, fit)
                 elif fit is not None:       # they are other people
                     self.associator.release(view)
+        for view in sorted(set(self.fitted) - suspects):
+            if t - self.tried.get(view, -math.inf) >= self.params.refit:
+                self.tried[view] = t
+                self._refine(view)
+
+    def _refine(self, view: str) -> None:
+        """Refit a fitted view's pose on its last ``refine_window`` s of
+        skeletons and the bodies the other views fused of the same
+        people; adopted when it takes ``refine_gain`` of the residual
+        off (the first fit, on 3 s, may have had little to go on)."""
+        fit = self.pose_refine.fit(view, self.poses[view])
+        if fit is not None and \
+                fit[2] <= fit[1] * (1 - self.params.refine_gain):
+            self._adopt(view, (fit[0], self.fitted[view][1], fit[2]))
 
     def _nearest(self, positions: np.ndarray, view: str,
                  agreed: Dict[int, set], bodies: Dict[int, Fused]
