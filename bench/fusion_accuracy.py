@@ -267,19 +267,10 @@ def best_view_track(msgs, view, poses, aligned, profile):
         if m['view'] == view:
             stamp = m['stamp'] if aligned else m['arrival']
             track.add(Sample(stamp - profile.delay,
-                             profiled(m['positions'], stamp, pose, profile,
-                                      lag),
+                             profile.place(m['positions'], pose, stamp,
+                                           lag),
                              m['confidence'], m['uncertainty']))
     return track
-
-
-def profiled(positions, stamp, pose, profile, lag):
-    """A view's Skeleton-frame joints captured at ``stamp`` in world
-    through the tracker profile: re-dated by ``lag`` (its FilterLag, or
-    None), placed, corrected."""
-    if lag is not None:
-        positions = lag.redate(stamp, positions)
-    return profile.correct(pose.to_world(positions), pose.translation())
 
 
 def single_view_errors(views, poses, profile, truth):
@@ -291,7 +282,7 @@ def single_view_errors(views, poses, profile, truth):
                                   axis=-1).mean())
         caught = capture_times(i, len(tracked))[tracked]
         lag = profile.filter_lag()
-        world = [profiled(p, t, poses[i], profile, lag)
+        world = [profile.place(p, poses[i], t, lag)
                  for p, t in zip(est[tracked], caught)]
         fixed.append(np.linalg.norm(np.array(world)
                                     - truth(caught - profile.delay),

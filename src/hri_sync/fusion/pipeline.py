@@ -152,12 +152,9 @@ class Fusion:
         track = self.tracks.setdefault(key, Track(max_gap=self.params.max_gap))
         if key not in self.lags:
             self.lags[key] = profile.filter_lag()
-        lag = self.lags[key]
-        if lag is not None:
-            positions = lag.redate(captured, positions)
-        world = self.poses[view].to_world(positions)
-        world[missing] = np.nan
-        world = profile.correct(world, self.poses[view].translation())
+        positions[missing] = np.nan
+        world = profile.place(positions, self.poses[view], captured,
+                              self.lags[key])
         if not track.add(Sample(stamp, world, np.clip(confidence, 0, 1),
                                 uncertainty, captured)):
             health.reject('repeated_stamp')

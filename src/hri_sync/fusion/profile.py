@@ -35,6 +35,7 @@ from typing import Any, Dict, List, Optional
 import numpy as np
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
+from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import own_sigma
 from hri_sync.fusion.lag import FilterLag, FilterParams
 from hri_sync.people.rep155 import body_axes
@@ -83,6 +84,15 @@ class Profile:
         profile has none; one ``delay`` for every joint)."""
         return None if self.filter is None else FilterLag(self.filter,
                                                           self.delay)
+
+    def place(self, positions: np.ndarray, pose: SensorPose,
+              stamp: float, lag: Optional[FilterLag]) -> np.ndarray:
+        """A view's Skeleton-frame joints (15, 3) captured at ``stamp`` in
+        world through the profile: re-dated by ``lag`` (the view's
+        ``filter_lag``, or None), placed by ``pose``, corrected."""
+        if lag is not None:
+            positions = lag.redate(stamp, positions)
+        return self.correct(pose.to_world(positions), pose.translation())
 
     def correct(self, positions: np.ndarray,
                 sensor: Optional[np.ndarray] = None) -> np.ndarray:
