@@ -39,6 +39,13 @@ scored against the truth instead (hri_sync_support.fusion_people):
 ``duplicate_instants``, ``missing_people``, ``fused_mean_m`` per person,
 ``view_alone`` (each view's tracker scored alike); docs/fusion.md.
 
+``--lost P``: each view loses a share P of its frames at random (live
+trackers on a busy machine skip frames). ``--frozen VIEW:T0,T1``: VIEW
+sends its skeleton of T0 s again and again until T1 s, freshly stamped
+(as a Kinect SDK repeats its last skeleton); ``frozen`` gives the fused
+error and bound coverage over that span (from 0.5 s in, when the view is
+named) and the faults named on each view.
+
 ``--pose-error VIEW:DX,DY,DEG``: the fusion is told VIEW's pose moved DX,
 DY m and turned DEG degrees (a pose wrong from the start; the renders are
 the true poses'); ``pose_error`` says how far its skeletons were off, when
@@ -219,6 +226,43 @@ def timed(views, rng):
                 'arrival': caught[n] + latency + rng.exponential(JITTER),
                 'positions': positions, 'confidence': confidence})
     return sorted(out, key=lambda m: m['arrival'])
+
+
+def faulty(msgs, args):
+    """``msgs`` with each view's lost frames left out (``--lost``) and a
+    view frozen (``--frozen``: its joints and confidences of the first
+    skeleton captured in [T0, T1) repeated until T1)."""
+    rng = np.random.default_rng([args.seed, 1])
+    msgs = [m for m in msgs if rng.random() >= args.lost]
+    if args.frozen:
+        view, span = args.frozen.split(':')
+        t0, t1 = (float(x) for x in span.split(','))
+        held = None
+        for m in sorted(msgs, key=lambda m: m['capture']):
+            if m['view'] == view and t0 <= m['capture'] < t1:
+                held = held or (m['positions'], m['confidence'])
+                m['positions'], m['confidence'] = held
+    return msgs
+
+
+def frozen_figures(spec, frames, fusion, truth):
+    """The fused body while a view is frozen (``--frozen``), from 0.5 s
+    in (when the fusion names it), and the faults named on each view."""
+    _, span = spec.split(':')
+    t0, t1 = (float(x) for x in span.split(','))
+    people = [f for f in frames if f.people and t0 + 0.5 <= f.stamp < t1]
+    stamps = np.array([f.stamp for f in people])
+    err = np.linalg.norm(np.array([f.people[0].body.positions
+                                   for f in people]) - truth(stamps),
+                         axis=-1)
+    bound = np.array([f.people[0].body.bound for f in people])
+    ok = np.isfinite(err)
+    return {'fused_mean_m': round(float(err[ok].mean()), 4),
+            'bound_coverage': round(float((err[ok] <= bound[ok]).mean()), 4),
+            'people': sorted({len(f.people) for f in frames
+                              if t0 <= f.stamp < t1}),
+            'rejected': {v: dict(h.rejected)
+                         for v, h in fusion.health.items() if h.rejected}}
 
 
 def run_fusion(msgs, poses, aligned, profile):
@@ -476,6 +520,12 @@ def arguments():
                     help='tell the fusion that VIEW stands DX, DY m away '
                     'and turned DEG degrees (its renders unchanged): a '
                     'pose wrong from the start')
+    ap.add_argument('--lost', type=float, default=0.0, metavar='P',
+                    help='each view loses this share of its frames at '
+                    'random')
+    ap.add_argument('--frozen', metavar='VIEW:T0,T1',
+                    help='VIEW repeats its skeleton of T0 s until T1 s, '
+                    'freshly stamped')
     ap.add_argument('--jobs', '-j', type=int, default=2, choices=(1, 2),
                     help='views rendered at once')
     ap.add_argument('--fit-profile', action='store_true',
@@ -568,6 +618,7 @@ def people_main(args, names, profile):
                    for u, p, c in users] for frames, _ in views],
                  np.random.default_rng(args.seed))
     out = {'motion': os.path.basename(args.motion), 'views': args.views,
+           'lost': args.lost,
            'people': args.people, 'seconds': PEOPLE_SECONDS,
            'view_alone': {}}
     for i, name in enumerate(names):
@@ -617,10 +668,11 @@ def main():
                                             profile.filter).to_dict(),
                              default_flow_style=None, sort_keys=False))
         return
-    msgs = messages(views, np.random.default_rng(args.seed))
+    msgs = faulty(messages(views, np.random.default_rng(args.seed)), args)
     fixed, raw = single_view_errors(views, poses, profile, truth)
     best = names[int(np.argmin(fixed))]
     out = {'motion': os.path.basename(args.motion), 'views': args.views,
+           'lost': args.lost,
            'single_view_mean_m': dict(zip(names, np.round(fixed, 4))),
            'single_view_published_mean_m': dict(zip(names,
                                                     np.round(raw, 4))),
@@ -639,6 +691,9 @@ def main():
             out.update(result)
             out.update(oracle(frames, truth, {n: best_view_track(
                 msgs, n, poses, aligned, profile) for n in names}, best))
+            if args.frozen:
+                out['frozen'] = frozen_figures(args.frozen, frames, fusion,
+                                               truth)
             if args.pose_error:
                 out['pose_error'] = pose_figures(
                     args.pose_error.split(':')[0], frames, fusion,

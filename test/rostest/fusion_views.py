@@ -8,7 +8,9 @@ before now, joints of data/motion ~motion seen from each view's pose in
 ClockState is not ok), ``wrong_pose`` (it is seen from its pose moved
 ~wrong_shift m along x and turned ~wrong_turn degrees, default 0.3 and 10;
 the fusion keeps the declared one),
-``nan_joints`` (every skeleton has NaN hands), or ``none``.  In the
+``nan_joints`` (every skeleton has NaN hands), ``frozen`` (it sends its
+skeleton of ~fault_after s again and again, freshly stamped, as a Kinect
+SDK repeats its last one), or ``none``.  In the
 CM's calibration window (/calibration/capture_data, global time: this
 machine's clock, which the time server serves) the dancer stands still
 and goes on from the same pose after it.
@@ -64,7 +66,7 @@ def main():
     rospy.Subscriber('/calibration/capture_data', CaptureData,
                      on_calibration)
     rng = np.random.default_rng(36)
-    start, lost = time.time(), False
+    start, lost, still = time.time(), False, None
     rate = rospy.Rate(30)
     while not rospy.is_shutdown():
         stamp = time.time() - 0.02
@@ -80,6 +82,9 @@ def main():
                 clocks[v].publish(clock_state(v, False))
                 lost = True
             pts = seen[v].from_world(world) + rng.normal(0, 0.01, (15, 3))
+            if bad and fault == 'frozen':
+                still = pts if still is None else still
+                pts = still
             if bad and fault == 'nan_joints':
                 pts[7:9] = math.nan
             msg = Skeleton(client_id=v, user_id=1)

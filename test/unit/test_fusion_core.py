@@ -35,6 +35,12 @@ def body(x=0.0, y=0.0):
     return p
 
 
+def fresh(positions, k):
+    """A sensor's k-th reading of ``positions``: 1 um apart from the one
+    before (a skeleton repeated joint for joint is no new measurement)."""
+    return positions + 1e-6 * k
+
+
 def test_pose_round_trip_and_axes():
     pose = facing(3.0, 0.0, 1.0)
     # A point 2 m straight ahead of the sensor, 0.5 m to its right and
@@ -181,7 +187,7 @@ def test_a_fusion_that_falls_behind_keeps_its_people():
             clock['now'] = t + 0.05
             if gap or not 30 <= k < 105:        # the views see the person
                 for view, pose in poses.items():
-                    fusion.add(view, 1, t, pose.from_world(body()),
+                    fusion.add(view, 1, t, pose.from_world(fresh(body(), k)),
                                np.full(NUM_JOINTS, 0.9), 0.001)
             if not 30 <= k < 105:               # the fusion is polled
                 ids += [p.person for f in fusion.poll() for p in f.people]
@@ -372,7 +378,7 @@ def test_the_fusion_takes_each_views_depth_offsets_from_its_own_sensor():
             clock['now'] = k / 30 + 0.05
             for view, pose in poses.items():
                 seen = truth - 0.04 * rays(truth, pose.translation())
-                fusion.add(view, 1, k / 30, pose.from_world(seen),
+                fusion.add(view, 1, k / 30, pose.from_world(fresh(seen, k)),
                            np.full(NUM_JOINTS, 0.9), 0.001)
             frames += fusion.poll()
         fused = frames[-1].people[0].body.positions
@@ -398,7 +404,8 @@ def test_a_view_behind_the_body_gives_less_of_its_arms():
             clock['now'] = k / 30 + 0.05
             for view, shift in (('front', 0.0), ('back', 0.1)):
                 fusion.add(view, 1, k / 30, poses[view].from_world(
-                    truth + [0, shift, 0]), np.full(NUM_JOINTS, 0.9), 0.001)
+                    fresh(truth + [0, shift, 0], k)),
+                    np.full(NUM_JOINTS, 0.9), 0.001)
             frames += fusion.poll()
         fused = frames[-1].people[0].body.positions
         hand, head = INDEX['left_hand'], INDEX['head']

@@ -5,9 +5,12 @@ common instants on the global clock, on an injected clock.
 stamp, Skeleton-frame joints, confidences and the stamp's 95 %
 uncertainty); ``poll`` fuses every instant ``k / rate`` that is ready:
 every live view has a sample at or after it (so interpolation, not
-extrapolation, brings each view there), or a view is late past its own
-period plus its p95 pipeline latency (it is then extrapolated a little or
-left out). A stalled view or one with a lost clock is not waited for.
+extrapolation, brings each view there), or the frame a view owes it is
+overdue (its first frame at or after the instant, on the view's frame
+grid, plus its p95 pipeline latency: a lost frame; the view is then
+extrapolated a little or left out). A stalled view, a frozen one (its
+skeletons repeat, joint for joint, the one before: no new measurement,
+left out) or one with a lost clock is not waited for.
 Each view's tracker profile (hri_sync.fusion.profile) dates its skeletons
 (stamp minus the tracker's delay; each joint re-dated by the tracker
 filter's lag at its speed, hri_sync.fusion.lag) and corrects its joints
@@ -114,6 +117,8 @@ class Fusion:
         self.health = {v: ViewHealth(self.params.health) for v in poses}
         self.tracks: Dict[Key, Track] = {}
         self.lags: Dict[Key, Optional[FilterLag]] = {}  # per track
+        # per track: the last skeleton's stamp and joints (Skeleton frame)
+        self.last_raw: Dict[Key, Tuple[float, np.ndarray]] = {}
         self.associator = Associator(gate=self.params.gate)
         self.residuals = Residuals(threshold=self.params.residual_threshold)
         self.pose_fit = PoseFit(threshold=self.params.residual_threshold)
@@ -144,15 +149,24 @@ class Fusion:
         confidence = np.nan_to_num(np.array(confidence, float), nan=0.0)
         missing = ~np.isfinite(positions).all(axis=1)
         confidence[missing] = 0.0
+        positions[missing] = np.nan
+        key = (view, user)
+        last = self.last_raw.get(key)
+        repeated = last is not None and stamp > last[0] \
+            and not missing.all() \
+            and np.array_equal(positions, last[1], equal_nan=True)
+        self.last_raw[key] = (stamp, positions)
+        health.arrived(self.clock(), stamp, uncertainty, int(missing.sum()),
+                       repeated)
+        if repeated:
+            health.reject('repeated_skeleton')
+            return 'repeated_skeleton'
         profile = self.profiles[view]
-        health.arrived(self.clock(), stamp, uncertainty, int(missing.sum()))
         captured, stamp = stamp, stamp - profile.delay
         uncertainty += profile.delay_spread
-        key = (view, user)
         track = self.tracks.setdefault(key, Track(max_gap=self.params.max_gap))
         if key not in self.lags:
             self.lags[key] = profile.filter_lag()
-        positions[missing] = np.nan
         world = profile.place(positions, self.poses[view], captured,
                               self.lags[key])
         if not track.add(Sample(stamp, world, np.clip(confidence, 0, 1),
@@ -175,12 +189,25 @@ class Fusion:
         if not live:
             return False
         for v in live:
-            h = self.health[v]
-            due = t + self.profiles[v].delay + h.period() + h.latency() \
-                + self.params.wait_margin
-            if self._newest(v) < t and now < due:
+            if self._newest(v) < t and now < self._due(v, t):
                 return False
         return True
+
+    def _due(self, view: str, t: float) -> float:
+        """When ``view``'s first sample at or after instant ``t`` should
+        have arrived: its first frame captured at or after ``t`` plus the
+        tracker's delay, on the frame grid of its newest capture, plus
+        its p95 pipeline latency (a frame period later before the grid
+        is known)."""
+        h = self.health[view]
+        period, need = h.period(), t + self.profiles[view].delay
+        if period > 0 and h.stamps:
+            last = h.stamps[-1]
+            capture = last + period * max(1, math.ceil(
+                (need - last) / period - 0.1))
+        else:
+            capture = need + period
+        return capture + h.latency() + self.params.wait_margin
 
     def poll(self) -> List[Frame]:
         """Fuse every instant that is ready; the frames in time order."""
@@ -218,6 +245,7 @@ class Fusion:
             if track.newest < t - 2.0:
                 del self.tracks[key]
                 self.lags.pop(key, None)
+                self.last_raw.pop(key, None)
                 continue
             if self.health[view].clock_lost():
                 continue

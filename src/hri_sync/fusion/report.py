@@ -1,7 +1,8 @@
 """What the fusion says on /diagnostics, as plain statuses.
 
 ``view <id>``: the view's faults (ERROR when it is left out: stalled,
-clock lost; WARN: no data yet, NaN joints, wrong pose), its pipeline
+frozen, clock lost; WARN: no data yet, repeated skeletons, NaN joints,
+wrong pose), its pipeline
 latency and stamp uncertainty; ``calibration``: the residual (mm) of each
 pair of views (WARN over the threshold); ``people``: the fused people,
 with the views each is fused from, id switches, left-out jumps and the
@@ -16,7 +17,7 @@ from hri_sync.fusion.pipeline import Frame, Fusion
 
 OK, WARN, ERROR = 0, 1, 2       # diagnostic_msgs/DiagnosticStatus levels
 LATENCY = 'latency p95 after the newest capture (ms)'   # people's key
-LEFT_OUT = ('stalled', 'clock_lost')
+LEFT_OUT = ('stalled', 'frozen', 'clock_lost')
 
 Status = Tuple[str, int, str, List[Tuple[str, str]]]
 

@@ -1,7 +1,10 @@
 """Each view's health as the fusion sees it.
 
 A view is ``stalled`` when no skeleton came for ``stall_after`` s (the
-fusion stops waiting for it), its clock is ``lost`` when its samples'
+fusion stops waiting for it), ``frozen`` when its skeletons keep coming
+but only repeat the one before (joint for joint the same: no new
+measurement; a Kinect SDK repeats its last skeleton so) for as long, and
+``repeated`` counts such skeletons in the last ``window`` s. Its clock is ``lost`` when its samples'
 stamp uncertainty is over ``max_uncertainty`` s (they are left out),
 ``nan_joints`` counts skeletons with NaN joints in the last ``window`` s
 (those joints are left out), ``wrong_pose`` is set by the
@@ -38,12 +41,14 @@ class ViewHealth:
     params: HealthParams
     arrivals: int = 0
     last_arrival: float = -math.inf
+    last_new: float = -math.inf     # arrival of its last new skeleton
     last_uncertainty: float = 0.0
     latencies: Deque[float] = field(
         default_factory=lambda: collections.deque(maxlen=100))
     stamps: Deque[float] = field(
         default_factory=lambda: collections.deque(maxlen=30))
     nan_times: Deque[float] = field(default_factory=collections.deque)
+    repeat_times: Deque[float] = field(default_factory=collections.deque)
     wrong_pose: bool = False
     arms_exchanged: int = 0         # instants its arms were put right
     beyond_range: int = 0           # its skeletons of someone too far
@@ -52,10 +57,15 @@ class ViewHealth:
     _period: float = 0.0
 
     def arrived(self, now: float, stamp: float, uncertainty: float,
-                nan_joints: int) -> None:
-        """A skeleton captured at ``stamp`` arrived at ``now``."""
+                nan_joints: int, repeated: bool = False) -> None:
+        """A skeleton captured at ``stamp`` arrived at ``now``;
+        ``repeated``: it repeats the one before."""
         self.arrivals += 1
         self.last_arrival = now
+        if repeated:
+            self.repeat_times.append(now)
+        else:
+            self.last_new = now
         self.last_uncertainty = uncertainty
         self.latencies.append(now - stamp)
         if not self.stamps or stamp > self.stamps[-1]:
@@ -81,8 +91,8 @@ class ViewHealth:
         return self._period
 
     def stalled(self, now: float) -> bool:
-        """No skeleton for stall_after s (or none yet)."""
-        return now - self.last_arrival > self.params.stall_after
+        """No new skeleton for stall_after s (or none yet)."""
+        return now - self.last_new > self.params.stall_after
 
     def clock_lost(self) -> bool:
         """Its stamps are too uncertain to fuse."""
@@ -90,15 +100,24 @@ class ViewHealth:
 
     def faults(self, now: float) -> List[Tuple[str, str]]:
         """(fault, detail) of the view now; [] when healthy."""
-        while self.nan_times and now - self.nan_times[0] > \
-                self.params.window:
-            self.nan_times.popleft()
+        for times in (self.nan_times, self.repeat_times):
+            while times and now - times[0] > self.params.window:
+                times.popleft()
         out = []
         if self.arrivals == 0:
             out.append(('no_data', 'no skeleton yet'))
-        elif self.stalled(now):
+        elif not self.stalled(now):
+            pass
+        elif now - self.last_arrival <= self.params.stall_after:
+            out.append(('frozen', 'its skeletons repeat one of %.1f s ago'
+                        % (now - self.last_new)))
+        else:
             out.append(('stalled', 'no skeleton for %.1f s'
                         % (now - self.last_arrival)))
+        if self.repeat_times and not self.stalled(now):
+            out.append(('repeated', '%d skeletons repeated the one before '
+                        'in %.0f s' % (len(self.repeat_times),
+                                       self.params.window)))
         if self.clock_lost():
             out.append(('clock_lost', 'stamp uncertainty %.1f ms > %.1f ms'
                         % (self.last_uncertainty * 1e3,
