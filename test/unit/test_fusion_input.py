@@ -1,20 +1,29 @@
 """hri_sync.fusion: what the views send as it arrives. A lost frame is
 not waited for past the time it was due; a skeleton repeated joint for
 joint (a Kinect SDK repeats its last one) is no new measurement: left
-out, counted, and a view that only repeats is named frozen."""
+out, counted, and a view that only repeats is named frozen; a skeleton
+stamped ahead of the fusion's clock or long ago is left out and named;
+joints at the sensor's origin (a Kinect SDK's "not tracked") are
+missing, on real Kinect recordings too."""
+import os
+
 import numpy as np
+import pytest
 
 from hri_sync.fusion.pipeline import Fusion
 from hri_sync.fusion.report import ERROR, WARN, view_status
 from test_fusion_wrong_pose import ORIGINAL, POSES, dancer
 
+BAGS = os.path.join(os.path.dirname(__file__), '..', 'bags')
+
 LATENCY = 0.05      # s from capture to the fusion
 
 
-def feed(frames_of, seconds=3.0, rate=30.0, poll=0.005):
+def feed(frames_of, seconds=3.0, rate=30.0, poll=0.005, edit=None):
     """A Fusion of POSES' views of the dancer, each skeleton arriving
     LATENCY after its capture, polled every ``poll`` s; ``frames_of(view,
-    k)``: the frame whose joints view sends as its k-th (None: lost).
+    k)``: the frame whose joints view sends as its k-th (None: lost);
+    ``edit(view, k, stamp, joints)``: the stamp and joints it sends.
     Returns the fusion, its frames and the truth."""
     motion, rng = dancer(), np.random.default_rng(7)
     clock = {'now': 0.0}
@@ -33,9 +42,12 @@ def feed(frames_of, seconds=3.0, rate=30.0, poll=0.005):
         if n is None:
             continue
         world = ORIGINAL.to_world(motion.positions_at([n / rate])[0])
+        stamp, joints = k / rate, POSES[view].from_world(world) \
+            + noise[view][n]
+        if edit:
+            stamp, joints = edit(view, k, stamp, joints)
         clock['now'] = when
-        fusion.add(view, 1, k / rate, POSES[view].from_world(world)
-                   + noise[view][n], np.full(15, 0.9), 0.001)
+        fusion.add(view, 1, stamp, joints, np.full(15, 0.9), 0.001)
         frames += fusion.poll()
 
     def truth(t):
@@ -93,3 +105,105 @@ def test_a_view_that_only_repeats_is_frozen_and_left_out():
     error = [np.linalg.norm(f.people[0].body.positions - truth(f.stamp),
                             axis=1).mean() for f in late]
     assert max(error) < 0.03
+
+
+def test_a_skeleton_stamped_ahead_or_long_ago_is_left_out_and_named():
+    # One skeleton of the view behind stamped 100 s ahead (a forged or
+    # broken stamp) once stopped the fusion: it skipped to 100 s and
+    # waited there, its diagnostics all OK. Now it, and one stamped 5 s
+    # ago, are left out and named; the fused instants go on.
+    def bad(view, k, stamp, joints):
+        if view == 'back' and k in (40, 50):
+            return stamp + (100.0 if k == 40 else -5.0), joints
+        return stamp, joints
+
+    fusion, frames, _ = feed(lambda view, k: k, edit=bad)
+    name, level, message, values = view_status(fusion, 'back')
+    assert level == WARN and message == (
+        "bad_stamps: 1 stamped ahead of the fusion's clock, 1 stamped too "
+        "long ago in 5 s")
+    assert dict(values)['rejected future_stamp'] == '1'
+    assert dict(values)['rejected stale_stamp'] == '1'
+    assert len(frames) >= 85 and frames[-1].stamp > 2.8
+    assert all(len(f.people) == 1 for f in frames)
+
+
+@pytest.mark.parametrize('value, fault', [(0.0, 'zero_joints'),
+                                          (1e6, 'far_joints'),
+                                          (np.nan, 'nan_joints')])
+def test_joints_no_sensor_measures_are_missing(value, fault):
+    # The view on the right gives its hands at (0, 0, 0) (a Kinect SDK's
+    # joints it does not track), 1000 km away (a forged message) or NaN:
+    # they are left out (the other views give them) and named, never a
+    # hand at the sensor or far off.
+    def bad_hands(view, k, stamp, joints):
+        if view == 'right':
+            joints = joints.copy()
+            joints[7:9] = value
+        return stamp, joints
+
+    fusion, frames, truth = feed(lambda view, k: k, edit=bad_hands)
+    name, level, message, _ = view_status(fusion, 'right')
+    assert level == WARN and message.startswith(fault + ': 90 skeletons')
+    for f in frames[5:]:
+        error = np.linalg.norm(f.people[0].body.positions[7:9]
+                               - truth(f.stamp)[7:9], axis=1)
+        assert error.max() < 0.05
+
+
+def test_a_skeleton_far_off_is_nobody():
+    # A forged skeleton 1e30 m away makes no person.
+    def forged(view, k, stamp, joints):
+        return stamp, np.full_like(joints, 1e30) if view == 'back' \
+            else joints
+
+    fusion, frames, _ = feed(lambda view, k: k, seconds=1.0, edit=forged)
+    assert len(frames) > 20 and all(len(f.people) == 1 for f in frames[1:])
+    assert 'far_joints' in dict(fusion.faults()['back'])
+
+
+def real_stream(name):
+    """A real Kinect's recorded skeletons (test/bags): stamps from 0,
+    joints, confidences."""
+    pytest.importorskip('rosbags', reason='rosbags is installed by make '
+                        'venv')
+    from hri_sync.tools.bag import read_bag
+    msgs = [r.msg for r in read_bag(os.path.join(
+        BAGS, name + '.bag')).of_type('hri_sync/Skeleton')]
+    stamps = np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
+                       for m in msgs])
+    return (stamps - stamps[0],
+            np.array([[(p.x, p.y, p.z) for p in m.positions] for m in msgs]),
+            np.array([m.confidence for m in msgs]))
+
+
+@pytest.mark.parametrize('still, moving', [('real_k2_calm', 'real_k1_punch'),
+                                           ('real_k2_wave', 'real_k1_punch')])
+def test_real_kinect_recordings(still, moving):
+    # Real sensors' skeletons as two views (two people, as the views'
+    # poses place them) beside the recording whose Kinect v1 SDK gave
+    # every joint at (0, 0, 0) for 206 frames: a real person standing
+    # still or waving, and one punching, are never taken for repeats
+    # (real noise: no skeleton is the one before joint for joint) and
+    # each is a person; the all-zero view gives nobody and is named.
+    streams = {'left': real_stream(still), 'right': real_stream(moving),
+               'back': real_stream('real_k1_frozen')}
+    clock = {'now': 0.0}
+    fusion = Fusion(POSES, None, lambda: clock['now'])
+    arrivals = sorted((t + LATENCY, view, k) for view, (stamps, _, _)
+                      in streams.items() for k, t in enumerate(stamps))
+    frames = []
+    for when, view, k in arrivals:
+        stamps, joints, confidence = streams[view]
+        clock['now'] = when
+        assert fusion.add(view, 1, stamps[k], joints[k], confidence[k],
+                          0.001) is None
+        frames += fusion.poll()
+    assert len(frames) > 200 and all(f.people for f in frames[1:])
+    assert not any('back' in p.body.views for f in frames for p in f.people)
+    for view in ('left', 'right'):
+        health = fusion.health[view]
+        assert not health.rejected and not any(health.noted.values())
+        assert health.arrivals == len(streams[view][0])
+    assert fusion.health['back'].arrivals == 206
+    assert 'zero_joints' in dict(fusion.faults()['back'])

@@ -3,7 +3,10 @@ common instants on the global clock, on an injected clock.
 
 ``add`` takes each view's skeleton as it arrives (its global capture
 stamp, Skeleton-frame joints, confidences and the stamp's 95 %
-uncertainty); ``poll`` fuses every instant ``k / rate`` that is ready:
+uncertainty; one stamped over ``max_ahead`` s ahead of the clock or
+``max_age`` s behind it is left out, and so are joints no sensor
+measures: NaN, at the sensor's origin or farther than ``max_depth``);
+``poll`` fuses every instant ``k / rate`` that is ready:
 every live view has a sample at or after it (so interpolation, not
 extrapolation, brings each view there), or the frame a view owes it is
 overdue (its first frame at or after the instant, on the view's frame
@@ -65,6 +68,9 @@ class FusionParams:
 
     rate: float = 30.0                  # Hz, common instants
     max_extrapolation: float = 0.04     # s past a view's newest sample
+    max_ahead: float = 0.2              # s a stamp may be ahead of now
+    max_age: float = 2.0                # s a stamp may be behind now
+    max_depth: float = 10.0             # m, a joint from its sensor
     max_gap: float = 0.25               # s between samples interpolated
     wait_margin: float = 0.005          # s past a view's expected arrival
     suspect_weight: float = 0.1         # a wrong-pose view's weight
@@ -141,13 +147,26 @@ class Fusion:
         ``uncertainty``: inf when the view's clock model is lost."""
         if view not in self.poses:
             return 'unknown_view'
-        health = self.health[view]
+        health, now = self.health[view], self.clock()
         if not math.isfinite(stamp) or math.isnan(uncertainty):
             health.reject('bad_stamp')
             return 'bad_stamp'
+        for reason, bad in (('future_stamp',
+                             stamp > now + self.params.max_ahead),
+                            ('stale_stamp', stamp < now - self.params.max_age)):
+            if bad:
+                health.note(reason, now)
+                health.reject(reason)
+                return reason
         positions = np.array(positions, float).reshape(-1, 3)
         confidence = np.nan_to_num(np.array(confidence, float), nan=0.0)
-        missing = ~np.isfinite(positions).all(axis=1)
+        bad_joints = {
+            'nan_joints': ~np.isfinite(positions).all(axis=1),
+            'zero_joints': (positions == 0).all(axis=1),
+            'far_joints': np.linalg.norm(np.where(np.isfinite(positions),
+                                                  positions, 0.0), axis=1)
+            > self.params.max_depth}
+        missing = np.logical_or.reduce(list(bad_joints.values()))
         confidence[missing] = 0.0
         positions[missing] = np.nan
         key = (view, user)
@@ -156,8 +175,9 @@ class Fusion:
             and not missing.all() \
             and np.array_equal(positions, last[1], equal_nan=True)
         self.last_raw[key] = (stamp, positions)
-        health.arrived(self.clock(), stamp, uncertainty, int(missing.sum()),
-                       repeated)
+        health.arrived(now, stamp, uncertainty, tuple(
+            e for e, bad in bad_joints.items() if bad.any())
+            + (('repeated',) if repeated else ()))
         if repeated:
             health.reject('repeated_skeleton')
             return 'repeated_skeleton'

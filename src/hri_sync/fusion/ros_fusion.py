@@ -41,6 +41,9 @@ class FusionNode:
         params = FusionParams(rate=param('rate', 30.0, float, positive))
         params.health.stall_after = param('stall_after', 0.5, float,
                                           positive)
+        params.max_ahead = param('max_ahead', 0.2, float, positive)
+        params.max_age = param('max_age', 2.0, float, positive)
+        params.max_depth = param('max_depth', 10.0, float, positive)
         params.residual_threshold = param('residual_threshold', 0.2, float,
                                           positive)
         params.arms.margin = param('arms_margin', 0.2, float,

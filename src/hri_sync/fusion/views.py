@@ -3,11 +3,15 @@
 A view is ``stalled`` when no skeleton came for ``stall_after`` s (the
 fusion stops waiting for it), ``frozen`` when its skeletons keep coming
 but only repeat the one before (joint for joint the same: no new
-measurement; a Kinect SDK repeats its last skeleton so) for as long, and
-``repeated`` counts such skeletons in the last ``window`` s. Its clock is ``lost`` when its samples'
-stamp uncertainty is over ``max_uncertainty`` s (they are left out),
-``nan_joints`` counts skeletons with NaN joints in the last ``window`` s
-(those joints are left out), ``wrong_pose`` is set by the
+measurement; a Kinect SDK repeats its last skeleton so) for as long;
+``repeated`` counts such skeletons in the last ``window`` s. Its clock is
+``lost`` when its samples' stamp uncertainty is over ``max_uncertainty``
+s (they are left out); ``bad_stamps`` counts skeletons left out in the
+last ``window`` s for a stamp ahead of the fusion's clock or too old;
+``nan_joints``, ``zero_joints`` and ``far_joints`` count skeletons with
+NaN joints, joints at the sensor's origin (a Kinect SDK's "not tracked")
+or farther than a sensor sees, in the last ``window`` s (those joints are
+left out); ``wrong_pose`` is set by the
 calibration check (the view is down-weighted), and ``arms_exchanged``
 counts the instants its tracker's left and right arms were exchanged
 back (hri_sync.fusion.arms), ``beyond_range`` its skeletons of someone
@@ -23,6 +27,20 @@ import statistics
 from dataclasses import dataclass, field
 from typing import Deque, Dict, List, Tuple
 
+
+
+# What a view's skeletons may be noted for (counted over ``window`` s):
+# the fault each is reported as, and how.
+NOTED = {
+    'repeated': ('repeated', 'skeletons repeated the one before'),
+    'future_stamp': ('bad_stamps', "stamped ahead of the fusion's clock"),
+    'stale_stamp': ('bad_stamps', 'stamped too long ago'),
+    'nan_joints': ('nan_joints', 'skeletons with NaN joints'),
+    'zero_joints': ('zero_joints', "skeletons with joints at the sensor's "
+                    'origin (not tracked)'),
+    'far_joints': ('far_joints', 'skeletons with joints farther from the '
+                   'sensor than it sees'),
+}
 
 
 @dataclass
@@ -47,8 +65,8 @@ class ViewHealth:
         default_factory=lambda: collections.deque(maxlen=100))
     stamps: Deque[float] = field(
         default_factory=lambda: collections.deque(maxlen=30))
-    nan_times: Deque[float] = field(default_factory=collections.deque)
-    repeat_times: Deque[float] = field(default_factory=collections.deque)
+    noted: Dict[str, Deque[float]] = field(      # NOTED: arrival times
+        default_factory=lambda: {k: collections.deque() for k in NOTED})
     wrong_pose: bool = False
     arms_exchanged: int = 0         # instants its arms were put right
     beyond_range: int = 0           # its skeletons of someone too far
@@ -57,14 +75,15 @@ class ViewHealth:
     _period: float = 0.0
 
     def arrived(self, now: float, stamp: float, uncertainty: float,
-                nan_joints: int, repeated: bool = False) -> None:
-        """A skeleton captured at ``stamp`` arrived at ``now``;
-        ``repeated``: it repeats the one before."""
+                noted: Tuple[str, ...] = ()) -> None:
+        """A skeleton captured at ``stamp`` arrived at ``now``; ``noted``:
+        what it is noted for (NOTED keys; ``repeated``: it repeats the
+        one before)."""
         self.arrivals += 1
         self.last_arrival = now
-        if repeated:
-            self.repeat_times.append(now)
-        else:
+        for event in noted:
+            self.note(event, now)
+        if 'repeated' not in noted:
             self.last_new = now
         self.last_uncertainty = uncertainty
         self.latencies.append(now - stamp)
@@ -75,8 +94,10 @@ class ViewHealth:
         if len(self.stamps) > 1:
             s = list(self.stamps)
             self._period = statistics.median(b - a for a, b in zip(s, s[1:]))
-        if nan_joints:
-            self.nan_times.append(now)
+
+    def note(self, event: str, now: float) -> None:
+        """Note a skeleton for ``event`` (a NOTED key) at ``now``."""
+        self.noted[event].append(now)
 
     def reject(self, reason: str) -> None:
         """Count a skeleton left out."""
@@ -100,7 +121,7 @@ class ViewHealth:
 
     def faults(self, now: float) -> List[Tuple[str, str]]:
         """(fault, detail) of the view now; [] when healthy."""
-        for times in (self.nan_times, self.repeat_times):
+        for times in self.noted.values():
             while times and now - times[0] > self.params.window:
                 times.popleft()
         out = []
@@ -114,17 +135,19 @@ class ViewHealth:
         else:
             out.append(('stalled', 'no skeleton for %.1f s'
                         % (now - self.last_arrival)))
-        if self.repeat_times and not self.stalled(now):
-            out.append(('repeated', '%d skeletons repeated the one before '
-                        'in %.0f s' % (len(self.repeat_times),
-                                       self.params.window)))
         if self.clock_lost():
             out.append(('clock_lost', 'stamp uncertainty %.1f ms > %.1f ms'
                         % (self.last_uncertainty * 1e3,
                            self.params.max_uncertainty * 1e3)))
-        if self.nan_times:
-            out.append(('nan_joints', '%d skeletons with NaN joints in '
-                        '%.0f s' % (len(self.nan_times), self.params.window)))
+        counts: Dict[str, List[str]] = {}
+        for event, (fault, what) in NOTED.items():
+            if self.noted[event] and not (event == 'repeated'
+                                          and self.stalled(now)):
+                counts.setdefault(fault, []).append(
+                    '%d %s' % (len(self.noted[event]), what))
+        out += [(fault, '%s in %.0f s' % (', '.join(what),
+                                          self.params.window))
+                for fault, what in counts.items()]
         if self.wrong_pose:
             out.append(('wrong_pose', 'its pose disagrees with the other '
                         'views: down-weighted'))
