@@ -10,7 +10,7 @@ measures: NaN, at the sensor's origin or farther than ``max_depth``);
 every live view has a sample at or after it (so interpolation, not
 extrapolation, brings each view there), or the frame a view owes it is
 overdue (its first frame at or after the instant, on the view's frame
-grid, plus its p95 pipeline latency: a lost frame; the view is then
+grid, plus its p99 pipeline latency: a lost frame; the view is then
 extrapolated a little or left out). A stalled view, a frozen one (its
 skeletons repeat, joint for joint, the one before: no new measurement,
 left out) or one with a lost clock is not waited for.
@@ -217,7 +217,7 @@ class Fusion:
         """When ``view``'s first sample at or after instant ``t`` should
         have arrived: its first frame captured at or after ``t`` plus the
         tracker's delay, on the frame grid of its newest capture, plus
-        its p95 pipeline latency (a frame period later before the grid
+        its p99 pipeline latency (a frame period later before the grid
         is known)."""
         h = self.health[view]
         period, need = h.period(), t + self.profiles[view].delay
@@ -227,7 +227,7 @@ class Fusion:
                 (need - last) / period - 0.1))
         else:
             capture = need + period
-        return capture + h.latency() + self.params.wait_margin
+        return capture + h.late() + self.params.wait_margin
 
     def poll(self) -> List[Frame]:
         """Fuse every instant that is ready; the frames in time order."""

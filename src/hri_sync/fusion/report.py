@@ -2,7 +2,8 @@
 
 ``view <id>``: the view's faults (ERROR when it is left out: stalled,
 frozen, clock lost; WARN: no data yet, repeated skeletons, bad stamps,
-NaN joints, joints at the sensor's origin, wrong pose), its pipeline
+NaN joints, joints at the sensor's origin or beyond its depth, wrong
+pose), its pipeline
 latency and stamp uncertainty; ``calibration``: the residual (mm) of each
 pair of views (WARN over the threshold); ``people``: the fused people,
 with the views each is fused from, id switches, left-out jumps and the

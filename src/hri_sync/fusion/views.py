@@ -3,7 +3,7 @@
 A view is ``stalled`` when no skeleton came for ``stall_after`` s (the
 fusion stops waiting for it), ``frozen`` when its skeletons keep coming
 but only repeat the one before (joint for joint the same: no new
-measurement; a Kinect SDK repeats its last skeleton so) for as long;
+measurement: a driver re-sending its last skeleton) for as long;
 ``repeated`` counts such skeletons in the last ``window`` s. Its clock is
 ``lost`` when its samples' stamp uncertainty is over ``max_uncertainty``
 s (they are left out); ``bad_stamps`` counts skeletons left out in the
@@ -72,6 +72,7 @@ class ViewHealth:
     beyond_range: int = 0           # its skeletons of someone too far
     rejected: Dict[str, int] = field(default_factory=dict)
     _latency: float = 0.0
+    _late: float = 0.0
     _period: float = 0.0
 
     def arrived(self, now: float, stamp: float, uncertainty: float,
@@ -91,6 +92,7 @@ class ViewHealth:
             self.stamps.append(stamp)
         ordered = sorted(self.latencies)
         self._latency = ordered[int(0.95 * (len(ordered) - 1))]
+        self._late = ordered[int(0.99 * (len(ordered) - 1))]
         if len(self.stamps) > 1:
             s = list(self.stamps)
             self._period = statistics.median(b - a for a, b in zip(s, s[1:]))
@@ -106,6 +108,11 @@ class ViewHealth:
     def latency(self) -> float:
         """p95 of arrival minus capture (s), 0 before any."""
         return self._latency
+
+    def late(self) -> float:
+        """p99 of arrival minus capture (s), 0 before any: how long
+        after its capture a frame is waited for."""
+        return self._late
 
     def period(self) -> float:
         """Median interval between its stamps (s), 0 before two."""
