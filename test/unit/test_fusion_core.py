@@ -247,6 +247,32 @@ def test_fuse_bound_grows_with_timing_uncertainty_times_speed():
     assert slow.bound[0] == pytest.approx(2.8 * 0.05 / 0.9, rel=0.01)
 
 
+def test_fuse_bound_widens_where_the_views_scatter_beyond_their_errors():
+    # Two views within 1 cm of each other: the bound is the error model's
+    # (2.8 * 0.0556 / sqrt 2). Two views 0.3 m apart on the head, each
+    # 0.15 m from their mean where it expects 0.056 m: the scatter's
+    # chi-square over its 3 degrees of freedom, 4.86, scales the error
+    # model's variance. A larger scatter held from before (``inflate``)
+    # scales it too.
+    model = 2.8 * 0.05 / 0.9 / math.sqrt(2)
+    near = fuse([obs('a', body() + 0.005), obs('b', body() - 0.005)],
+                FuseParams())
+    assert near.bound[INDEX['head']] == pytest.approx(model, rel=1e-6)
+    assert near.scatter[INDEX['head']] < 1
+    apart = [obs('a', body()), obs('b', body())]
+    apart[0].positions[INDEX['head'], 0] += 0.15
+    apart[1].positions[INDEX['head'], 0] -= 0.15
+    wide = fuse(apart, FuseParams())
+    chi2 = 2 * (0.15 / (0.05 / 0.9)) ** 2 / 3
+    assert wide.scatter[INDEX['head']] == pytest.approx(chi2)
+    assert wide.bound[INDEX['head']] == pytest.approx(model * math.sqrt(chi2))
+    assert wide.bound[INDEX['torso']] == pytest.approx(
+        near.bound[INDEX['torso']], rel=0.01)
+    held = fuse([obs('a', body() + 0.005), obs('b', body() - 0.005)],
+                FuseParams(), np.full(NUM_JOINTS, 4.0))
+    assert held.bound[INDEX['head']] == pytest.approx(2 * model)
+
+
 def test_fuse_drops_an_outlier_of_three_and_missing_joints():
     views = [obs(v, body() + RNG.normal(0, 0.01, (NUM_JOINTS, 3)))
              for v in 'abc']

@@ -17,6 +17,11 @@ constant), d its distance from the fused joint, s its expected error,
 the views' own errors averaged by the weights, the error they share
 (``sigma_common``, hri_sync.fusion.profile) that no weighting removes, and
 the timing part from the weight-averaged stamp uncertainty and speed.
+Where the views scatter about their mean (weighted by their expected
+errors, before the outlier cut and the agreement: the Birge ratio, the
+chi-square over its degrees of freedom) more than those errors allow,
+the two error terms are scaled by that ratio: the tracker errs more than
+its profile says, alike in what the views share.
 """
 
 from __future__ import annotations
@@ -74,6 +79,8 @@ class Fused:
     confidence: np.ndarray      # (15,)
     bound: np.ndarray           # (15,) m, 95 %
     views: List[str]            # the views that gave a joint
+    scatter: Optional[np.ndarray] = None  # (15,) the views' Birge ratio
+    # squared: their scatter in units of their expected errors
 
 
 def _stack(obs: List[Observation], p: FuseParams) -> Dict[str, np.ndarray]:
@@ -94,6 +101,7 @@ def _stack(obs: List[Observation], p: FuseParams) -> Dict[str, np.ndarray]:
         + np.zeros_like(a['conf'])
     var = a['own'] ** 2 + (a['timing'] / p.k) ** 2
     a['w'] = np.where(usable, weight / var, 0.0)
+    a['scatter'] = _scatter(a['pts'], np.where(usable, weight / var, 0.0))
     a['w'] *= _kept(a['pts'], usable, p.outlier)
     a['w'] = _agreed(a['pts'], a['w'], np.sqrt(var), p)
     return a
@@ -113,6 +121,19 @@ def _agreed(pts: np.ndarray, w: np.ndarray, spread: np.ndarray,
         d = np.linalg.norm(pts - mean, axis=2) / (p.agreement * spread)
         out = w / (1.0 + d ** 2)
     return out
+
+
+def _scatter(pts: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Per joint, the views' scatter about their weighted mean in units
+    of their expected errors (the Birge ratio squared: chi-square over
+    its degrees of freedom; 1 where fewer than two views give it)."""
+    n = (w > 0).sum(axis=0)
+    total = w.sum(axis=0)
+    pts = np.nan_to_num(pts)
+    mean = (w[..., None] * pts).sum(axis=0) \
+        / np.where(total > 0, total, 1.0)[:, None]
+    chi2 = (w * ((pts - mean) ** 2).sum(axis=2)).sum(axis=0)
+    return np.where(n >= 2, chi2 / (3 * np.maximum(n - 1, 1)), 1.0)
 
 
 def _kept(pts: np.ndarray, usable: np.ndarray, limit: float) -> np.ndarray:
@@ -135,8 +156,11 @@ def _kept(pts: np.ndarray, usable: np.ndarray, limit: float) -> np.ndarray:
     return keep
 
 
-def fuse(obs: List[Observation], p: FuseParams) -> Fused:
-    """The fused body of one person from its views' observations."""
+def fuse(obs: List[Observation], p: FuseParams,
+         inflate: Optional[np.ndarray] = None) -> Fused:
+    """The fused body of one person from its views' observations; its
+    bound's error model scaled (variance) by the views' scatter, or by
+    ``inflate`` (per joint) where that is larger."""
     a = _stack(obs, p)
     w = a['w']
     total = w.sum(axis=0)
@@ -146,11 +170,13 @@ def fuse(obs: List[Observation], p: FuseParams) -> Fused:
     positions = (w[..., None] * pts).sum(axis=0) / safe[:, None]
     own = (w ** 2 * a['own'] ** 2).sum(axis=0) / safe ** 2
     common = ((w * a['common']).sum(axis=0) / safe) ** 2
-    bound = p.k * np.sqrt(own + common) \
+    inflate = np.maximum(a['scatter'], 1.0 if inflate is None else inflate)
+    bound = p.k * np.sqrt((own + common) * np.maximum(inflate, 1.0)) \
         + (w * a['timing']).sum(axis=0) / safe
     confidence = np.where(w > 0, a['conf'], 0.0).max(axis=0)
     positions[~has] = np.nan
     bound[~has] = np.nan
     views = sorted({o.view for o, used in zip(obs, (w > 0).any(axis=1))
                     if used})
-    return Fused(positions, np.where(has, confidence, 0.0), bound, views)
+    return Fused(positions, np.where(has, confidence, 0.0), bound, views,
+                 a['scatter'])

@@ -74,6 +74,8 @@ class FusionParams:
     max_gap: float = 0.25               # s between samples interpolated
     wait_margin: float = 0.005          # s past a view's expected arrival
     suspect_weight: float = 0.1         # a wrong-pose view's weight
+    scatter_hold: float = 0.5           # s a joint's bound keeps the
+                                        # views' largest scatter
     far_sigma: float = 3.0              # a view's error beyond its range,
                                         # times its profile's
     skip_after: float = 1.0             # s behind the newest: skip ahead
@@ -125,6 +127,8 @@ class Fusion:
         self.lags: Dict[Key, Optional[FilterLag]] = {}  # per track
         # per track: the last skeleton's stamp and joints (Skeleton frame)
         self.last_raw: Dict[Key, Tuple[float, np.ndarray]] = {}
+        # per person: (instant, the views' scatter of each joint)
+        self.scatter: Dict[int, List[Tuple[float, np.ndarray]]] = {}
         self.associator = Associator(gate=self.params.gate)
         self.residuals = Residuals(threshold=self.params.residual_threshold)
         self.pose_fit = PoseFit(threshold=self.params.residual_threshold)
@@ -297,9 +301,14 @@ class Fusion:
         for pid in sorted(groups):
             views = [obs[k][0] for k in groups[pid]]
             self._put_arms_right(pid, t, views)
-            body = fuse(views, self.params.fuse)
+            scatter = [(s, x) for s, x in self.scatter.get(pid, [])
+                       if s >= t - self.params.scatter_hold - 1e-9]
+            inflate = np.max([x for _, x in scatter], axis=0) \
+                if scatter else None
+            body = fuse(views, self.params.fuse, inflate)
             if len(views) > 1 and self._by_vantage(body.positions, views):
-                body = fuse(views, self.params.fuse)
+                body = fuse(views, self.params.fuse, inflate)
+            self.scatter[pid] = scatter + [(t, body.scatter)]
             past = self.past.get(pid, []) + [(t, body.positions)]
             self.past[pid] = past[-2:]
             bodies[pid] = body
@@ -318,6 +327,7 @@ class Fusion:
         for pid in [p for p, past in self.past.items()
                     if past[-1][0] < t - 1.0]:
             del self.past[pid]
+            self.scatter.pop(pid, None)
         blamed, _ = self.residuals.wrong()
         self._check_poses(t, obs, ids, bodies, blamed)
         for view, health in self.health.items():

@@ -44,6 +44,8 @@ class FusionNode:
         params.max_ahead = param('max_ahead', 0.2, float, positive)
         params.max_age = param('max_age', 2.0, float, positive)
         params.max_depth = param('max_depth', 10.0, float, positive)
+        params.scatter_hold = param('scatter_hold', 0.5, float,
+                                    lambda x: x >= 0, '>= 0 s')
         params.residual_threshold = param('residual_threshold', 0.2, float,
                                           positive)
         params.arms.margin = param('arms_margin', 0.2, float,
