@@ -26,7 +26,7 @@ its profile says, alike in what the views share.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Dict, List, Optional
 
 import numpy as np
@@ -79,8 +79,9 @@ class Fused:
     confidence: np.ndarray      # (15,)
     bound: np.ndarray           # (15,) m, 95 %
     views: List[str]            # the views that gave a joint
-    scatter: Optional[np.ndarray] = None  # (15,) the views' Birge ratio
-    # squared: their scatter in units of their expected errors
+    scatter: np.ndarray = field(      # (15,) the views' Birge ratio
+        default_factory=lambda: np.ones(NUM_JOINTS))   # squared: their
+    # scatter in units of their expected errors
 
 
 def _stack(obs: List[Observation], p: FuseParams) -> Dict[str, np.ndarray]:
