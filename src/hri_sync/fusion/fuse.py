@@ -171,8 +171,9 @@ def fuse(obs: List[Observation], p: FuseParams,
     positions = (w[..., None] * pts).sum(axis=0) / safe[:, None]
     own = (w ** 2 * a['own'] ** 2).sum(axis=0) / safe ** 2
     common = ((w * a['common']).sum(axis=0) / safe) ** 2
-    inflate = np.maximum(a['scatter'], 1.0 if inflate is None else inflate)
-    bound = p.k * np.sqrt((own + common) * np.maximum(inflate, 1.0)) \
+    held = np.ones(NUM_JOINTS) if inflate is None else inflate
+    scale = np.maximum(np.maximum(a['scatter'], held), 1.0)
+    bound = p.k * np.sqrt((own + common) * scale) \
         + (w * a['timing']).sum(axis=0) / safe
     confidence = np.where(w > 0, a['conf'], 0.0).max(axis=0)
     positions[~has] = np.nan
