@@ -79,9 +79,13 @@ class Fused:
     confidence: np.ndarray      # (15,)
     bound: np.ndarray           # (15,) m, 95 %
     views: List[str]            # the views that gave a joint
-    scatter: np.ndarray = field(      # (15,) the views' Birge ratio
-        default_factory=lambda: np.ones(NUM_JOINTS))   # squared: their
-    # scatter in units of their expected errors
+    # (15,) the views' Birge ratio squared: their scatter in units of
+    # their expected errors
+    scatter: np.ndarray = field(
+        default_factory=lambda: np.ones(NUM_JOINTS))
+    # (15,) m, one axis: the error the bound is made of, timing apart
+    sigma: np.ndarray = field(
+        default_factory=lambda: np.full(NUM_JOINTS, np.nan))
 
 
 def _stack(obs: List[Observation], p: FuseParams) -> Dict[str, np.ndarray]:
@@ -172,13 +176,15 @@ def fuse(obs: List[Observation], p: FuseParams,
     own = (w ** 2 * a['own'] ** 2).sum(axis=0) / safe ** 2
     common = ((w * a['common']).sum(axis=0) / safe) ** 2
     held = np.ones(NUM_JOINTS) if inflate is None else inflate
-    scale = np.maximum(np.maximum(a['scatter'], held), 1.0)
-    bound = p.k * np.sqrt((own + common) * scale) \
+    sigma = np.sqrt(own + common)
+    bound = p.k * sigma * np.sqrt(np.maximum(np.maximum(a['scatter'], held),
+                                             1.0)) \
         + (w * a['timing']).sum(axis=0) / safe
     confidence = np.where(w > 0, a['conf'], 0.0).max(axis=0)
     positions[~has] = np.nan
     bound[~has] = np.nan
     views = sorted({o.view for o, used in zip(obs, (w > 0).any(axis=1))
                     if used})
+    sigma[~has] = np.nan
     return Fused(positions, np.where(has, confidence, 0.0), bound, views,
-                 a['scatter'])
+                 a['scatter'], sigma)

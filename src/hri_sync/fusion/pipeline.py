@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Deque, Dict, Hashable, List, Optional, Tuple
 
 import numpy as np
@@ -58,6 +58,7 @@ from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import FuseParams, Fused, Observation, fuse
 from hri_sync.fusion.lag import FilterLag
 from hri_sync.fusion.profile import Profile
+from hri_sync.fusion.smooth import SmoothParams, Smoother
 from hri_sync.fusion.sightlines import SightParams, Sightlines, place
 from hri_sync.fusion.views import HealthParams, ViewHealth
 
@@ -80,6 +81,7 @@ class FusionParams:
                                         # times its profile's
     skip_after: float = 1.0             # s behind the newest: skip ahead
     fuse: FuseParams = field(default_factory=FuseParams)
+    smooth: SmoothParams = field(default_factory=SmoothParams)
     arms: ArmParams = field(default_factory=ArmParams)
     health: HealthParams = field(default_factory=HealthParams)
     gate: float = 0.5                   # m, association (associate.py)
@@ -129,6 +131,7 @@ class Fusion:
         self.last_raw: Dict[Key, Tuple[float, np.ndarray]] = {}
         # per person: (instant, the views' scatter of each joint)
         self.scatter: Dict[int, List[Tuple[float, np.ndarray]]] = {}
+        self.smoothers: Dict[int, Smoother] = {}    # per person
         self.associator = Associator(gate=self.params.gate)
         self.residuals = Residuals(threshold=self.params.residual_threshold)
         self.pose_fit = PoseFit(threshold=self.params.residual_threshold)
@@ -319,7 +322,11 @@ class Fusion:
                                    for o in views})
             newest = max((obs[k][1] for k in groups[pid]
                           if k[0] in body.views), default=t)
-            people.append(Person(pid, body, newest))
+            smoother = self.smoothers.setdefault(
+                pid, Smoother(self.params.smooth))
+            people.append(Person(pid, replace(
+                body, positions=smoother.update(t, body.positions,
+                                                body.sigma)), newest))
         self.sightlines.update(t, {pid: (bodies[pid].positions,
                                          {k[0] for k in keys})
                                    for pid, keys in groups.items()},
@@ -328,6 +335,7 @@ class Fusion:
                     if past[-1][0] < t - 1.0]:
             del self.past[pid]
             self.scatter.pop(pid, None)
+            self.smoothers.pop(pid, None)
         blamed, _ = self.residuals.wrong()
         self._check_poses(t, obs, ids, bodies, blamed)
         for view, health in self.health.items():
