@@ -46,6 +46,8 @@ class FusionNode:
         params.max_depth = param('max_depth', 10.0, float, positive)
         params.scatter_hold = param('scatter_hold', 0.5, float,
                                     lambda x: x >= 0, '>= 0 s')
+        params.smooth.accel = param('smooth_accel', 30.0, float,
+                                    lambda x: x >= 0, '>= 0 m/s^2')
         params.residual_threshold = param('residual_threshold', 0.2, float,
                                           positive)
         params.arms.margin = param('arms_margin', 0.2, float,
