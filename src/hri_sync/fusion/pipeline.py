@@ -24,7 +24,9 @@ body. Before that, a view whose tracker exchanged the left and right arms
 has them put back (hri_sync.fusion.arms), against the person's body
 predicted from its last two fused instants. A view's skeleton of someone
 farther than its sensor tracks (``sight.far``) is taken to err
-``far_sigma`` times its profile's sigma.
+``far_sigma`` times its profile's sigma. Each person's fused joints then
+go through a constant-velocity Kalman filter (hri_sync.fusion.smooth),
+their bounds as fused.
 
 A view is suspect while its residuals blame it (calibration.Residuals), or
 while none of its users joins a person other views agree on and one is
