@@ -42,9 +42,9 @@ scored against the truth instead (hri_sync_support.fusion_people):
 ``--lost P``: each view loses a share P of its frames at random (live
 trackers on a busy machine skip frames). ``--frozen VIEW:T0,T1``: VIEW
 sends its skeleton of T0 s again and again until T1 s, freshly stamped
-(as a Kinect SDK repeats its last skeleton); ``frozen`` gives the fused
-error and bound coverage over that span (from 0.5 s in, when the view is
-named) and the faults named on each view.
+(as a driver that re-sends its last skeleton); ``frozen`` gives the
+fused error and bound coverage over that span (from 0.5 s in, when the
+view is named) and the skeletons each view had left out, by reason.
 
 ``--pose-error VIEW:DX,DY,DEG``: the fusion is told VIEW's pose moved DX,
 DY m and turned DEG degrees (a pose wrong from the start; the renders are
@@ -235,8 +235,7 @@ def faulty(msgs, args):
     rng = np.random.default_rng([args.seed, 1])
     msgs = [m for m in msgs if rng.random() >= args.lost]
     if args.frozen:
-        view, span = args.frozen.split(':')
-        t0, t1 = (float(x) for x in span.split(','))
+        view, t0, t1 = args.frozen
         held = None
         for m in sorted(msgs, key=lambda m: m['capture']):
             if m['view'] == view and t0 <= m['capture'] < t1:
@@ -246,10 +245,10 @@ def faulty(msgs, args):
 
 
 def frozen_figures(spec, frames, fusion, truth):
-    """The fused body while a view is frozen (``--frozen``), from 0.5 s
-    in (when the fusion names it), and the faults named on each view."""
-    _, span = spec.split(':')
-    t0, t1 = (float(x) for x in span.split(','))
+    """The fused body while a view is frozen (``--frozen``: ``spec``),
+    from 0.5 s in (when the fusion names it), and the skeletons each view
+    had left out, by reason."""
+    _, t0, t1 = spec
     people = [f for f in frames if f.people and t0 + 0.5 <= f.stamp < t1]
     stamps = np.array([f.stamp for f in people])
     err = np.linalg.norm(np.array([f.people[0].body.positions
@@ -500,6 +499,16 @@ def targets(out):
     }.items()}
 
 
+def frozen_spec(text):
+    """``--frozen``'s VIEW:T0,T1 as (view, t0, t1)."""
+    try:
+        view, span = text.split(':')
+        t0, t1 = (float(x) for x in span.split(','))
+    except ValueError:
+        raise argparse.ArgumentTypeError('VIEW:T0,T1, e.g. front:6,9')
+    return view, t0, t1
+
+
 def arguments():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--motion', required=True, help='.bvh, .npz or .track')
@@ -523,7 +532,7 @@ def arguments():
     ap.add_argument('--lost', type=float, default=0.0, metavar='P',
                     help='each view loses this share of its frames at '
                     'random')
-    ap.add_argument('--frozen', metavar='VIEW:T0,T1',
+    ap.add_argument('--frozen', metavar='VIEW:T0,T1', type=frozen_spec,
                     help='VIEW repeats its skeleton of T0 s until T1 s, '
                     'freshly stamped')
     ap.add_argument('--jobs', '-j', type=int, default=2, choices=(1, 2),

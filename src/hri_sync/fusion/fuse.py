@@ -106,7 +106,7 @@ def _stack(obs: List[Observation], p: FuseParams) -> Dict[str, np.ndarray]:
         + np.zeros_like(a['conf'])
     var = a['own'] ** 2 + (a['timing'] / p.k) ** 2
     a['w'] = np.where(usable, weight / var, 0.0)
-    a['scatter'] = _scatter(a['pts'], np.where(usable, weight / var, 0.0))
+    a['scatter'] = _scatter(a['pts'], a['w'])
     a['w'] *= _kept(a['pts'], usable, p.outlier)
     a['w'] = _agreed(a['pts'], a['w'], np.sqrt(var), p)
     return a
@@ -120,12 +120,18 @@ def _agreed(pts: np.ndarray, w: np.ndarray, spread: np.ndarray,
     out = w
     pts = np.nan_to_num(pts)
     for _ in range(p.agreement_steps if p.agreement > 0 else 0):
-        total = out.sum(axis=0)
-        mean = (out[..., None] * pts).sum(axis=0) \
-            / np.where(total > 0, total, 1.0)[:, None]
+        mean = _mean(pts, out)
         d = np.linalg.norm(pts - mean, axis=2) / (p.agreement * spread)
         out = w / (1.0 + d ** 2)
     return out
+
+
+def _mean(pts: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Each joint's mean (15, 3) of the views' finite ``pts`` (views, 15,
+    3) weighted by ``w`` (views, 15); 0 where no view has weight."""
+    total = w.sum(axis=0)
+    return (w[..., None] * pts).sum(axis=0) \
+        / np.where(total > 0, total, 1.0)[:, None]
 
 
 def _scatter(pts: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -133,11 +139,8 @@ def _scatter(pts: np.ndarray, w: np.ndarray) -> np.ndarray:
     of their expected errors (the Birge ratio squared: chi-square over
     its degrees of freedom; 1 where fewer than two views give it)."""
     n = (w > 0).sum(axis=0)
-    total = w.sum(axis=0)
     pts = np.nan_to_num(pts)
-    mean = (w[..., None] * pts).sum(axis=0) \
-        / np.where(total > 0, total, 1.0)[:, None]
-    chi2 = (w * ((pts - mean) ** 2).sum(axis=2)).sum(axis=0)
+    chi2 = (w * ((pts - _mean(pts, w)) ** 2).sum(axis=2)).sum(axis=0)
     return np.where(n >= 2, chi2 / (3 * np.maximum(n - 1, 1)), 1.0)
 
 
@@ -171,8 +174,7 @@ def fuse(obs: List[Observation], p: FuseParams,
     total = w.sum(axis=0)
     has = total > 0
     safe = np.where(has, total, 1.0)
-    pts = np.nan_to_num(a['pts'])
-    positions = (w[..., None] * pts).sum(axis=0) / safe[:, None]
+    positions = _mean(np.nan_to_num(a['pts']), w)
     own = (w ** 2 * a['own'] ** 2).sum(axis=0) / safe ** 2
     common = ((w * a['common']).sum(axis=0) / safe) ** 2
     held = np.ones(NUM_JOINTS) if inflate is None else inflate
@@ -183,8 +185,8 @@ def fuse(obs: List[Observation], p: FuseParams,
     confidence = np.where(w > 0, a['conf'], 0.0).max(axis=0)
     positions[~has] = np.nan
     bound[~has] = np.nan
+    sigma[~has] = np.nan
     views = sorted({o.view for o, used in zip(obs, (w > 0).any(axis=1))
                     if used})
-    sigma[~has] = np.nan
     return Fused(positions, np.where(has, confidence, 0.0), bound, views,
                  a['scatter'], sigma)

@@ -53,23 +53,20 @@ class Smoother:
             return z
         r = np.nan_to_num(np.asarray(sigma, float), nan=1.0) ** 2
         q = self.params.accel ** 2
-        if self.t is None or not 0 < t - self.t <= self.params.max_gap:
-            self.t = t
-            self.x, self.v = np.array(z, float), np.zeros_like(self.v)
-            self.pxx, self.pxv = r, np.zeros(NUM_JOINTS)
-            self.pvv = np.full(NUM_JOINTS, START_SPEED ** 2)
-            return self.x.copy()
-        dt, self.t = t - self.t, t
+        gap = self.t is None or not 0 < t - self.t <= self.params.max_gap
+        dt = 0.0 if gap else t - self.t
+        self.t = t
         xp = self.x + self.v * dt
         pxx = self.pxx + 2 * dt * self.pxv + dt * dt * self.pvv \
             + q * dt ** 4 / 4
         pxv = self.pxv + dt * self.pvv + q * dt ** 3 / 2
         pvv = self.pvv + q * dt * dt
         s = pxx + r
-        jump = np.linalg.norm(z - xp, axis=1) > self.params.gate \
-            * np.sqrt(3 * s)
-        restart = ~np.isfinite(z).all(axis=1) | ~np.isfinite(xp).all(axis=1) \
-            | jump
+        with np.errstate(invalid='ignore'):
+            jump = np.linalg.norm(z - xp, axis=1) > self.params.gate \
+                * np.sqrt(3 * s)
+        restart = gap | ~np.isfinite(z).all(axis=1) \
+            | ~np.isfinite(xp).all(axis=1) | jump
         k1, k2 = pxx / s, pxv / s
         innovation = np.nan_to_num(z - xp)
         x = xp + k1[:, None] * innovation
