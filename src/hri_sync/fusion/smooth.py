@@ -13,6 +13,7 @@ joint's (docs/fusion.md has what the filter gains).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -53,9 +54,9 @@ class Smoother:
             return z
         r = np.nan_to_num(np.asarray(sigma, float), nan=1.0) ** 2
         q = self.params.accel ** 2
-        gap = self.t is None or not 0 < t - self.t <= self.params.max_gap
-        dt = 0.0 if gap else t - self.t
-        self.t = t
+        dt = math.inf if self.t is None else t - self.t
+        gap = not 0 < dt <= self.params.max_gap
+        dt, self.t = (0.0 if gap else dt), t
         xp = self.x + self.v * dt
         pxx = self.pxx + 2 * dt * self.pxv + dt * dt * self.pvv \
             + q * dt ** 4 / 4
