@@ -65,17 +65,48 @@ IDLE_MORE = 0.20    # CPU idle share over the last RAMP: one job more
 IDLE_FEWER = 0.05   # under it: one fewer (not below the floor)
 
 
-def junit_counts(path):
-    """(tests, failures + errors) of a JUnit XML file, or None."""
+def junit_suites(path):
+    """The testsuite elements of a JUnit XML file, or None."""
     try:
         root = ET.parse(path).getroot()
     except (OSError, ET.ParseError):
         return None
-    suites = [root] if root.tag == 'testsuite' else root.findall('testsuite')
+    return [root] if root.tag == 'testsuite' else root.findall('testsuite')
+
+
+def junit_counts(path):
+    """(tests, failures + errors) of a JUnit XML file and of the checkers'
+    files beside it (rostest's summary counts each checker as one test,
+    passed even when its test cases failed), or None."""
+    suites = junit_suites(path)
+    if suites is None:
+        return None
     tests = sum(int(s.get('tests', 0)) for s in suites)
     bad = sum(int(s.get('failures', 0)) + int(s.get('errors', 0))
               for s in suites)
+    for sub in sorted(glob.glob(os.path.join(os.path.dirname(path),
+                                             'rosunit-*.xml'))):
+        for s in junit_suites(sub) or []:
+            bad += int(s.get('failures', 0)) + int(s.get('errors', 0))
     return tests, bad
+
+
+def junit_failures(path):
+    """'test case: message' of each failed or erred test case in a JUnit
+    XML file and in the checkers' files beside it."""
+    found = []
+    paths = [path] + sorted(glob.glob(os.path.join(os.path.dirname(path),
+                                                   'rosunit-*.xml')))
+    for p in paths:
+        for s in junit_suites(p) or []:
+            for case in s.iter('testcase'):
+                for bad in list(case.findall('failure')) \
+                        + list(case.findall('error')):
+                    text = (bad.get('message') or bad.text or '').strip()
+                    found.append('%s: %s' % (case.get('name'),
+                                             text.splitlines()[0]
+                                             if text else bad.tag))
+    return found
 
 
 def restore_signals():
@@ -487,6 +518,9 @@ class Runner:
             '' if cpu_seconds is None else ', cpu %5.1f s' % cpu_seconds,
             code, what)
         if not ok:
+            xml = os.path.join(self.results, name, 'hri_sync',
+                               'rostest-%s.xml' % name)
+            line += ''.join('\n  %s' % f for f in junit_failures(xml))
             log = os.path.join(self.logs, name + '.log')
             with open(log) as lf:
                 tail = lf.readlines()[-TAIL:]

@@ -229,3 +229,27 @@ def test_cpu_times_reads_busy_and_idle_from_proc_stat(tmp_path):
     stat = tmp_path / 'stat'
     stat.write_text('cpu  10 1 5 100 4 2 3 0 0 0\ncpu0 5 0 2 50 2 1 1 0\n')
     assert run_rostests.cpu_times(str(stat)) == (21, 104)
+
+
+def test_a_checkers_failed_case_fails_the_test_and_is_named(tmp_path):
+    # rostest's own summary counts the checker as one passed test even
+    # when its test cases failed; the checker's file beside it says so.
+    (tmp_path / 'rostest-x.xml').write_text(
+        '<testsuite errors="0" failures="0" tests="1">'
+        '<testcase name="testx"/></testsuite>')
+    (tmp_path / 'rosunit-x.xml').write_text(
+        '<testsuite errors="1" failures="1" tests="3">'
+        '<testcase name="test_a"/>'
+        '<testcase name="test_b"><failure type="AssertionError">'
+        '0.5 not less than 0.3 : right\n  File "x.py", line 3</failure>'
+        '</testcase><testcase name="test_c"><error type="KeyError">'
+        "'left'\n  File \"x.py\", line 9</error></testcase></testsuite>")
+    summary = str(tmp_path / 'rostest-x.xml')
+    assert run_rostests.junit_counts(summary) == (1, 2)
+    assert run_rostests.junit_failures(summary) == [
+        'test_b: 0.5 not less than 0.3 : right', "test_c: 'left'"]
+
+
+def test_a_missing_result_file_has_no_counts(tmp_path):
+    assert run_rostests.junit_counts(str(tmp_path / 'none.xml')) is None
+    assert run_rostests.junit_failures(str(tmp_path / 'none.xml')) == []
