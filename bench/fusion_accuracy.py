@@ -28,6 +28,10 @@ rendered truth. Prints one JSON object:
 - ``view_oracle_mean_m`` / ``view_oracle_hidden_mean_m``: at each fused
   instant and joint the view nearest the truth (which no fusion can
   know): a ceiling for any weighting of the views;
+- ``hidden_by_views_seeing``: the best view's hidden joints by how many
+  other views see them (``0``, ``1``, ``2+``: at confidence >= 0.5): each
+  group's share, the best view's and the fused error (``1``: and the
+  error of the view that sees it);
 - ``no_time_alignment``: the same fusion fed each view's arrival time as
   its stamp (a plain subscriber), same figures;
 - ``targets``: each target and whether it is met.
@@ -485,6 +489,43 @@ def oracle(frames, truth, tracks, best):
             'view_oracle_hidden_mean_m': round(float(np.mean(hidden)), 4)}
 
 
+def hidden_by_sight(frames, truth, tracks, best):
+    """The best view's hidden joints split by how many other views see
+    them (confidence >= HIDDEN: none, one, two or more): per group its
+    share of the instants, the best view's and the fused body's mean
+    error, and with one the error of the view that sees it."""
+    groups = {'0': [], '1': [], '2+': []}   # (best, fused, lone) errors
+    for f in frames:
+        seen = {n: tr.at(f.stamp, 0.04) for n, tr in tracks.items()}
+        b = seen.pop(best)
+        if not f.people or b is None:
+            continue
+        true = truth([f.stamp])[0]
+        fused = np.linalg.norm(f.people[0].body.positions - true, axis=1)
+        for j in np.flatnonzero((b.confidence < HIDDEN)
+                                & np.isfinite(b.positions).all(axis=1)
+                                & np.isfinite(fused)):
+            sees = [np.linalg.norm(a.positions[j] - true[j])
+                    for a in seen.values() if a is not None
+                    and a.confidence[j] >= HIDDEN
+                    and np.isfinite(a.positions[j]).all()]
+            groups[str(len(sees)) if len(sees) < 2 else '2+'].append(
+                (np.linalg.norm(b.positions[j] - true[j]), fused[j],
+                 sees[0] if len(sees) == 1 else math.nan))
+    total = sum(len(g) for g in groups.values()) or 1
+    out = {}
+    for name, g in groups.items():
+        e = np.array(g).reshape(-1, 3)
+        out[name] = {'share': round(len(g) / total, 3),
+                     'best_view_m': round(float(e[:, 0].mean()), 4)
+                     if len(g) else None,
+                     'fused_m': round(float(e[:, 1].mean()), 4)
+                     if len(g) else None}
+        if name == '1' and len(g):
+            out[name]['seeing_view_m'] = round(float(e[:, 2].mean()), 4)
+    return out
+
+
 def targets(out):
     """Each target of the fusion and whether this run meets it."""
     best = min(out['single_view_mean_m'].values())
@@ -698,8 +739,11 @@ def main():
         result['unmatched_instants'] = dict(fusion.sightlines.instants)
         if aligned:
             out.update(result)
-            out.update(oracle(frames, truth, {n: best_view_track(
-                msgs, n, poses, aligned, profile) for n in names}, best))
+            tracks = {n: best_view_track(msgs, n, poses, aligned, profile)
+                      for n in names}
+            out.update(oracle(frames, truth, tracks, best))
+            out['hidden_by_views_seeing'] = hidden_by_sight(
+                frames, truth, tracks, best)
             if args.frozen:
                 out['frozen'] = frozen_figures(args.frozen, frames, fusion,
                                                truth)

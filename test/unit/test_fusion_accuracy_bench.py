@@ -1,0 +1,77 @@
+"""bench/fusion_accuracy.py's split of the best view's hidden joints by how
+many other views see them."""
+import importlib.util
+import os
+import types
+
+import numpy as np
+
+SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..',
+                      '..', 'bench', 'fusion_accuracy.py')
+spec = importlib.util.spec_from_file_location('fusion_accuracy', SCRIPT)
+bench = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(bench)
+
+J = 15
+
+
+class FixedTrack:
+    """A view whose skeleton is the same at every instant."""
+
+    def __init__(self, positions, confidence):
+        self.sample = types.SimpleNamespace(
+            positions=np.asarray(positions, float),
+            confidence=np.asarray(confidence, float))
+
+    def at(self, t, extrapolate):
+        return self.sample
+
+
+def frame(t, fused):
+    body = types.SimpleNamespace(positions=np.asarray(fused, float))
+    return types.SimpleNamespace(stamp=t, people=[
+        types.SimpleNamespace(body=body)])
+
+
+def test_hidden_joints_are_grouped_by_the_views_that_see_them():
+    truth = np.zeros((J, 3))
+    off = np.zeros((J, 3))
+    off[:, 0] = 0.1                      # every view 0.1 m off, but:
+    best_conf = np.ones(J)
+    best_conf[[7, 8, 9]] = 0.3           # the best view hides 3 joints
+    a_conf = np.ones(J)
+    a_conf[7] = 0.3                      # joint 7: seen by nobody else
+    b_conf = np.ones(J)
+    b_conf[[7, 8]] = 0.3                 # joint 8: seen by view a only
+    a_pos = off.copy()
+    a_pos[8, 0] = 0.25                   # ... and 0.25 m off there
+    tracks = {'best': FixedTrack(off, best_conf),
+              'a': FixedTrack(a_pos, a_conf),
+              'b': FixedTrack(off, b_conf)}
+    fused = np.zeros((J, 3))
+    fused[:, 1] = 0.05                   # the fused body 0.05 m off
+    frames = [frame(t, fused) for t in (0.0, 1 / 30)]
+    out = bench.hidden_by_sight(frames, lambda ts: [truth for _ in ts],
+                                tracks, 'best')
+    third = round(1 / 3, 3)
+    assert out['0'] == {'share': third, 'best_view_m': 0.1, 'fused_m': 0.05}
+    assert out['1'] == {'share': third, 'best_view_m': 0.1, 'fused_m': 0.05,
+                        'seeing_view_m': 0.25}
+    assert out['2+'] == {'share': third, 'best_view_m': 0.1,
+                         'fused_m': 0.05}
+
+
+def test_an_instant_the_best_view_lacks_or_no_person_counts_nowhere():
+    hidden = np.full(J, 0.3)
+    tracks = {'best': FixedTrack(np.zeros((J, 3)), hidden)}
+    tracks['best'].at = lambda t, e: None
+    out = bench.hidden_by_sight([frame(0.0, np.zeros((J, 3)))],
+                                lambda ts: [np.zeros((J, 3))], tracks,
+                                'best')
+    assert all(g['share'] == 0 and g['fused_m'] is None
+               for g in out.values())
+    empty = types.SimpleNamespace(stamp=0.0, people=[])
+    tracks = {'best': FixedTrack(np.zeros((J, 3)), hidden)}
+    out = bench.hidden_by_sight([empty], lambda ts: [np.zeros((J, 3))],
+                                tracks, 'best')
+    assert not any(g['share'] for g in out.values())
