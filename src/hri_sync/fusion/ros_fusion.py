@@ -2,7 +2,6 @@
 
 The executable is ``nodes/fusion``; docs/fusion.md.
 """
-import math
 import threading
 import time
 
@@ -12,10 +11,12 @@ import rospy
 from geometry_msgs.msg import Point, Point32, Quaternion
 from sensor_msgs.msg import ChannelFloat32, PointCloud
 
+from hri_sync.fusion.feed import add_skeleton, stamp_uncertainty, to_global
 from hri_sync.fusion.frames import parse_pose
-from hri_sync.fusion.pipeline import Fusion, FusionParams
+from hri_sync.fusion.pipeline import Fusion
 from hri_sync.fusion.profile import profiles
 from hri_sync.fusion.report import statuses
+from hri_sync.fusion.settings import fusion_params
 from hri_sync.msg import ClockState, Skeleton
 from hri_sync.ros.params import ParamError, csv_list, param, positive
 
@@ -38,23 +39,10 @@ class FusionNode:
         self.world = param('world_frame', 'world', str, bool, 'a frame')
         self.extra = param('stamp_uncertainty', 0.001, float,
                            lambda x: x >= 0, '>= 0 s')
-        params = FusionParams(rate=param('rate', 30.0, float, positive))
-        params.health.stall_after = param('stall_after', 0.5, float,
-                                          positive)
-        params.max_ahead = param('max_ahead', 0.2, float, positive)
-        params.max_age = param('max_age', 2.0, float, positive)
-        params.max_depth = param('max_depth', 10.0, float, positive)
-        params.scatter_hold = param('scatter_hold', 0.5, float,
-                                    lambda x: x >= 0, '>= 0 s')
-        params.smooth.accel = param('smooth_accel', 30.0, float,
-                                    lambda x: x >= 0, '>= 0 m/s^2')
-        params.residual_threshold = param('residual_threshold', 0.2, float,
-                                          positive)
-        params.arms.margin = param('arms_margin', 0.2, float,
-                                   lambda x: x > 0, '> 0 m (inf: never)')
-        params.sight.fov_deg = param('fov_deg', 57.0, float,
-                                     lambda x: 0 < x < 360, '0-360 degrees')
-        params.sight.far = param('max_range', 4.5, float, positive)
+        try:
+            params = fusion_params(param)
+        except ValueError as e:
+            raise ParamError('%s: ~%s' % (rospy.get_name(), e))
         self.lock = threading.Lock()
         self.host = None             # this host's ClockState, if any
         self.clock_of = {v: None for v in self.views}
@@ -80,27 +68,17 @@ class FusionNode:
                                          positive)), self.poll)
         rospy.Timer(rospy.Duration(1.0), lambda _: self.updater.update())
 
-    def now(self, local=None, back=False):
-        """Global time of host time ``local`` (now) through the host's
-        clock model, if any; ``back``: host time of global ``local``."""
-        local, m = time.time() if local is None else local, self.host
-        if m is None or not m.ok:
-            return local
-        if back:
-            return (local - m.offset + m.drift * m.local_ref) / (1 + m.drift)
-        return local + m.offset + m.drift * (local - m.local_ref)
+    def now(self):
+        """This host's clock on the global clock."""
+        return to_global(time.time(), self.host)
 
     def on_clock(self, msg, view):  # its uncertainty: the next skeletons'
         self.clock_of[view] = msg
 
     def on_skeleton(self, msg, view):
-        m = self.clock_of[view]
-        uncertainty = self.extra + (0.0 if m is None else
-                                    m.uncertainty if m.ok else math.inf)
-        positions = [(p.x, p.y, p.z) for p in msg.positions]
+        uncertainty = stamp_uncertainty(self.clock_of[view], self.extra)
         with self.lock:
-            self.fusion.add(view, msg.user_id, msg.header.stamp.to_sec(),
-                            positions, list(msg.confidence), uncertainty)
+            add_skeleton(self.fusion, view, msg, uncertainty)
         self.poll(None)
 
     def poll(self, _event):
@@ -118,33 +96,11 @@ class FusionNode:
             self.last = frame
 
     def publish(self, frame):
-        stamp = rospy.Time.from_sec(frame.stamp)
-        device = rospy.Time.from_sec(self.now(frame.stamp, True))  # host
-        cloud = PointCloud()
-        cloud.header.stamp, cloud.header.frame_id = stamp, self.world
-        channels = {n: [] for n in ('person', 'joint', 'confidence',
-                                    'bound_95_m', 'newest_after_s')}
-        for person in frame.people:
-            body = person.body
-            found = np.isfinite(body.positions).all(axis=1)
-            world = np.where(found[:, None], body.positions,
-                             np.nanmean(body.positions, axis=0))
-            msg = Skeleton(client_id=self.client_id, user_id=person.person,
-                           positions=[Point(*p) for p in
-                                      self.output_pose.from_world(world)],
-                           sources=list(body.views))
-            msg.header.stamp, msg.device_stamp = stamp, device
-            msg.header.frame_id = self.client_id + '_sensor'
-            msg.orientations = [Quaternion(w=1.0) for _ in range(15)]
-            msg.confidence = [float(c) for c in body.confidence]
+        skeletons, cloud = fused_messages(
+            frame, to_global(frame.stamp, self.host, back=True),
+            self.output_pose, self.client_id, self.world)
+        for msg in skeletons:
             self.skel_pub.publish(msg)
-            for j in np.flatnonzero(found):
-                cloud.points.append(Point32(*body.positions[j]))
-                for name, value in zip(channels, (
-                        person.person, j, body.confidence[j], body.bound[j],
-                        person.newest - frame.stamp)):
-                    channels[name].append(float(value))
-        cloud.channels = [ChannelFloat32(n, v) for n, v in channels.items()]
         self.joint_pub.publish(cloud)
 
     def status(self, stat, name):
@@ -156,3 +112,40 @@ class FusionNode:
             stat.add(key, value)
         return stat
 
+
+def fused_messages(frame, host_stamp, output_pose, client_id, world):
+    """A fused frame as ROS messages: a hri_sync/Skeleton per person (in
+    the frame ``client_id``_sensor of a virtual sensor at
+    ``output_pose``; ``device_stamp`` the instant on the host clock,
+    ``host_stamp``) and the sensor_msgs/PointCloud of every joint in
+    ``world`` (channels person, joint, confidence, bound_95_m,
+    newest_after_s)."""
+    stamp = rospy.Time.from_sec(frame.stamp)
+    device = rospy.Time.from_sec(host_stamp)
+    cloud = PointCloud()
+    cloud.header.stamp, cloud.header.frame_id = stamp, world
+    channels = {n: [] for n in ('person', 'joint', 'confidence',
+                                'bound_95_m', 'newest_after_s')}
+    skeletons = []
+    for person in frame.people:
+        body = person.body
+        found = np.isfinite(body.positions).all(axis=1)
+        placed = np.where(found[:, None], body.positions,
+                          np.nanmean(body.positions, axis=0))
+        msg = Skeleton(client_id=client_id, user_id=person.person,
+                       positions=[Point(*p) for p in
+                                  output_pose.from_world(placed)],
+                       sources=list(body.views))
+        msg.header.stamp, msg.device_stamp = stamp, device
+        msg.header.frame_id = client_id + '_sensor'
+        msg.orientations = [Quaternion(w=1.0) for _ in range(15)]
+        msg.confidence = [float(c) for c in body.confidence]
+        skeletons.append(msg)
+        for j in np.flatnonzero(found):
+            cloud.points.append(Point32(*body.positions[j]))
+            for name, value in zip(channels, (
+                    person.person, j, body.confidence[j], body.bound[j],
+                    person.newest - frame.stamp)):
+                channels[name].append(float(value))
+    cloud.channels = [ChannelFloat32(n, v) for n, v in channels.items()]
+    return skeletons, cloud

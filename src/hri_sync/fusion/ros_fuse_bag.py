@@ -1,0 +1,171 @@
+"""``fuse_bag IN.bag OUT.bag --poses YAML``: a recording's views fused
+afterwards (the executable is ``nodes/fuse_bag``; docs/fusion.md).
+
+Reads each view's hri_sync/Skeleton (/<view>/skeleton) and ClockState
+(/<view>/clock_state) from a recording, runs the fusion node's core on
+them in the order the recorder got them, its clock the recorder's
+(through the recorder host's ClockState, --clock-state, when recorded),
+and writes what the node would have published to OUT.bag at the time it
+would have: /<client-id>/skeleton (a hri_sync/Skeleton per person, a DPM
+input like the live one), /<client-id>/joints (each joint's 95 % bound)
+and the fusion's /diagnostics each second. A study recorded raw can be
+fused again with refined poses (scripts/fusion_refine_pose.py) or other
+settings (--set NAME=VALUE, the launch file's args). Prints the views'
+and people's statuses at the end.
+
+Needs no roscore. Exit status: 0 fused; 1 nothing fused; 2 bad options or
+a bag it cannot read.
+"""
+import argparse
+import os
+import sys
+
+import rosbag
+import rospkg
+import rospy
+import yaml
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+from hri_sync.fusion.feed import (
+    HOST_CLOCK, SKELETON, VIEW_CLOCK, Recorded, Replay, to_global)
+from hri_sync.fusion.frames import parse_pose
+from hri_sync.fusion.pipeline import Fusion
+from hri_sync.fusion.profile import profiles
+from hri_sync.fusion.report import statuses
+from hri_sync.fusion.ros_fusion import fused_messages
+from hri_sync.fusion.settings import NAMES, fusion_params
+
+LEVELS = {0: 'OK', 1: 'WARN', 2: 'ERROR'}
+
+
+def arguments(argv):
+    parser = argparse.ArgumentParser(prog='fuse_bag',
+                                     description=__doc__.split('\n')[0])
+    parser.add_argument('bag', metavar='IN.bag')
+    parser.add_argument('out', metavar='OUT.bag')
+    parser.add_argument('--poses', required=True, help="YAML {view: 'x y z "
+                        "yaw [pitch]'}: each view's sensor pose in world")
+    parser.add_argument('--output-pose', help='x y z yaw [pitch] of the '
+                        "fused Skeleton's virtual sensor (default: the "
+                        "first view's)")
+    parser.add_argument('--profile', help="the trackers' profile (YAML; "
+                        "default: the package's config/"
+                        "fusion_depth_tracker.yaml, as fusion.launch)")
+    parser.add_argument('--client-id', default='fused')
+    parser.add_argument('--world-frame', default='world')
+    parser.add_argument('--skeleton-topic', default='/%s/skeleton')
+    parser.add_argument('--clock-topic', default='/%s/clock_state')
+    parser.add_argument('--clock-state', default='', help="the recorder "
+                        "host's ClockState topic ('': its clock is the "
+                        'global clock)')
+    parser.add_argument('--stamp-uncertainty', type=float, default=0.001)
+    parser.add_argument('--set', action='append', default=[],
+                        metavar='NAME=VALUE', help='a fusion setting: '
+                        + ', '.join(NAMES))
+    return parser, parser.parse_args(argv)
+
+
+def default_profile():
+    return os.path.join(rospkg.RosPack().get_path('hri_sync'), 'config',
+                        'fusion_depth_tracker.yaml')
+
+
+def settings(parser, pairs):
+    values = {}
+    for pair in pairs:
+        name, sep, value = pair.partition('=')
+        if not sep or name not in NAMES:
+            parser.error('--set %s: NAME=VALUE, NAME one of %s'
+                         % (pair, ', '.join(NAMES)))
+        values[name] = value
+    try:
+        return fusion_params(lambda n, d: values.get(n, d))
+    except ValueError as e:
+        parser.error('--set: %s' % e)
+
+
+def records(bag, topics):
+    """The bag's messages of ``topics`` ({topic: (kind, view)}) as
+    Recorded, in the order recorded."""
+    for topic, msg, t in bag.read_messages(topics=list(topics)):
+        kind, view = topics[topic]
+        yield Recorded(t.to_sec(), kind, view, msg)
+
+
+def diagnostics(fusion, last, t, name, hardware_id):
+    arr = DiagnosticArray()
+    arr.header.stamp = rospy.Time.from_sec(t)
+    for task, level, message, values in statuses(fusion, last):
+        arr.status.append(DiagnosticStatus(
+            level=level, name='%s: %s' % (name, task), message=message,
+            hardware_id=hardware_id,
+            values=[KeyValue(k, v) for k, v in values]))
+    return arr
+
+
+def main(argv=None):
+    """Runs fuse_bag; its exit status."""
+    parser, args = arguments(argv)
+    try:
+        given = yaml.safe_load(args.poses)
+        poses = {v: parse_pose(p) for v, p in given.items()}
+        output_pose = parse_pose(args.output_pose
+                                 or str(given[next(iter(given))]))
+        with open(args.profile or default_profile()) as f:
+            profile = profiles(yaml.safe_load(f) or {}, list(poses))
+    except (AttributeError, OSError, StopIteration, ValueError,
+            yaml.YAMLError, rospkg.ResourceNotFound) as e:
+        parser.error('--poses, --output-pose or --profile: %s' % e)
+    if len(poses) < 2:
+        parser.error('--poses: at least two views')
+    if not args.stamp_uncertainty >= 0:
+        parser.error('--stamp-uncertainty must be >= 0 s')
+    params = settings(parser, args.set)
+    topics = {}
+    for v in poses:
+        topics[args.skeleton_topic % v] = (SKELETON, v)
+        topics[args.clock_topic % v] = (VIEW_CLOCK, v)
+    if args.clock_state:
+        topics[args.clock_state] = (HOST_CLOCK, '')
+    replay = Replay(lambda clock: Fusion(poses, params, clock, profile),
+                    extra=args.stamp_uncertainty)
+    node = args.client_id + '/fusion'
+    fused = people = 0
+    ids, last, summary = set(), None, []
+    try:
+        with rosbag.Bag(args.bag) as bag, rosbag.Bag(args.out, 'w') as out:
+            for step in replay.run(records(bag, topics)):
+                t = rospy.Time.from_sec(step.t)
+                for frame in step.frames:
+                    skeletons, cloud = fused_messages(
+                        frame, to_global(frame.stamp, replay.host, True),
+                        output_pose, args.client_id, args.world_frame)
+                    for msg in skeletons:
+                        out.write('/%s/skeleton' % args.client_id, msg, t)
+                    out.write('/%s/joints' % args.client_id, cloud, t)
+                    fused += 1
+                    people += bool(frame.people)
+                    ids.update(p.person for p in frame.people)
+                    last = frame
+                if step.status_due:
+                    out.write('/diagnostics', diagnostics(
+                        replay.fusion, last, step.t, node, args.client_id),
+                        t)
+                if step.ended:
+                    summary = statuses(replay.fusion, last)
+    except (rosbag.ROSBagException, OSError, ValueError) as e:
+        print('fuse_bag: %s: %s' % (args.bag, e), file=sys.stderr)
+        return 2
+    print('fuse_bag: %d instants fused, %d with people (%s); written to %s'
+          % (fused, people, ', '.join('person %d' % i for i in sorted(ids))
+             or 'nobody', args.out))
+    print('at the end of the recording:')
+    for task, level, message, _ in summary:
+        print('  %-5s %s: %s' % (LEVELS[level], task, message))
+    for v in sorted(poses):
+        left_out = replay.fusion.health[v].rejected
+        if left_out:
+            print('  %s left out: %s' % (v, ', '.join(
+                '%d %s' % (n, r) for r, n in sorted(left_out.items()))))
+    return 0 if people else 1
+

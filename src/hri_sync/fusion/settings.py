@@ -1,0 +1,60 @@
+"""The fusion's settings by name: one table for the node's ``~params``
+(``launch/fusion.launch``'s args) and ``fuse_bag``'s ``--set``."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Callable, Tuple
+
+from hri_sync.fusion.pipeline import FusionParams
+
+
+def _positive(x: float) -> bool:
+    return math.isfinite(x) and x > 0
+
+
+def _at_least_0(x: float) -> bool:
+    return math.isfinite(x) and x >= 0
+
+
+Setting = Tuple[str, float, str, Callable[[float], bool], str]
+
+# name, default, attribute of FusionParams, check, the values it takes
+SETTINGS: Tuple[Setting, ...] = (
+    ('rate', 30.0, 'rate', _positive, '> 0 Hz'),
+    ('stall_after', 0.5, 'health.stall_after', _positive, '> 0 s'),
+    ('max_ahead', 0.2, 'max_ahead', _positive, '> 0 s'),
+    ('max_age', 2.0, 'max_age', _positive, '> 0 s'),
+    ('max_depth', 10.0, 'max_depth', _positive, '> 0 m'),
+    ('scatter_hold', 0.5, 'scatter_hold', _at_least_0, '>= 0 s'),
+    ('smooth_accel', 30.0, 'smooth.accel', _at_least_0, '>= 0 m/s^2'),
+    ('residual_threshold', 0.2, 'residual_threshold', _positive, '> 0 m'),
+    ('arms_margin', 0.2, 'arms.margin', lambda x: x > 0,
+     '> 0 m (inf: never)'),
+    ('fov_deg', 57.0, 'sight.fov_deg', lambda x: 0 < x < 360,
+     '0-360 degrees'),
+    ('max_range', 4.5, 'sight.far', _positive, '> 0 m'),
+)
+NAMES = tuple(s[0] for s in SETTINGS)
+
+
+def fusion_params(get: Callable[[str, float], Any]) -> FusionParams:
+    """FusionParams from ``get(name, default)``, one value per setting.
+    Raises ValueError naming a setting that is not a number or out of
+    range."""
+    params = FusionParams()
+    for name, default, attribute, check, values in SETTINGS:
+        raw = get(name, default)
+        try:
+            value = float(raw)
+        except (TypeError, ValueError):
+            raise ValueError('%s=%r is not a number' % (name, raw))
+        if not check(value):
+            raise ValueError('%s=%r is out of range: %s'
+                             % (name, value, values))
+        *path, last = attribute.split('.')
+        owner = params
+        for part in path:
+            owner = getattr(owner, part)
+        setattr(owner, last, value)
+    return params
