@@ -54,8 +54,10 @@ def truth(motion, stamp):
     return ORIGINAL.to_world(motion.positions_at([stamp - START])[0])
 
 
-def write_recording(path):
-    """The recording (recorder's clock = global - OFFSET)."""
+def write_recording(path, split=None):
+    """The recording (recorder's clock = global - OFFSET); with ``split``
+    (a recorder's time) in two parts, PATH_0.bag and PATH_1.bag, as
+    ``rosbag record --split`` writes them."""
     motion = load_motion(os.path.join(ROOT, 'data', 'motion',
                                       'cmu_60_01_salsa.track'))
     rng = np.random.default_rng(7)
@@ -84,9 +86,15 @@ def write_recording(path):
                                 positions=[Point(*p) for p in pts],
                                 orientations=[Quaternion(w=1.0)] * 15,
                                 confidence=[0.9] * 15)))
-    with rosbag.Bag(path, 'w') as bag:
-        for t, topic, msg in sorted(records, key=lambda r: r[0]):
-            bag.write(topic, msg, rospy.Time.from_sec(t))
+    records.sort(key=lambda r: r[0])
+    parts = [(path, records)] if split is None else [
+        (path[:-4] + '_%d.bag' % i, [r for r in records
+                                     if (r[0] >= split) == bool(i)])
+        for i in (0, 1)]
+    for part, chosen in parts:
+        with rosbag.Bag(part, 'w') as bag:
+            for t, topic, msg in chosen:
+                bag.write(topic, msg, rospy.Time.from_sec(t))
     return motion
 
 
@@ -102,7 +110,7 @@ def fused(tmp_path_factory):
     motion = write_recording(recording)
     plain = folder / 'plain.yaml'     # a tracker with no known errors
     plain.write_text('{}\n')
-    run = fuse_bag(recording, out, '--poses', str(POSES),
+    run = fuse_bag(recording, '--out', out, '--poses', str(POSES),
                    '--clock-state', '/recorder/clock_state',
                    '--profile', str(plain), '--set', 'smooth_accel=30')
     print(run.stdout, run.stderr)
@@ -161,21 +169,41 @@ def test_diagnostics_name_the_stalled_view(fused):
     assert 'instants fused' in stdout
 
 
+def test_a_split_recording_is_fused_as_one(fused):
+    _, msgs, _, folder = fused
+    recording = str(folder / 'split.bag')
+    write_recording(recording, split=START - OFFSET + DUR / 2)
+    out = str(folder / 'split_fused.bag')
+    run = fuse_bag(recording[:-4] + '_0.bag', recording[:-4] + '_1.bag',
+                   '--out', out, '--poses', str(POSES), '--clock-state',
+                   '/recorder/clock_state', '--profile',
+                   str(folder / 'plain.yaml'), '--set', 'smooth_accel=30')
+    assert run.returncode == 0, run.stderr
+    with rosbag.Bag(out) as bag:
+        again = [(topic, t.to_sec()) for topic, _, t in bag.read_messages()]
+    assert again == [(topic, t) for topic, _, t in msgs]
+
+
 def test_bad_options_and_a_recording_without_the_views(fused):
     _, _, _, folder = fused
     recording = str(folder / 'views.bag')
     out = str(folder / 'other.bag')
-    run = fuse_bag(recording, out, '--poses', str(POSES), '--set',
+    run = fuse_bag(recording, '--out', out, '--poses', str(POSES), '--set',
                    'max_age=-1')
     assert run.returncode == 2 and 'max_age=-1.0 is out of range' \
         in run.stderr
-    run = fuse_bag(recording, out, '--poses', str(POSES), '--set', 'x=1')
+    run = fuse_bag(recording, '--out', out, '--poses', str(POSES),
+                   '--set', 'x=1')
     assert run.returncode == 2 and 'NAME one of rate' in run.stderr
-    run = fuse_bag(recording, out, '--poses', "{a: '0 0 1 0', b: '1 0 1 0'}")
+    run = fuse_bag(recording, '--out', out, '--poses',
+                   "{a: '0 0 1 0', b: '1 0 1 0'}")
     assert run.returncode == 1, run.stdout
     assert '0 with people' in run.stdout
-    run = fuse_bag(str(folder / 'none.bag'), out, '--poses', str(POSES))
+    run = fuse_bag(str(folder / 'none.bag'), '--out', out, '--poses',
+                   str(POSES))
     assert run.returncode == 2 and 'none.bag' in run.stderr
+    run = fuse_bag(recording, '--out', recording, '--poses', str(POSES))
+    assert run.returncode == 2 and 'is one of the recording' in run.stderr
 
 
 def master_answers(uri):
@@ -226,7 +254,7 @@ def test_fuse_bag_fuses_a_live_recording_as_the_live_node_did(tmp_path):
                     proc.wait(60)
     assert os.path.exists(recording), (tmp_path / 'launch.log').read_text()
     out = str(tmp_path / 'offline.bag')
-    run = fuse_bag(recording, out, '--poses', str(POSES))
+    run = fuse_bag(recording, '--out', out, '--poses', str(POSES))
     assert run.returncode == 0, run.stdout + run.stderr
     live, offline = fused_by_instant(recording), fused_by_instant(out)
     assert len(live) >= 0.5 * LIVE_FOR * 30

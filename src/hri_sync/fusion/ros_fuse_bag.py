@@ -1,12 +1,13 @@
-"""``fuse_bag IN.bag OUT.bag --poses YAML``: a recording's views fused
-afterwards (the executable is ``nodes/fuse_bag``; docs/fusion.md).
+"""``fuse_bag BAG... --out OUT.bag --poses YAML``: a recording's views
+fused afterwards (the executable is ``nodes/fuse_bag``; docs/fusion.md).
 
 Reads each view's hri_sync/Skeleton (/<view>/skeleton) and ClockState
-(/<view>/clock_state) from a recording, runs the fusion node's core on
-them in the order the recorder got them, its clock the recorder's
-(through the recorder host's ClockState, --clock-state, when recorded),
-and writes what the node would have published to OUT.bag at the time it
-would have: /<client-id>/skeleton (a hri_sync/Skeleton per person, a DPM
+(/<view>/clock_state) from a recording (several bags, as the parts of a
+``rosbag record --split``, are read as one, in time order), runs the
+fusion node's core on them in the order the recorder got them, its
+clock the recorder's (through the recorder host's ClockState,
+--clock-state, when recorded), and writes what the node would have
+published to OUT.bag at the time it would have: /<client-id>/skeleton (a hri_sync/Skeleton per person, a DPM
 input like the live one), /<client-id>/joints (each joint's 95 % bound)
 and the fusion's /diagnostics each second. A study recorded raw can be
 fused again with refined poses (scripts/fusion_refine_pose.py) or other
@@ -17,6 +18,8 @@ Needs no roscore. Exit status: 0 fused; 1 nothing fused; 2 bad options or
 a bag it cannot read.
 """
 import argparse
+import contextlib
+import heapq
 import os
 import sys
 
@@ -41,8 +44,10 @@ LEVELS = {0: 'OK', 1: 'WARN', 2: 'ERROR'}
 def arguments(argv):
     parser = argparse.ArgumentParser(prog='fuse_bag',
                                      description=__doc__.split('\n')[0])
-    parser.add_argument('bag', metavar='IN.bag')
-    parser.add_argument('out', metavar='OUT.bag')
+    parser.add_argument('bags', nargs='+', metavar='BAG',
+                        help='the recording (its parts, if split)')
+    parser.add_argument('--out', required=True, metavar='OUT.bag',
+                        help='the bag written')
     parser.add_argument('--poses', required=True, help="YAML {view: 'x y z "
                         "yaw [pitch]'}: each view's sensor pose in world")
     parser.add_argument('--output-pose', help='x y z yaw [pitch] of the '
@@ -84,6 +89,15 @@ def settings(parser, pairs):
         parser.error('--set: %s' % e)
 
 
+def open_bag(path):
+    """A recording opened to read; a ValueError naming it if it cannot
+    be."""
+    try:
+        return rosbag.Bag(path)
+    except (rosbag.ROSBagException, OSError) as e:
+        raise ValueError('%s: %s' % (path, e))
+
+
 def records(bag, topics):
     """The bag's messages of ``topics`` ({topic: (kind, view)}) as
     Recorded, in the order recorded."""
@@ -103,9 +117,54 @@ def diagnostics(fusion, last, t, name, hardware_id):
     return arr
 
 
-def main(argv=None):
-    """Runs fuse_bag; its exit status."""
-    parser, args = arguments(argv)
+class Output:
+    """The bag written: each step's fused frames and diagnostics, and a
+    tally of what went in."""
+
+    def __init__(self, bag, replay, output_pose, args):
+        self.bag, self.replay = bag, replay
+        self.output_pose, self.args = output_pose, args
+        self.fused = self.people = 0
+        self.ids, self.last, self.summary = set(), None, []
+
+    def write(self, step):
+        t, cid = rospy.Time.from_sec(step.t), self.args.client_id
+        for frame in step.frames:
+            skeletons, cloud = fused_messages(
+                frame, to_global(frame.stamp, self.replay.host, True),
+                self.output_pose, cid, self.args.world_frame)
+            for msg in skeletons:
+                self.bag.write('/%s/skeleton' % cid, msg, t)
+            self.bag.write('/%s/joints' % cid, cloud, t)
+            self.fused += 1
+            self.people += bool(frame.people)
+            self.ids.update(p.person for p in frame.people)
+            self.last = frame
+        if step.status_due:
+            self.bag.write('/diagnostics', diagnostics(
+                self.replay.fusion, self.last, step.t, cid + '/fusion', cid),
+                t)
+        if step.ended:      # the statuses as the recording ended
+            self.summary = statuses(self.replay.fusion, self.last)
+
+    def report(self):
+        print('fuse_bag: %d instants fused, %d with people (%s); written '
+              'to %s' % (self.fused, self.people, ', '.join(
+                  'person %d' % i for i in sorted(self.ids)) or 'nobody',
+                  self.args.out))
+        print('at the end of the recording:')
+        for task, level, message, _ in self.summary:
+            print('  %-5s %s: %s' % (LEVELS[level], task, message))
+        for v, health in sorted(self.replay.fusion.health.items()):
+            if health.rejected:
+                print('  %s left out: %s' % (v, ', '.join(
+                    '%d %s' % (n, r) for r, n in sorted(
+                        health.rejected.items()))))
+
+
+def setup(parser, args):
+    """(poses, output pose, profiles, params, topics) from the options;
+    a usage error on a bad one."""
     try:
         given = yaml.safe_load(args.poses)
         poses = {v: parse_pose(p) for v, p in given.items()}
@@ -118,54 +177,36 @@ def main(argv=None):
         parser.error('--poses, --output-pose or --profile: %s' % e)
     if len(poses) < 2:
         parser.error('--poses: at least two views')
+    if os.path.abspath(args.out) in map(os.path.abspath, args.bags):
+        parser.error('--out %s is one of the recording\'s bags' % args.out)
     if not args.stamp_uncertainty >= 0:
         parser.error('--stamp-uncertainty must be >= 0 s')
-    params = settings(parser, args.set)
     topics = {}
     for v in poses:
         topics[args.skeleton_topic % v] = (SKELETON, v)
         topics[args.clock_topic % v] = (VIEW_CLOCK, v)
     if args.clock_state:
         topics[args.clock_state] = (HOST_CLOCK, '')
+    return poses, output_pose, profile, settings(parser, args.set), topics
+
+
+def main(argv=None):
+    """Runs fuse_bag; its exit status."""
+    parser, args = arguments(argv)
+    poses, output_pose, profile, params, topics = setup(parser, args)
     replay = Replay(lambda clock: Fusion(poses, params, clock, profile),
                     extra=args.stamp_uncertainty)
-    node = args.client_id + '/fusion'
-    fused = people = 0
-    ids, last, summary = set(), None, []
     try:
-        with rosbag.Bag(args.bag) as bag, rosbag.Bag(args.out, 'w') as out:
-            for step in replay.run(records(bag, topics)):
-                t = rospy.Time.from_sec(step.t)
-                for frame in step.frames:
-                    skeletons, cloud = fused_messages(
-                        frame, to_global(frame.stamp, replay.host, True),
-                        output_pose, args.client_id, args.world_frame)
-                    for msg in skeletons:
-                        out.write('/%s/skeleton' % args.client_id, msg, t)
-                    out.write('/%s/joints' % args.client_id, cloud, t)
-                    fused += 1
-                    people += bool(frame.people)
-                    ids.update(p.person for p in frame.people)
-                    last = frame
-                if step.status_due:
-                    out.write('/diagnostics', diagnostics(
-                        replay.fusion, last, step.t, node, args.client_id),
-                        t)
-                if step.ended:
-                    summary = statuses(replay.fusion, last)
+        with contextlib.ExitStack() as stack:
+            bags = [stack.enter_context(open_bag(b)) for b in args.bags]
+            output = Output(stack.enter_context(rosbag.Bag(args.out, 'w')),
+                            replay, output_pose, args)
+            for step in replay.run(heapq.merge(
+                    *(records(b, topics) for b in bags),
+                    key=lambda r: r.t)):
+                output.write(step)
     except (rosbag.ROSBagException, OSError, ValueError) as e:
-        print('fuse_bag: %s: %s' % (args.bag, e), file=sys.stderr)
+        print('fuse_bag: %s' % e, file=sys.stderr)
         return 2
-    print('fuse_bag: %d instants fused, %d with people (%s); written to %s'
-          % (fused, people, ', '.join('person %d' % i for i in sorted(ids))
-             or 'nobody', args.out))
-    print('at the end of the recording:')
-    for task, level, message, _ in summary:
-        print('  %-5s %s: %s' % (LEVELS[level], task, message))
-    for v in sorted(poses):
-        left_out = replay.fusion.health[v].rejected
-        if left_out:
-            print('  %s left out: %s' % (v, ', '.join(
-                '%d %s' % (n, r) for r, n in sorted(left_out.items()))))
-    return 0 if people else 1
-
+    output.report()
+    return 0 if output.people else 1
