@@ -202,6 +202,9 @@ def test_bad_options_and_a_recording_without_the_views(fused):
     run = fuse_bag(str(folder / 'none.bag'), '--out', out, '--poses',
                    str(POSES))
     assert run.returncode == 2 and 'none.bag' in run.stderr
+    run = fuse_bag(recording, '--out', out, '--poses', str(POSES),
+                   '--skeleton-topic', '/skeleton')
+    assert run.returncode == 2 and 'a topic with one %s' in run.stderr
     run = fuse_bag(recording, '--out', recording, '--poses', str(POSES))
     assert run.returncode == 2 and 'is one of the recording' in run.stderr
 

@@ -181,6 +181,11 @@ def setup(parser, args):
         parser.error('--out %s is one of the recording\'s bags' % args.out)
     if not args.stamp_uncertainty >= 0:
         parser.error('--stamp-uncertainty must be >= 0 s')
+    for name in ('skeleton_topic', 'clock_topic'):
+        pattern = getattr(args, name)
+        if pattern.count('%s') != 1 or pattern.count('%') != 1:
+            parser.error('--%s %s: a topic with one %%s, the view id (as '
+                         '/%%s/skeleton)' % (name.replace('_', '-'), pattern))
     topics = {}
     for v in poses:
         topics[args.skeleton_topic % v] = (SKELETON, v)
