@@ -1,11 +1,16 @@
 """hri_sync.fusion.smooth: a fused person's joints through a
 constant-velocity Kalman filter: nearer the truth than the fused joints
 on a moving, noisy body; a jump, a missing joint or a gap starts a joint
-over; off at zero acceleration."""
+over; off at zero acceleration; in the fusion, a joint's bound moves with
+it."""
+import math
+
 import numpy as np
 import pytest
 
 from hri_sync.dance_off.joints import NUM_JOINTS
+from hri_sync.fusion.frames import SensorPose
+from hri_sync.fusion.pipeline import Fusion, FusionParams
 from hri_sync.fusion.smooth import SmoothParams, Smoother
 
 RATE = 30.0
@@ -65,3 +70,39 @@ def test_it_follows_a_joint_that_turns(accel):
         x = smoother.update(t, moving(t), np.full(NUM_JOINTS, 0.03))
         worst = max(worst, np.linalg.norm(x - moving(t), axis=1).max())
     assert worst < 0.02
+
+
+def fused_run(accel):
+    """Two noisy views of a moving body through the fusion (smoothing at
+    ``accel``; 0: off): each instant's (positions, bounds)."""
+    poses = {'a': SensorPose(3.0, 0.0, 1.0, math.pi),
+             'b': SensorPose(0.0, 3.0, 1.0, -math.pi / 2)}
+    params = FusionParams()
+    params.smooth.accel = accel
+    now = [0.0]
+    fusion = Fusion(poses, params, lambda: now[0])
+    rng = np.random.default_rng(3)
+    out = []
+    for k in range(90):
+        for v, pose in poses.items():
+            t = 100.0 + k / 30
+            now[0] = t + 0.05
+            fusion.add(v, 1, t, pose.from_world(moving(t - 100.0))
+                       + rng.normal(0, 0.02, (NUM_JOINTS, 3)),
+                       np.full(NUM_JOINTS, 0.9), 0.001)
+        out += [(p.body.positions, p.body.bound)
+                for f in fusion.poll() for p in f.people]
+    return out
+
+
+def test_a_smoothed_joints_bound_moves_with_it():
+    """The bound of a joint the filter moved is the fused joint's bound
+    plus how far it moved: it holds whatever the fused one held."""
+    plain, smoothed = fused_run(0.0), fused_run(30.0)
+    assert len(plain) == len(smoothed) > 60
+    moved = 0.0
+    for (p0, b0), (p1, b1) in zip(plain, smoothed):
+        shift = np.linalg.norm(p1 - p0, axis=1)
+        assert np.allclose(b1, b0 + shift)
+        moved = max(moved, shift.max())
+    assert moved > 0.005

@@ -326,9 +326,11 @@ class Fusion:
                           if k[0] in body.views), default=t)
             smoother = self.smoothers.setdefault(
                 pid, Smoother(self.params.smooth))
+            smoothed = smoother.update(t, body.positions, body.sigma)
+            moved = np.linalg.norm(smoothed - body.positions, axis=1)
             people.append(Person(pid, replace(
-                body, positions=smoother.update(t, body.positions,
-                                                body.sigma)), newest))
+                body, positions=smoothed,
+                bound=body.bound + np.nan_to_num(moved)), newest))
         self.sightlines.update(t, {pid: (bodies[pid].positions,
                                          {k[0] for k in keys})
                                    for pid, keys in groups.items()},
