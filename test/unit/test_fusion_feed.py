@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from hri_sync.fusion.feed import (
-    HOST_CLOCK, SKELETON, VIEW_CLOCK, Recorded, Replay, stamp_uncertainty,
-    to_global)
+    HOST_CLOCK, SKELETON, VIEW_CLOCK, Recorded, Replay, clock_state_error,
+    stamp_uncertainty, to_global)
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.pipeline import Fusion
 from hri_sync.fusion.settings import NAMES, SETTINGS, fusion_params
@@ -24,7 +24,8 @@ def body_at(t):
     return BODY + SPEED * (t - 100.0)
 
 
-def state(ok=True, offset=0.0, drift=0.0, local_ref=0.0, uncertainty=0.0):
+def state(ok=True, offset=0.0, drift=0.0, local_ref=100.0,
+          uncertainty=0.0):
     return types.SimpleNamespace(ok=ok, offset=offset, drift=drift,
                                  local_ref=local_ref,
                                  uncertainty=uncertainty)
@@ -71,6 +72,28 @@ def test_a_views_stamp_uncertainty_follows_its_clock_state():
     assert stamp_uncertainty(state(uncertainty=0.002), 0.001) \
         == pytest.approx(0.003)
     assert stamp_uncertainty(state(ok=False), 0.001) == math.inf
+    # a forged or broken model is a lost one
+    assert stamp_uncertainty(state(uncertainty=math.nan), 0.001) == math.inf
+    assert stamp_uncertainty(state(uncertainty=-1.0), 0.001) == math.inf
+
+
+@pytest.mark.parametrize('bad, field', [
+    (dict(offset=math.nan), 'offset'), (dict(drift=0.5), 'drift'),
+    (dict(uncertainty=-0.1), 'negative'), (dict(local_ref=-5.0), 'local_ref')])
+def test_a_clock_state_with_no_usable_model_says_why(bad, field):
+    assert field in clock_state_error(state(**bad))
+    assert clock_state_error(state()) is None
+    assert clock_state_error(state(ok=False, offset=math.nan)) is None
+
+
+def test_a_recorded_host_clock_state_with_no_usable_model_is_left_out():
+    records = recording(offset=0.3, n=30)
+    records.insert(1, Recorded(records[0].t + 0.1, HOST_CLOCK,
+                               data=state(offset=math.nan)))
+    r = replay()
+    frames = [f for s in r.run(records) for f in s.frames if f.people]
+    assert r.bad_host_states == 1
+    assert len(frames) >= 25 and r.host.offset == 0.3
 
 
 @pytest.mark.parametrize('offset', [0.0, 0.3, -5.0])

@@ -13,13 +13,28 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Callable, Dict, Iterable, Iterator, List
+from typing import Any, Callable, Dict, Iterable, Iterator, List, Optional
 
 import numpy as np
 
+from hri_sync.clock.model import ClockModel
 from hri_sync.fusion.pipeline import Frame, Fusion
 
 SKELETON, VIEW_CLOCK, HOST_CLOCK = 'skeleton', 'view_clock', 'host_clock'
+
+
+def clock_state_error(state: Any) -> Optional[str]:
+    """Why a ClockState that says ok is no usable clock model (a field
+    not finite, a drift over 1 %, a time no ROS time can carry), or
+    None."""
+    if not state.ok:
+        return None
+    try:
+        ClockModel.from_state(state.local_ref, state.offset, state.drift,
+                              state.uncertainty)
+    except (TypeError, ValueError) as e:
+        return str(e)
+    return None
 
 
 def to_global(local: float, state: Any, back: bool = False) -> float:
@@ -36,10 +51,12 @@ def to_global(local: float, state: Any, back: bool = False) -> float:
 
 def stamp_uncertainty(state: Any, extra: float) -> float:
     """A view's stamps' uncertainty from its last ClockState (None: none
-    came yet; not ok: its clock model is lost, inf) plus ``extra``."""
+    came yet; not ok or no usable model: its clock model is lost, inf)
+    plus ``extra``."""
     if state is None:
         return extra
-    return extra + (state.uncertainty if state.ok else math.inf)
+    usable = state.ok and clock_state_error(state) is None
+    return extra + (state.uncertainty if usable else math.inf)
 
 
 def add_skeleton(fusion: Fusion, view: str, msg: Any,
@@ -85,6 +102,7 @@ class Replay:
         self.local = -math.inf          # the recorder's clock now
         self.host: Any = None           # its ClockState, if recorded
         self.clocks: Dict[str, Any] = {}     # view: its last ClockState
+        self.bad_host_states = 0        # the host's, no usable model
         self.extra = extra
         self.poll_period = poll_period
         self.status_period = status_period
@@ -134,7 +152,10 @@ class Replay:
 
     def _apply(self, r: Recorded) -> None:
         if r.kind == HOST_CLOCK:
-            self.host = r.data
+            if clock_state_error(r.data):     # the last usable one stays
+                self.bad_host_states += 1
+            else:
+                self.host = r.data
         elif r.kind == VIEW_CLOCK:
             self.clocks[r.view] = r.data
         elif r.kind == SKELETON:

@@ -155,6 +155,9 @@ class Output:
         print('at the end of the recording:')
         for task, level, message, _ in self.summary:
             print('  %-5s %s: %s' % (LEVELS[level], task, message))
+        if self.replay.bad_host_states:
+            print('  %s: %d ClockStates left out (no usable clock model)'
+                  % (self.args.clock_state, self.replay.bad_host_states))
         for v, health in sorted(self.replay.fusion.health.items()):
             if health.rejected:
                 print('  %s left out: %s' % (v, ', '.join(

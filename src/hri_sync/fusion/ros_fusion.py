@@ -11,7 +11,8 @@ import rospy
 from geometry_msgs.msg import Point, Point32, Quaternion
 from sensor_msgs.msg import ChannelFloat32, PointCloud
 
-from hri_sync.fusion.feed import add_skeleton, stamp_uncertainty, to_global
+from hri_sync.fusion.feed import (
+    add_skeleton, clock_state_error, stamp_uncertainty, to_global)
 from hri_sync.fusion.frames import parse_pose
 from hri_sync.fusion.pipeline import Fusion
 from hri_sync.fusion.profile import profiles
@@ -50,10 +51,9 @@ class FusionNode:
         self.fusion = Fusion(self.poses, params, lambda: self.now(), profile)
         self.skel_pub = rospy.Publisher('skeleton', Skeleton, queue_size=30)
         self.joint_pub = rospy.Publisher('joints', PointCloud, queue_size=30)
-        host = param('clock_state', '', str)
+        host = self.host_topic = param('clock_state', '', str)
         if host:
-            rospy.Subscriber(host, ClockState,
-                             lambda msg: setattr(self, 'host', msg))
+            rospy.Subscriber(host, ClockState, self.on_host_clock)
         for v in self.views:
             rospy.Subscriber(param('skeleton_topic', '/%s/skeleton') % v,
                              Skeleton, self.on_skeleton, v, queue_size=100)
@@ -71,6 +71,15 @@ class FusionNode:
     def now(self):
         """This host's clock on the global clock."""
         return to_global(time.time(), self.host)
+
+    def on_host_clock(self, msg):
+        error = clock_state_error(msg)
+        if error:       # the last usable one stays
+            rospy.logerr_throttle(10.0, '%s: ClockState on %s left out: %s'
+                                  % (rospy.get_name(), self.host_topic,
+                                     error))
+            return
+        self.host = msg
 
     def on_clock(self, msg, view):  # its uncertainty: the next skeletons'
         self.clock_of[view] = msg
