@@ -128,6 +128,19 @@ def test_a_skeleton_stamped_ahead_or_long_ago_is_left_out_and_named():
     assert all(len(f.people) == 1 for f in frames)
 
 
+def test_a_skeleton_of_other_than_15_joints_is_left_out_and_counted():
+    # hri_sync/Skeleton carries 15 joints; a caller of the core with
+    # another body (14 joints here) once crashed the association.
+    def short(view, k, stamp, joints):
+        return stamp, joints[:14] if view == 'back' and k % 2 else joints
+
+    fusion, frames, _ = feed(lambda view, k: k, edit=short)
+    assert fusion.health['back'].rejected == {'bad_joint_count': 45}
+    assert dict(view_status(fusion, 'back')[3])[
+        'rejected bad_joint_count'] == '45'
+    assert len(frames) >= 85 and all(len(f.people) == 1 for f in frames)
+
+
 @pytest.mark.parametrize('value, fault', [(0.0, 'zero_joints'),
                                           (1e6, 'far_joints'),
                                           (np.nan, 'nan_joints')])

@@ -19,6 +19,7 @@ import numpy as np
 
 from hri_sync.clock.model import ClockModel
 from hri_sync.fusion.pipeline import Frame, Fusion
+from hri_sync.wire.times import GlobalTime, LocalTime
 
 SKELETON, VIEW_CLOCK, HOST_CLOCK = 'skeleton', 'view_clock', 'host_clock'
 
@@ -43,10 +44,10 @@ def to_global(local: float, state: Any, back: bool = False) -> float:
     global ``local``."""
     if state is None or not state.ok:
         return local
+    model = ClockModel(state.local_ref, state.offset, state.drift)
     if back:
-        return (local - state.offset + state.drift * state.local_ref) \
-            / (1 + state.drift)
-    return local + state.offset + state.drift * (local - state.local_ref)
+        return float(model.to_local(GlobalTime(local)))
+    return float(model.to_global(LocalTime(local)))
 
 
 def stamp_uncertainty(state: Any, extra: float) -> float:

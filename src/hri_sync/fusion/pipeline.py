@@ -63,6 +63,7 @@ from hri_sync.fusion.profile import Profile
 from hri_sync.fusion.smooth import SmoothParams, Smoother
 from hri_sync.fusion.sightlines import SightParams, Sightlines, place
 from hri_sync.fusion.views import HealthParams, ViewHealth
+from hri_sync.wire.vocabulary import NUM_JOINTS
 
 
 @dataclass
@@ -167,8 +168,12 @@ class Fusion:
                 health.note(reason, now)
                 health.reject(reason)
                 return reason
-        positions = np.array(positions, float).reshape(-1, 3)
+        positions = np.array(positions, float)
         confidence = np.nan_to_num(np.array(confidence, float), nan=0.0)
+        if positions.shape != (NUM_JOINTS, 3) \
+                or confidence.shape != (NUM_JOINTS,):
+            health.reject('bad_joint_count')
+            return 'bad_joint_count'
         bad_joints = {
             'nan_joints': ~np.isfinite(positions).all(axis=1),
             'zero_joints': (positions == 0).all(axis=1),
