@@ -199,6 +199,9 @@ def test_bad_options_and_a_recording_without_the_views(fused):
                    "{a: '0 0 1 0', b: '1 0 1 0'}")
     assert run.returncode == 1, run.stdout
     assert '0 with people' in run.stdout
+    assert 'view a: no /a/skeleton in the recording (its hri_sync/Skeleton ' \
+        'topics: /back/skeleton, /left/skeleton, /right/skeleton)' \
+        in run.stderr
     run = fuse_bag(str(folder / 'none.bag'), '--out', out, '--poses',
                    str(POSES))
     assert run.returncode == 2 and 'none.bag' in run.stderr

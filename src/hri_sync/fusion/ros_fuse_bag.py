@@ -37,6 +37,7 @@ from hri_sync.fusion.profile import profiles
 from hri_sync.fusion.report import statuses
 from hri_sync.fusion.ros_fusion import fused_messages
 from hri_sync.fusion.settings import NAMES, fusion_params
+from hri_sync.msg import Skeleton
 
 LEVELS = {0: 'OK', 1: 'WARN', 2: 'ERROR'}
 
@@ -96,6 +97,21 @@ def open_bag(path):
         return rosbag.Bag(path)
     except (rosbag.ROSBagException, OSError) as e:
         raise ValueError('%s: %s' % (path, e))
+
+
+def say_missing(bags, topics):
+    """Name each view topic the recording lacks, beside the Skeleton
+    topics it holds (a view id or --skeleton-topic mistyped)."""
+    held = {}
+    for bag in bags:
+        for topic, info in bag.get_type_and_topic_info().topics.items():
+            held.setdefault(info.msg_type, set()).add(topic)
+    for topic, (kind, view) in sorted(topics.items()):
+        if kind == SKELETON and topic not in held.get(Skeleton._type, ()):
+            print('fuse_bag: view %s: no %s in the recording (its %s '
+                  'topics: %s)' % (view, topic, Skeleton._type, ', '.join(
+                      sorted(held.get(Skeleton._type, ()))) or 'none'),
+                  file=sys.stderr)
 
 
 def records(bag, topics):
@@ -207,6 +223,7 @@ def main(argv=None):
     try:
         with contextlib.ExitStack() as stack:
             bags = [stack.enter_context(open_bag(b)) for b in args.bags]
+            say_missing(bags, topics)
             output = Output(stack.enter_context(rosbag.Bag(args.out, 'w')),
                             replay, output_pose, args)
             for step in replay.run(heapq.merge(
