@@ -431,8 +431,8 @@ class Runner:
             return self.run_stage(job)
         name = job_name(job)
         xml, command = self.command(job, name)
-        if os.path.exists(xml):
-            os.remove(xml)
+        # (the checkers' files of a run before would count as this one's)
+        shutil.rmtree(os.path.join(self.results, name), ignore_errors=True)
         ns = None
         cpu = None
         env = self.env()
