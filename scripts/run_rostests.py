@@ -91,6 +91,18 @@ def junit_counts(path):
     return tests, bad
 
 
+def brief(text, most=400):
+    """A failure's message on one line: its lines before the traceback,
+    joined, at most ``most`` characters."""
+    lines = []
+    for line in text.splitlines():
+        if line.lstrip().startswith(('File "', 'Traceback (most recent')):
+            break
+        lines.append(line.strip())
+    one = ' / '.join(line for line in lines if line)
+    return one if len(one) <= most else one[:most - 3] + '...'
+
+
 def junit_failures(path):
     """'test case: message' of each failed or erred test case in a JUnit
     XML file and in the checkers' files beside it."""
@@ -104,8 +116,7 @@ def junit_failures(path):
                         + list(case.findall('error')):
                     text = (bad.get('message') or bad.text or '').strip()
                     found.append('%s: %s' % (case.get('name'),
-                                             text.splitlines()[0]
-                                             if text else bad.tag))
+                                             brief(text) or bad.tag))
     return found
 
 

@@ -250,6 +250,14 @@ def test_a_checkers_failed_case_fails_the_test_and_is_named(tmp_path):
         'test_b: 0.5 not less than 0.3 : right', "test_c: 'left'"]
 
 
+def test_a_failures_message_is_its_lines_before_the_traceback():
+    text = ("Items in the first set but not the second:\n'bad_stamps'\n"
+            '  File "case.py", line 57, in testPartExecutor\n    yield')
+    assert run_rostests.brief(text) == \
+        "Items in the first set but not the second: / 'bad_stamps'"
+    assert run_rostests.brief('x' * 500, most=10) == 'xxxxxxx...'
+
+
 def test_a_missing_result_file_has_no_counts(tmp_path):
     assert run_rostests.junit_counts(str(tmp_path / 'none.xml')) is None
     assert run_rostests.junit_failures(str(tmp_path / 'none.xml')) == []

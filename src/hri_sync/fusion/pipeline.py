@@ -148,6 +148,9 @@ class Fusion:
         self.past: Dict[int, List[Tuple[float, np.ndarray]]] = {}
         # Each fused body's output time less the newest capture it used.
         self.latencies: Deque[float] = deque(maxlen=300)
+        # When a skeleton came over max_age after its capture, as late as
+        # every view's newest: the fusion (or its host's clock) is behind.
+        self.behind: Deque[float] = deque(maxlen=1000)
 
     def add(self, view: str, user: Hashable, stamp: float,
             positions: np.ndarray, confidence: np.ndarray,
@@ -161,13 +164,19 @@ class Fusion:
         if not math.isfinite(stamp) or math.isnan(uncertainty):
             health.reject('bad_stamp')
             return 'bad_stamp'
+        old = stamp < now - self.params.max_age
+        newest = max((h.stamps[-1] for h in self.health.values()
+                      if h.stamps), default=-math.inf)
         for reason, bad in (('future_stamp',
                              stamp > now + self.params.max_ahead),
-                            ('stale_stamp', stamp < now - self.params.max_age)):
+                            ('stale_stamp', old and stamp
+                             < newest - self.params.max_age)):
             if bad:
                 health.note(reason, now)
                 health.reject(reason)
                 return reason
+        if old:     # as old as the newest of any view: this node is behind
+            self.behind.append(now)
         positions = np.array(positions, float)
         confidence = np.nan_to_num(np.array(confidence, float), nan=0.0)
         if positions.shape != (NUM_JOINTS, 3) \

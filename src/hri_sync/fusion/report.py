@@ -7,7 +7,9 @@ pose), its pipeline
 latency and stamp uncertainty; ``calibration``: the residual (mm) of each
 pair of views (WARN over the threshold); ``people``: the fused people,
 with the views each is fused from, id switches, left-out jumps and the
-fused latency (output time less the newest capture used, p95).
+fused latency (output time less the newest capture used, p95); WARN
+``behind`` when every view's skeletons came over ``max_age`` after their
+capture (this node starved, or its host's clock behind).
 """
 
 from __future__ import annotations
@@ -83,6 +85,14 @@ def people_status(fusion: Fusion, last: Frame | None) -> Status:
     values += [('id switches', str(fusion.associator.switches)),
                ('jumps left out', str(fusion.associator.jumps)),
                (LATENCY, '%.1f' % (fusion.latency() * 1e3))]
+    now, window = fusion.clock(), fusion.params.health.window
+    behind = sum(now - t <= window for t in fusion.behind)
+    if behind:
+        return 'people', WARN, (
+            '%d fused; behind: %d skeletons came over %.1f s after their '
+            "capture in %.0f s, every view's alike (this node starved, or "
+            "its host's clock off the global clock: clock_state:=)"
+            % (len(people), behind, fusion.params.max_age, window)), values
     return 'people', OK, '%d fused' % len(people), values
 
 
