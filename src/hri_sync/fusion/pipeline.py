@@ -62,7 +62,7 @@ from hri_sync.fusion.lag import FilterLag
 from hri_sync.fusion.profile import Profile
 from hri_sync.fusion.smooth import SmoothParams, Smoother
 from hri_sync.fusion.sightlines import SightParams, Sightlines, place
-from hri_sync.fusion.views import HealthParams, ViewHealth
+from hri_sync.fusion.views import NOTED, HealthParams, ViewHealth
 from hri_sync.wire.vocabulary import NUM_JOINTS
 
 
@@ -161,28 +161,18 @@ class Fusion:
         if view not in self.poses:
             return 'unknown_view'
         health, now = self.health[view], self.clock()
-        if not math.isfinite(stamp) or math.isnan(uncertainty):
-            health.reject('bad_stamp')
-            return 'bad_stamp'
-        old = stamp < now - self.params.max_age
-        newest = max((h.stamps[-1] for h in self.health.values()
-                      if h.stamps), default=-math.inf)
-        for reason, bad in (('future_stamp',
-                             stamp > now + self.params.max_ahead),
-                            ('stale_stamp', old and stamp
-                             < newest - self.params.max_age)):
-            if bad:
-                health.note(reason, now)
-                health.reject(reason)
-                return reason
-        if old:     # as old as the newest of any view: this node is behind
-            self.behind.append(now)
-        positions = np.array(positions, float)
-        confidence = np.nan_to_num(np.array(confidence, float), nan=0.0)
-        if positions.shape != (NUM_JOINTS, 3) \
-                or confidence.shape != (NUM_JOINTS,):
-            health.reject('bad_joint_count')
-            return 'bad_joint_count'
+        fault = self._stamp_fault(stamp, uncertainty, now)
+        if fault is None:
+            positions = np.array(positions, float)
+            confidence = np.nan_to_num(np.array(confidence, float), nan=0.0)
+            if positions.shape != (NUM_JOINTS, 3) \
+                    or confidence.shape != (NUM_JOINTS,):
+                fault = 'bad_joint_count'
+        if fault is not None:
+            if fault in NOTED:
+                health.note(fault, now)
+            health.reject(fault)
+            return fault
         bad_joints = {
             'nan_joints': ~np.isfinite(positions).all(axis=1),
             'zero_joints': (positions == 0).all(axis=1),
@@ -216,6 +206,25 @@ class Fusion:
                                 uncertainty, captured)):
             health.reject('repeated_stamp')
             return 'repeated_stamp'
+        return None
+
+    def _stamp_fault(self, stamp: float, uncertainty: float,
+                     now: float) -> Optional[str]:
+        """Why a skeleton's stamp cannot be fused, or None: not finite
+        (``bad_stamp``), over ``max_ahead`` ahead of ``now``
+        (``future_stamp``), over ``max_age`` behind it and the newest of
+        any view (``stale_stamp``; as new as that, it is this node that
+        is behind: counted in ``behind``, fused)."""
+        if not math.isfinite(stamp) or math.isnan(uncertainty):
+            return 'bad_stamp'
+        if stamp > now + self.params.max_ahead:
+            return 'future_stamp'
+        if stamp < now - self.params.max_age:
+            newest = max((h.stamps[-1] for h in self.health.values()
+                          if h.stamps), default=-math.inf)
+            if stamp < newest - self.params.max_age:
+                return 'stale_stamp'
+            self.behind.append(now)
         return None
 
     def _newest(self, view: str) -> float:
