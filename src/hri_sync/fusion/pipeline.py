@@ -3,9 +3,10 @@ common instants on the global clock, on an injected clock.
 
 ``add`` takes each view's skeleton as it arrives (its global capture
 stamp, Skeleton-frame joints, confidences and the stamp's 95 %
-uncertainty; one stamped over ``max_ahead`` s ahead of the clock or
-``max_age`` s behind it is left out, and so are joints no sensor
-measures: NaN, at the sensor's origin or farther than ``max_depth``);
+uncertainty; one stamped over ``max_ahead`` s ahead of the clock, or
+``max_age`` s behind it and the newest skeleton of any view, is left out,
+and so are joints no sensor measures: NaN, at the sensor's origin or
+farther than ``max_depth``);
 ``poll`` fuses every instant ``k / rate`` that is ready:
 every live view has a sample at or after it (so interpolation, not
 extrapolation, brings each view there), or the frame a view owes it is
@@ -26,7 +27,7 @@ predicted from its last two fused instants. A view's skeleton of someone
 farther than its sensor tracks (``sight.far``) is taken to err
 ``far_sigma`` times its profile's sigma. Each person's fused joints then
 go through a constant-velocity Kalman filter (hri_sync.fusion.smooth),
-their bounds as fused.
+each joint's bound the fused one plus the distance the filter moved it.
 
 A view is suspect while its residuals blame it (calibration.Residuals), or
 while none of its users joins a person other views agree on and one is

@@ -7,8 +7,9 @@ the fusion gives it (``sigma`` m, one axis). A joint missing, an instant
 more than ``max_gap`` s after the last, or a measurement farther than
 ``gate`` of its predicted spread from the prediction (a jump: arms
 exchanged back, a tracker's user given to another person) starts the
-joint over from the measurement. The 95 % bound stays the fused
-joint's (docs/fusion.md has what the filter gains).
+joint over from the measurement. The fusion moves each joint's 95 %
+bound with it (hri_sync.fusion.pipeline; docs/fusion.md has what the
+filter gains).
 """
 
 from __future__ import annotations
