@@ -496,9 +496,11 @@ def hidden_by_sight(frames, truth, tracks, best):
     error, and with one the error of the view that sees it."""
     groups = {'0': [], '1': [], '2+': []}   # (best, fused, lone) errors
     for f in frames:
+        if not f.people:
+            continue
         seen = {n: tr.at(f.stamp, 0.04) for n, tr in tracks.items()}
         b = seen.pop(best)
-        if not f.people or b is None:
+        if b is None:
             continue
         true = truth([f.stamp])[0]
         fused = np.linalg.norm(f.people[0].body.positions - true, axis=1)

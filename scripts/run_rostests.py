@@ -82,13 +82,16 @@ def junit_counts(path):
     if suites is None:
         return None
     tests = sum(int(s.get('tests', 0)) for s in suites)
+    suites += [s for p in checker_files(path) for s in junit_suites(p) or []]
     bad = sum(int(s.get('failures', 0)) + int(s.get('errors', 0))
               for s in suites)
-    for sub in sorted(glob.glob(os.path.join(os.path.dirname(path),
-                                             'rosunit-*.xml'))):
-        for s in junit_suites(sub) or []:
-            bad += int(s.get('failures', 0)) + int(s.get('errors', 0))
     return tests, bad
+
+
+def checker_files(path):
+    """The checkers' JUnit files beside a summary one."""
+    return sorted(glob.glob(os.path.join(os.path.dirname(path),
+                                         'rosunit-*.xml')))
 
 
 def brief(text, most=400):
@@ -107,9 +110,7 @@ def junit_failures(path):
     """'test case: message' of each failed or erred test case in a JUnit
     XML file and in the checkers' files beside it."""
     found = []
-    paths = [path] + sorted(glob.glob(os.path.join(os.path.dirname(path),
-                                                   'rosunit-*.xml')))
-    for p in paths:
+    for p in [path] + checker_files(path):
         for s in junit_suites(p) or []:
             for case in s.iter('testcase'):
                 for bad in list(case.findall('failure')) \
@@ -386,13 +387,18 @@ class Runner:
         os.replace(path + '.tmp', path)
         return folder
 
+    def summary_xml(self, name):
+        """The summary JUnit file of test ``name``."""
+        return os.path.join(self.results, name, 'hri_sync',
+                            'rostest-%s.xml' % name)
+
     def command(self, path, name):
         """(its summary XML, the command) of one test.  Each test writes
         its results in a folder of its own: tests that include one launch
         file name their checkers alike, and would overwrite each other's
         result files when run at once."""
         results = os.path.join(self.results, name)
-        xml = os.path.join(results, 'hri_sync', 'rostest-%s.xml' % name)
+        xml = self.summary_xml(name)
         if path.endswith('.py'):
             return xml, [sys.executable, '-m', 'pytest', '-q', '-p',
                          'no:cacheprovider', '--junitxml', xml, path]
@@ -529,9 +535,8 @@ class Runner:
             '' if cpu_seconds is None else ', cpu %5.1f s' % cpu_seconds,
             code, what)
         if not ok:
-            xml = os.path.join(self.results, name, 'hri_sync',
-                               'rostest-%s.xml' % name)
-            line += ''.join('\n  %s' % f for f in junit_failures(xml))
+            line += ''.join('\n  %s' % f for f in junit_failures(
+                self.summary_xml(name)))
             log = os.path.join(self.logs, name + '.log')
             with open(log) as lf:
                 tail = lf.readlines()[-TAIL:]

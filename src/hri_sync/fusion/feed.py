@@ -24,27 +24,24 @@ from hri_sync.wire.times import GlobalTime, LocalTime
 SKELETON, VIEW_CLOCK, HOST_CLOCK = 'skeleton', 'view_clock', 'host_clock'
 
 
-def clock_state_error(state: Any) -> Optional[str]:
-    """Why a ClockState that says ok is no usable clock model (a field
-    not finite, a drift over 1 %, a time no ROS time can carry), or
-    None."""
+def clock_model(state: Any) -> Optional[ClockModel]:
+    """The clock model a ClockState carries, None when it says not ok.
+    Raises ValueError (or TypeError) naming the field when it holds no
+    usable model (a field not finite, a drift over 1 %, a time no ROS
+    time can carry)."""
     if not state.ok:
         return None
-    try:
-        ClockModel.from_state(state.local_ref, state.offset, state.drift,
-                              state.uncertainty)
-    except (TypeError, ValueError) as e:
-        return str(e)
-    return None
+    return ClockModel.from_state(state.local_ref, state.offset, state.drift,
+                                 state.uncertainty)
 
 
-def to_global(local: float, state: Any, back: bool = False) -> float:
-    """Global time of host time ``local`` through a ClockState (None or
-    not ok: the host clock is the global clock); ``back``: host time of
+def to_global(local: float, model: Optional[ClockModel],
+              back: bool = False) -> float:
+    """Global time of host time ``local`` through a host's clock model
+    (None: the host clock is the global clock); ``back``: host time of
     global ``local``."""
-    if state is None or not state.ok:
+    if model is None:
         return local
-    model = ClockModel(state.local_ref, state.offset, state.drift)
     if back:
         return float(model.to_local(GlobalTime(local)))
     return float(model.to_global(LocalTime(local)))
@@ -53,11 +50,15 @@ def to_global(local: float, state: Any, back: bool = False) -> float:
 def stamp_uncertainty(state: Any, extra: float) -> float:
     """A view's stamps' uncertainty from its last ClockState (None: none
     came yet; not ok or no usable model: its clock model is lost, inf)
-    plus ``extra``."""
+    plus ``extra``: worked out as each ClockState comes, not per
+    skeleton."""
     if state is None:
         return extra
-    usable = state.ok and clock_state_error(state) is None
-    return extra + (state.uncertainty if usable else math.inf)
+    try:
+        model = clock_model(state)
+    except (TypeError, ValueError):
+        model = None
+    return extra + (math.inf if model is None else model.uncertainty)
 
 
 def add_skeleton(fusion: Fusion, view: str, msg: Any,
@@ -101,8 +102,8 @@ class Replay:
                  extra: float = 0.001, poll_period: float = 0.005,
                  status_period: float = 1.0) -> None:
         self.local = -math.inf          # the recorder's clock now
-        self.host: Any = None           # its ClockState, if recorded
-        self.clocks: Dict[str, Any] = {}     # view: its last ClockState
+        self.host: Optional[ClockModel] = None  # its clock, if recorded
+        self.uncertainty: Dict[str, float] = {}  # view: of its stamps
         self.bad_host_states = 0        # the host's, no usable model
         self.extra = extra
         self.poll_period = poll_period
@@ -153,15 +154,15 @@ class Replay:
 
     def _apply(self, r: Recorded) -> None:
         if r.kind == HOST_CLOCK:
-            if clock_state_error(r.data):     # the last usable one stays
+            try:
+                self.host = clock_model(r.data)
+            except (TypeError, ValueError):  # the last usable one stays
                 self.bad_host_states += 1
-            else:
-                self.host = r.data
         elif r.kind == VIEW_CLOCK:
-            self.clocks[r.view] = r.data
+            self.uncertainty[r.view] = stamp_uncertainty(r.data, self.extra)
         elif r.kind == SKELETON:
-            add_skeleton(self.fusion, r.view, r.data, stamp_uncertainty(
-                self.clocks.get(r.view), self.extra))
+            add_skeleton(self.fusion, r.view, r.data,
+                         self.uncertainty.get(r.view, self.extra))
         else:
             raise ValueError('unknown record kind %r' % r.kind)
 

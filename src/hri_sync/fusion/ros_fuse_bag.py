@@ -7,9 +7,10 @@ Reads each view's hri_sync/Skeleton (/<view>/skeleton) and ClockState
 fusion node's core on them in the order the recorder got them, its
 clock the recorder's (through the recorder host's ClockState,
 --clock-state, when recorded), and writes what the node would have
-published to OUT.bag at the time it would have: /<client-id>/skeleton (a hri_sync/Skeleton per person, a DPM
-input like the live one), /<client-id>/joints (each joint's 95 % bound)
-and the fusion's /diagnostics each second. A study recorded raw can be
+published to OUT.bag at the time it would have: /<client-id>/skeleton
+(a hri_sync/Skeleton per person, a DPM input like the live one),
+/<client-id>/joints (each joint's 95 % bound) and the fusion's
+/diagnostics each second. A study recorded raw can be
 fused again with refined poses (scripts/fusion_refine_pose.py) or other
 settings (--set NAME=VALUE, the launch file's args). Prints the views'
 and people's statuses at the end.
@@ -102,15 +103,14 @@ def open_bag(path):
 def say_missing(bags, topics):
     """Name each view topic the recording lacks, beside the Skeleton
     topics it holds (a view id or --skeleton-topic mistyped)."""
-    held = {}
-    for bag in bags:
-        for topic, info in bag.get_type_and_topic_info().topics.items():
-            held.setdefault(info.msg_type, set()).add(topic)
+    held = {topic for bag in bags for topic, info
+            in bag.get_type_and_topic_info().topics.items()
+            if info.msg_type == Skeleton._type}
     for topic, (kind, view) in sorted(topics.items()):
-        if kind == SKELETON and topic not in held.get(Skeleton._type, ()):
+        if kind == SKELETON and topic not in held:
             print('fuse_bag: view %s: no %s in the recording (its %s '
-                  'topics: %s)' % (view, topic, Skeleton._type, ', '.join(
-                      sorted(held.get(Skeleton._type, ()))) or 'none'),
+                  'topics: %s)' % (view, topic, Skeleton._type,
+                                   ', '.join(sorted(held)) or 'none'),
                   file=sys.stderr)
 
 

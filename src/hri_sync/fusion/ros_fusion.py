@@ -12,7 +12,7 @@ from geometry_msgs.msg import Point, Point32, Quaternion
 from sensor_msgs.msg import ChannelFloat32, PointCloud
 
 from hri_sync.fusion.feed import (
-    add_skeleton, clock_state_error, stamp_uncertainty, to_global)
+    add_skeleton, clock_model, stamp_uncertainty, to_global)
 from hri_sync.fusion.frames import parse_pose
 from hri_sync.fusion.pipeline import Fusion
 from hri_sync.fusion.profile import profiles
@@ -45,8 +45,9 @@ class FusionNode:
         except ValueError as e:
             raise ParamError('%s: ~%s' % (rospy.get_name(), e))
         self.lock = threading.Lock()
-        self.host = None             # this host's ClockState, if any
-        self.clock_of = {v: None for v in self.views}
+        self.host = None             # this host's clock model, if any
+        # each view's stamps' uncertainty, from its last ClockState
+        self.uncertainty_of = {v: self.extra for v in self.views}
         self.last = None
         self.fusion = Fusion(self.poses, params, lambda: self.now(), profile)
         self.skel_pub = rospy.Publisher('skeleton', Skeleton, queue_size=30)
@@ -73,21 +74,18 @@ class FusionNode:
         return to_global(time.time(), self.host)
 
     def on_host_clock(self, msg):
-        error = clock_state_error(msg)
-        if error:       # the last usable one stays
+        try:
+            self.host = clock_model(msg)
+        except (TypeError, ValueError) as e:  # the last usable one stays
             rospy.logerr_throttle(10.0, '%s: ClockState on %s left out: %s'
-                                  % (rospy.get_name(), self.host_topic,
-                                     error))
-            return
-        self.host = msg
+                                  % (rospy.get_name(), self.host_topic, e))
 
     def on_clock(self, msg, view):  # its uncertainty: the next skeletons'
-        self.clock_of[view] = msg
+        self.uncertainty_of[view] = stamp_uncertainty(msg, self.extra)
 
     def on_skeleton(self, msg, view):
-        uncertainty = stamp_uncertainty(self.clock_of[view], self.extra)
         with self.lock:
-            add_skeleton(self.fusion, view, msg, uncertainty)
+            add_skeleton(self.fusion, view, msg, self.uncertainty_of[view])
         self.poll(None)
 
     def poll(self, _event):

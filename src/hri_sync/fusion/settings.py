@@ -17,34 +17,37 @@ def _at_least_0(x: float) -> bool:
     return math.isfinite(x) and x >= 0
 
 
-Setting = Tuple[str, float, str, Callable[[float], bool], str]
+Setting = Tuple[str, str, Callable[[float], bool], str]
 
-# name, default, attribute of FusionParams, check, the values it takes
+# name, attribute of FusionParams (its default the setting's), check, the
+# values it takes
 SETTINGS: Tuple[Setting, ...] = (
-    ('rate', 30.0, 'rate', _positive, '> 0 Hz'),
-    ('stall_after', 0.5, 'health.stall_after', _positive, '> 0 s'),
-    ('max_ahead', 0.2, 'max_ahead', _positive, '> 0 s'),
-    ('max_age', 2.0, 'max_age', _positive, '> 0 s'),
-    ('max_depth', 10.0, 'max_depth', _positive, '> 0 m'),
-    ('scatter_hold', 0.5, 'scatter_hold', _at_least_0, '>= 0 s'),
-    ('smooth_accel', 30.0, 'smooth.accel', _at_least_0, '>= 0 m/s^2'),
-    ('residual_threshold', 0.2, 'residual_threshold', _positive, '> 0 m'),
-    ('arms_margin', 0.2, 'arms.margin', lambda x: x > 0,
-     '> 0 m (inf: never)'),
-    ('fov_deg', 57.0, 'sight.fov_deg', lambda x: 0 < x < 360,
-     '0-360 degrees'),
-    ('max_range', 4.5, 'sight.far', _positive, '> 0 m'),
+    ('rate', 'rate', _positive, '> 0 Hz'),
+    ('stall_after', 'health.stall_after', _positive, '> 0 s'),
+    ('max_ahead', 'max_ahead', _positive, '> 0 s'),
+    ('max_age', 'max_age', _positive, '> 0 s'),
+    ('max_depth', 'max_depth', _positive, '> 0 m'),
+    ('scatter_hold', 'scatter_hold', _at_least_0, '>= 0 s'),
+    ('smooth_accel', 'smooth.accel', _at_least_0, '>= 0 m/s^2'),
+    ('residual_threshold', 'residual_threshold', _positive, '> 0 m'),
+    ('arms_margin', 'arms.margin', lambda x: x > 0, '> 0 m (inf: never)'),
+    ('fov_deg', 'sight.fov_deg', lambda x: 0 < x < 360, '0-360 degrees'),
+    ('max_range', 'sight.far', _positive, '> 0 m'),
 )
 NAMES = tuple(s[0] for s in SETTINGS)
 
 
 def fusion_params(get: Callable[[str, float], Any]) -> FusionParams:
-    """FusionParams from ``get(name, default)``, one value per setting.
-    Raises ValueError naming a setting that is not a number or out of
-    range."""
+    """FusionParams from ``get(name, default)``, one value per setting
+    (the default FusionParams'). Raises ValueError naming a setting that
+    is not a number or out of range."""
     params = FusionParams()
-    for name, default, attribute, check, values in SETTINGS:
-        raw = get(name, default)
+    for name, attribute, check, values in SETTINGS:
+        *path, last = attribute.split('.')
+        owner: Any = params
+        for part in path:
+            owner = getattr(owner, part)
+        raw = get(name, getattr(owner, last))
         try:
             value = float(raw)
         except (TypeError, ValueError):
@@ -52,9 +55,5 @@ def fusion_params(get: Callable[[str, float], Any]) -> FusionParams:
         if not check(value):
             raise ValueError('%s=%r is out of range: %s'
                              % (name, value, values))
-        *path, last = attribute.split('.')
-        owner = params
-        for part in path:
-            owner = getattr(owner, part)
         setattr(owner, last, value)
     return params
