@@ -14,7 +14,10 @@ fusion node (fuse_bag_live.launch: three views of a dancer, the views and
 the live fused body recorded by rosbag record) against fuse_bag on that
 recording: the same instants, most of them identical (97.6-99.1 % within
 1 mm, the others within 6-35 mm, in five runs, three beside four busy
-loops); the median instant within 1 mm.  Run by
+loops); the median instant within 1 mm.  And that recording played
+into the live node under /use_sim_time (fuse_bag_replay.launch: rosbag
+play --clock): the same instants, the median within 1 mm, every view and
+the people OK (not behind), a REP 155 body for each fused skeleton.  Run by
 scripts/run_rostests.py (make test) with the workspace sourced.
 """
 import math
@@ -47,6 +50,8 @@ STALL = 6.0            # s: the back view's last skeleton
 DUR = 10.0
 LIVE = os.path.join(os.path.dirname(os.path.abspath(__file__)),
                     'fuse_bag_live.launch')
+REPLAY = os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                      'fuse_bag_replay.launch')
 LIVE_FOR = 12.0        # s of the live fusion recorded
 
 
@@ -155,6 +160,48 @@ def test_the_sources_follow_the_stall(fused):
     assert late and all(s == {'left', 'right'} for s in late)
 
 
+def rotate(q, v):
+    """Vector ``v`` turned by unit quaternion ``q`` (x, y, z, w)."""
+    u, w = np.array(q[:3]), q[3]
+    return v + 2 * np.cross(u, np.cross(u, v) + w * v)
+
+
+def test_the_rep155_bodies_place_the_hips_in_world(fused):
+    # /tf_static puts fused_sensor at the output pose in world; each fused
+    # skeleton's body_fused1 (rep155_bridge's tree) then lies at the
+    # dancer's hips centre; /humans/bodies/tracked names it 10 times a
+    # second while fused, and nobody once it has been gone 0.5 s.
+    motion, msgs, _, _ = fused
+    static = [m.transforms for topic, m, _ in msgs if topic == '/tf_static']
+    assert len(static) == 1 and len(static[0]) == 1
+    sensor = static[0][0]
+    assert (sensor.header.frame_id, sensor.child_frame_id) == (
+        'world', 'fused_sensor')
+    r, t = sensor.transform.rotation, sensor.transform.translation
+    q, origin = (r.x, r.y, r.z, r.w), np.array([t.x, t.y, t.z])
+    assert np.allclose(origin, [3.3, 0.4, 1.0])
+    bodies = [(m.transforms[0], time) for topic, m, time in msgs
+              if topic == '/tf']
+    skeletons = [m for topic, m, _ in msgs if topic == '/fused/skeleton']
+    assert len(bodies) == len(skeletons)
+    err = []
+    for body, _ in bodies:
+        assert (body.header.frame_id, body.child_frame_id) == (
+            'fused_sensor', 'body_fused1')
+        p = body.transform.translation
+        hips = truth(motion, body.header.stamp.to_sec())[[9, 10]].mean(0)
+        err.append(np.linalg.norm(
+            rotate(q, np.array([p.x, p.y, p.z])) + origin - hips))
+    assert np.median(err) < 0.05, np.median(err)
+    tracked = [(m.ids, time) for topic, m, time in msgs
+               if topic == '/humans/bodies/tracked']
+    first, last = bodies[0][1], bodies[-1][1]
+    during = [ids for ids, time in tracked if time <= last]
+    assert abs(len(during) - 10 * (last - first)) <= 2
+    assert all(ids == ['fused1'] for ids in during)
+    assert all(ids == [] for ids, time in tracked if time > last + 0.6)
+
+
 def test_diagnostics_name_the_stalled_view(fused):
     _, msgs, stdout, _ = fused
     diags = [(m, t) for topic, m, t in msgs if topic == '/diagnostics']
@@ -227,49 +274,102 @@ def fused_by_instant(path):
                 for _, m, _ in bag.read_messages(topics=['/fused/skeleton'])}
 
 
-def test_fuse_bag_fuses_a_live_recording_as_the_live_node_did(tmp_path):
+def roslaunch(folder, name, launch, args, run_for=None):
+    """``launch`` with ``args`` on a roscore of its own, its output in
+    ``folder``/``name``.log; stopped after ``run_for`` s once
+    ``folder``/live.bag.active exists, else run to its end."""
     port = free_port()
     env = dict(os.environ, ROS_MASTER_URI='http://127.0.0.1:%d/' % port,
-               ROS_HOME=str(tmp_path), ROS_LOG_DIR=str(tmp_path / 'log'))
-    recording = str(tmp_path / 'live.bag')
-    with open(tmp_path / 'launch.log', 'w') as log:
+               ROS_HOME=str(folder), ROS_LOG_DIR=str(folder / 'log'))
+    with open(folder / (name + '.log'), 'w') as log:
         master = subprocess.Popen(['rosmaster', '--core', '-p', str(port)],
                                   env=env, stdout=log,
                                   stderr=subprocess.STDOUT,
                                   start_new_session=True)
-        launch = None
+        proc = None
         try:
             wait_until('the master', lambda: master_answers(
                 env['ROS_MASTER_URI']), 60.0)
-            launch = subprocess.Popen(
-                ['roslaunch', LIVE, 'bag:=' + recording], env=env,
+            proc = subprocess.Popen(
+                ['roslaunch', launch] + args, env=env,
                 stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-            wait_until('the recording', lambda: os.path.exists(
-                recording + '.active'), 120.0)
-            time.sleep(LIVE_FOR)
+            if run_for is None:
+                proc.wait(300)
+            else:
+                wait_until('the recording', lambda: os.path.exists(
+                    folder / 'live.bag.active'), 120.0)
+                time.sleep(run_for)
         finally:
-            for proc, sig in ((launch, signal.SIGINT),
-                              (master, signal.SIGTERM)):
-                if proc is None:
+            for p, sig in ((proc, signal.SIGINT), (master, signal.SIGTERM)):
+                if p is None:
                     continue
-                os.killpg(proc.pid, sig)
+                if p.poll() is None:
+                    os.killpg(p.pid, sig)
                 try:
-                    proc.wait(60)
+                    p.wait(60)
                 except subprocess.TimeoutExpired:
-                    os.killpg(proc.pid, signal.SIGKILL)
-                    proc.wait(60)
-    assert os.path.exists(recording), (tmp_path / 'launch.log').read_text()
-    out = str(tmp_path / 'offline.bag')
-    run = fuse_bag(recording, '--out', out, '--poses', str(POSES))
-    assert run.returncode == 0, run.stdout + run.stderr
-    live, offline = fused_by_instant(recording), fused_by_instant(out)
-    assert len(live) >= 0.5 * LIVE_FOR * 30
-    assert {k[1] for k in live} == {k[1] for k in offline} == {1}
-    common = sorted(set(live) & set(offline))
+                    os.killpg(p.pid, signal.SIGKILL)
+                    p.wait(60)
+    return (folder / (name + '.log')).read_text()
+
+
+@pytest.fixture(scope='module')
+def live(tmp_path_factory):
+    """A recording of the live fusion (fuse_bag_live.launch) and its
+    /fused/skeleton by instant."""
+    folder = tmp_path_factory.mktemp('live')
+    recording = str(folder / 'live.bag')
+    log = roslaunch(folder, 'live', LIVE, ['bag:=' + recording], LIVE_FOR)
+    assert os.path.exists(recording), log
+    by_instant = fused_by_instant(recording)
+    assert len(by_instant) >= 0.5 * LIVE_FOR * 30
+    return folder, recording, by_instant
+
+
+def compare(live, again):
+    """The share of ``live``'s instants ``again`` gives within 1 mm and
+    their median difference (m)."""
+    assert {k[1] for k in live} == {k[1] for k in again} == {1}
+    common = sorted(set(live) & set(again))
     assert len(common) >= 0.9 * len(live)
-    diff = [np.abs(live[k] - offline[k]).max() for k in common]
+    diff = [np.abs(live[k] - again[k]).max() for k in common]
     print('%d live instants, %d fused again, %d common: %.1f %% within '
-          '1 mm, max %.3f m' % (len(live), len(offline), len(common),
+          '1 mm, max %.3f m' % (len(live), len(again), len(common),
                                 100 * np.mean(np.less(diff, 1e-3)),
                                 max(diff)))
-    assert np.median(diff) < 1e-3
+    return np.mean(np.less(diff, 1e-3)), np.median(diff)
+
+
+def test_fuse_bag_fuses_a_live_recording_as_the_live_node_did(live):
+    folder, recording, by_instant = live
+    out = str(folder / 'offline.bag')
+    run = fuse_bag(recording, '--out', out, '--poses', str(POSES))
+    assert run.returncode == 0, run.stdout + run.stderr
+    _, median = compare(by_instant, fused_by_instant(out))
+    assert median < 1e-3
+
+
+def test_the_recording_played_into_the_live_node_under_sim_time(live):
+    # rosbag play --clock into fusion.launch with /use_sim_time: the node
+    # runs on the played clock, so its skeletons are on time (no WARN
+    # behind), and it fuses them as it did live; its REP 155 bodies
+    # (rep155_bridge) come with every fused skeleton.
+    folder, recording, by_instant = live
+    out = str(folder / 'replayed.bag')
+    log = roslaunch(folder, 'replay', REPLAY,
+                    ['bag:=' + recording, 'out:=' + out])
+    assert os.path.exists(out), log
+    again = fused_by_instant(out)
+    _, median = compare(by_instant, again)
+    assert median < 1e-3
+    last, tf = {}, 0
+    with rosbag.Bag(out) as bag:
+        for topic, msg, _ in bag.read_messages(['/diagnostics', '/tf']):
+            if topic == '/tf':
+                tf += any(t.child_frame_id == 'body_fused1'
+                          for t in msg.transforms)
+                continue
+            last.update({s.name.split(': ')[-1]: s for s in msg.status})
+    assert tf >= 0.9 * len(again)
+    for name in ('view left', 'view right', 'view back', 'people'):
+        assert last[name].level == 0, (name, last[name].message)

@@ -9,7 +9,7 @@ from hri_sync.people.adapters import (AzureKinectMarkers, OpenniTf,
 from hri_sync.people.joint_maps import (KINECT_V2, FROM_KINECT_V2,
                                         from_skeleton_frame, select,
                                         to_skeleton_frame)
-from hri_sync.people.rep155 import body_transforms
+from hri_sync.people.rep155 import TrackedBodies, body_transforms
 
 RNG = np.random.default_rng(5)
 
@@ -203,6 +203,16 @@ def test_rep155_next_stamp_closes_and_bad_input():
     for parent, child, t, q in rep155_msgs('b3', p)[:5]:
         m.add(parent, child, 7.0, t, q, 7.0)
     assert m.poll(8.0) == [] and m.counts['missing_joints'] == 1
+
+
+def test_tracked_bodies_are_forgotten_after_a_while():
+    bodies = TrackedBodies(0.5)
+    assert bodies.tracked(0.0) == ([], None)
+    bodies.saw('b2', 1.0, 10.0)
+    bodies.saw('a1', 1.2, 9.0)
+    assert bodies.tracked(1.4) == (['a1', 'b2'], 10.0)
+    assert bodies.tracked(1.6) == (['a1'], 9.0)
+    assert bodies.tracked(1.8) == ([], None)
 
 
 def test_fuzzed_input_never_raises():

@@ -9,7 +9,8 @@ pair of views (WARN over the threshold); ``people``: the fused people,
 with the views each is fused from, id switches, left-out jumps and the
 fused latency (output time less the newest capture used, p95); WARN
 ``behind`` when every view's skeletons came over ``max_age`` after their
-capture (this node starved, or its host's clock behind).
+capture (this node starved, its host's clock behind, or a recording
+played to it off ``/use_sim_time``).
 """
 
 from __future__ import annotations
@@ -90,8 +91,9 @@ def people_status(fusion: Fusion, last: Frame | None) -> Status:
     if behind:
         return 'people', WARN, (
             '%d fused; behind: %d skeletons came over %.1f s after their '
-            "capture in %.0f s, every view's alike (this node starved, or "
-            "its host's clock off the global clock: clock_state:=)"
+            "capture in %.0f s, every view's alike (this node starved, its "
+            "host's clock off the global clock: clock_state:=, or a "
+            "recording played without use_sim_time and --clock)"
             % (len(people), behind, fusion.params.max_age, window)), values
     return 'people', OK, '%d fused' % len(people), values
 

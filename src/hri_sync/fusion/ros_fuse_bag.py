@@ -9,8 +9,10 @@ clock the recorder's (through the recorder host's ClockState,
 --clock-state, when recorded), and writes what the node would have
 published to OUT.bag at the time it would have: /<client-id>/skeleton
 (a hri_sync/Skeleton per person, a DPM input like the live one),
-/<client-id>/joints (each joint's 95 % bound) and the fusion's
-/diagnostics each second. A study recorded raw can be
+/<client-id>/joints (each joint's 95 % bound), the fusion's /diagnostics
+each second, and the REP 155 bodies fusion.launch's rep155_bridge gives
+(/tf: body_<client-id><person> under <client-id>_sensor, whose pose in
+the world frame is on /tf_static; /humans/bodies/tracked every 0.1 s). A study recorded raw can be
 fused again with refined poses (scripts/fusion_refine_pose.py) or other
 settings (--set NAME=VALUE, the launch file's args). Prints the views'
 and people's statuses at the end.
@@ -29,7 +31,9 @@ import rospkg
 import rospy
 import yaml
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from tf2_msgs.msg import TFMessage
 
+from hri_sync.dance_off.frames import SENSOR, pose
 from hri_sync.fusion.feed import (
     HOST_CLOCK, SKELETON, VIEW_CLOCK, Recorded, Replay, to_global)
 from hri_sync.fusion.frames import parse_pose
@@ -39,8 +43,11 @@ from hri_sync.fusion.report import statuses
 from hri_sync.fusion.ros_fusion import fused_messages
 from hri_sync.fusion.settings import NAMES, fusion_params
 from hri_sync.msg import Skeleton
+from hri_sync.people.rep155 import TrackedBodies
+from hri_sync.people.ros_rep155 import body_tf, ids_list, transform
 
 LEVELS = {0: 'OK', 1: 'WARN', 2: 'ERROR'}
+TRACKED_PERIOD = 0.1    # s, and forgotten after 0.5 s: rep155_bridge's
 
 
 def arguments(argv):
@@ -142,6 +149,30 @@ class Output:
         self.output_pose, self.args = output_pose, args
         self.fused = self.people = 0
         self.ids, self.last, self.summary = set(), None, []
+        self.bodies, self.tracked_at = TrackedBodies(0.5), None
+
+    def rep155(self, t, skeletons):
+        """The bodies' tf; the sensor frame's pose first."""
+        if self.tracked_at is None:
+            p = self.output_pose
+            self.bag.write('/tf_static', TFMessage([transform(
+                t, self.args.world_frame, self.args.client_id + '_sensor',
+                *pose(p.x, p.y, p.z, p.yaw, p.pitch, SENSOR))]), t)
+            self.tracked_at = t.to_sec()
+        for msg in skeletons:
+            body = '%s%d' % (msg.client_id, msg.user_id)
+            tf = body_tf(msg, body)
+            if tf is not None:
+                self.bag.write('/tf', tf, t)
+                self.bodies.saw(body, t.to_sec(), msg.header.stamp)
+
+    def tracked(self, t):
+        """/humans/bodies/tracked every TRACKED_PERIOD until ``t``."""
+        while self.tracked_at is not None and t >= self.tracked_at:
+            self.bag.write('/humans/bodies/tracked', ids_list(
+                *self.bodies.tracked(self.tracked_at)),
+                rospy.Time.from_sec(self.tracked_at))
+            self.tracked_at += TRACKED_PERIOD
 
     def write(self, step):
         t, cid = rospy.Time.from_sec(step.t), self.args.client_id
@@ -152,10 +183,12 @@ class Output:
             for msg in skeletons:
                 self.bag.write('/%s/skeleton' % cid, msg, t)
             self.bag.write('/%s/joints' % cid, cloud, t)
+            self.rep155(t, skeletons)
             self.fused += 1
             self.people += bool(frame.people)
             self.ids.update(p.person for p in frame.people)
             self.last = frame
+        self.tracked(step.t)
         if step.status_due:
             self.bag.write('/diagnostics', diagnostics(
                 self.replay.fusion, self.last, step.t, cid + '/fusion', cid),

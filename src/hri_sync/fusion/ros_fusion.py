@@ -1,6 +1,9 @@
 """The fusion node on ROS: skeletons and clock states in, fused people out.
 
-The executable is ``nodes/fusion``; docs/fusion.md.
+The executable is ``nodes/fusion``; docs/fusion.md. Under
+``/use_sim_time`` (a recording played with ``rosbag play --clock``) its
+host clock is the played one: the recorder's, through the recorded
+``~clock_state`` if given, as ``fuse_bag`` runs.
 """
 import threading
 import time
@@ -44,6 +47,7 @@ class FusionNode:
             params = fusion_params(param)
         except ValueError as e:
             raise ParamError('%s: ~%s' % (rospy.get_name(), e))
+        self.sim = bool(rospy.get_param('/use_sim_time', False))
         self.lock = threading.Lock()
         self.host = None             # this host's clock model, if any
         # each view's stamps' uncertainty, from its last ClockState
@@ -70,8 +74,9 @@ class FusionNode:
         rospy.Timer(rospy.Duration(1.0), lambda _: self.updater.update())
 
     def now(self):
-        """This host's clock on the global clock."""
-        return to_global(time.time(), self.host)
+        """This host's clock (or the played one) on the global clock."""
+        return to_global(rospy.get_rostime().to_sec() if self.sim
+                         else time.time(), self.host)
 
     def on_host_clock(self, msg):
         try:
@@ -84,12 +89,17 @@ class FusionNode:
         self.uncertainty_of[view] = stamp_uncertainty(msg, self.extra)
 
     def on_skeleton(self, msg, view):
+        if self.sim and rospy.get_rostime().is_zero():
+            rospy.logwarn_throttle(5.0, '%s: /use_sim_time and no /clock '
+                                   'yet: skeletons are judged ahead of it'
+                                   % rospy.get_name())
         with self.lock:
             add_skeleton(self.fusion, view, msg, self.uncertainty_of[view])
         self.poll(None)
 
     def poll(self, _event):
-        if rospy.is_shutdown():
+        if rospy.is_shutdown() or (self.sim and
+                                   rospy.get_rostime().is_zero()):
             return
         with self.lock:
             frames = self.fusion.poll()

@@ -86,3 +86,25 @@ def body_transforms(body_id, positions, convention='kinect'):
         out.append(('%s_%s' % (parent, body_id), '%s_%s' % (link, body_id),
                     tuple(local), (0.0, 0.0, 0.0, 1.0)))
     return out
+
+
+class TrackedBodies:
+    """The bodies seen in the last ``forget_after`` s (the ids of
+    ``/humans/bodies/tracked``), on a clock the caller gives."""
+
+    def __init__(self, forget_after):
+        self.forget_after = forget_after
+        self.seen = {}          # body id -> (time last seen, its stamp)
+
+    def saw(self, body_id, now, stamp):
+        """``body_id`` seen at ``now``, its skeleton stamped ``stamp``."""
+        self.seen[body_id] = (now, stamp)
+
+    def tracked(self, now):
+        """(sorted ids seen within ``forget_after`` of ``now``, the newest
+        of their stamps or None); the others are forgotten."""
+        for body in [b for b, (t, _) in self.seen.items()
+                     if now - t > self.forget_after]:
+            del self.seen[body]
+        stamps = [s for _, s in self.seen.values()]
+        return sorted(self.seen), (max(stamps) if stamps else None)
