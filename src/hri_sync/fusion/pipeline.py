@@ -108,6 +108,28 @@ class Person:
 
 
 @dataclass
+class ViewUser:
+    """What the fusion keeps of one view's user (a track): its samples
+    in world, its tracker filter's lag, and its last skeleton as sent
+    (stamp, Skeleton-frame joints: a repeat is told by it)."""
+
+    track: Track
+    lag: Optional[FilterLag]
+    last: Tuple[float, np.ndarray]
+
+
+@dataclass
+class PersonState:
+    """What the fusion keeps of one person between instants: its joints'
+    filter, its last two fused instants (t, positions) and, within
+    ``scatter_hold``, the views' scatter of each joint (t, scatter)."""
+
+    smoother: Smoother
+    past: List[Tuple[float, np.ndarray]] = field(default_factory=list)
+    scatter: List[Tuple[float, np.ndarray]] = field(default_factory=list)
+
+
+@dataclass
 class Frame:
     """The fused people at one instant."""
 
@@ -129,13 +151,8 @@ class Fusion:
         self.profiles = {v: (profiles or {}).get(v) or Profile()
                          for v in poses}
         self.health = {v: ViewHealth(self.params.health) for v in poses}
-        self.tracks: Dict[Key, Track] = {}
-        self.lags: Dict[Key, Optional[FilterLag]] = {}  # per track
-        # per track: the last skeleton's stamp and joints (Skeleton frame)
-        self.last_raw: Dict[Key, Tuple[float, np.ndarray]] = {}
-        # per person: (instant, the views' scatter of each joint)
-        self.scatter: Dict[int, List[Tuple[float, np.ndarray]]] = {}
-        self.smoothers: Dict[int, Smoother] = {}    # per person
+        self.users: Dict[Key, ViewUser] = {}
+        self.persons: Dict[int, PersonState] = {}
         self.associator = Associator(gate=self.params.gate)
         self.residuals = Residuals(threshold=self.params.residual_threshold)
         self.pose_fit = PoseFit(threshold=self.params.residual_threshold)
@@ -145,8 +162,6 @@ class Fusion:
         self.tried: Dict[str, float] = {}   # view: when its pose was fitted
         self.sightlines = Sightlines(self.params.sight)
         self.next_k: Optional[int] = None
-        # Each person's last two fused instants: (t, positions).
-        self.past: Dict[int, List[Tuple[float, np.ndarray]]] = {}
         # Each fused body's output time less the newest capture it used.
         self.latencies: Deque[float] = deque(maxlen=300)
         # When a skeleton came over max_age after its capture, as late as
@@ -174,40 +189,44 @@ class Fusion:
                 health.note(fault, now)
             health.reject(fault)
             return fault
-        bad_joints = {
+        faults = self._leave_out_joints(positions, confidence)
+        profile, known = self.profiles[view], self.users.get((view, user))
+        repeated = known is not None and stamp > known.last[0] \
+            and np.isfinite(positions).any() \
+            and np.array_equal(positions, known.last[1], equal_nan=True)
+        if known is None:
+            known = self.users[(view, user)] = ViewUser(
+                Track(max_gap=self.params.max_gap), profile.filter_lag(),
+                (stamp, positions))
+        known.last = (stamp, positions)
+        health.arrived(now, stamp, uncertainty,
+                       faults + (('repeated',) if repeated else ()))
+        if repeated:
+            health.reject('repeated_skeleton')
+            return 'repeated_skeleton'
+        world = profile.place(positions, self.poses[view], stamp, known.lag)
+        if not known.track.add(Sample(
+                stamp - profile.delay, world, np.clip(confidence, 0, 1),
+                uncertainty + profile.delay_spread, stamp)):
+            health.reject('repeated_stamp')
+            return 'repeated_stamp'
+        return None
+
+    def _leave_out_joints(self, positions: np.ndarray,
+                          confidence: np.ndarray) -> Tuple[str, ...]:
+        """Make NaN, at confidence 0, the joints no sensor measures (NaN,
+        at the sensor's origin, beyond ``max_depth``); which of those
+        faults the skeleton has."""
+        bad = {
             'nan_joints': ~np.isfinite(positions).all(axis=1),
             'zero_joints': (positions == 0).all(axis=1),
             'far_joints': np.linalg.norm(np.where(np.isfinite(positions),
                                                   positions, 0.0), axis=1)
             > self.params.max_depth}
-        missing = np.logical_or.reduce(list(bad_joints.values()))
+        missing = np.logical_or.reduce(list(bad.values()))
         confidence[missing] = 0.0
         positions[missing] = np.nan
-        key = (view, user)
-        last = self.last_raw.get(key)
-        repeated = last is not None and stamp > last[0] \
-            and not missing.all() \
-            and np.array_equal(positions, last[1], equal_nan=True)
-        self.last_raw[key] = (stamp, positions)
-        health.arrived(now, stamp, uncertainty, tuple(
-            e for e, bad in bad_joints.items() if bad.any())
-            + (('repeated',) if repeated else ()))
-        if repeated:
-            health.reject('repeated_skeleton')
-            return 'repeated_skeleton'
-        profile = self.profiles[view]
-        captured, stamp = stamp, stamp - profile.delay
-        uncertainty += profile.delay_spread
-        track = self.tracks.setdefault(key, Track(max_gap=self.params.max_gap))
-        if key not in self.lags:
-            self.lags[key] = profile.filter_lag()
-        world = profile.place(positions, self.poses[view], captured,
-                              self.lags[key])
-        if not track.add(Sample(stamp, world, np.clip(confidence, 0, 1),
-                                uncertainty, captured)):
-            health.reject('repeated_stamp')
-            return 'repeated_stamp'
-        return None
+        return tuple(fault for fault, where in bad.items() if where.any())
 
     def _stamp_fault(self, stamp: float, uncertainty: float,
                      now: float) -> Optional[str]:
@@ -293,16 +312,14 @@ class Fusion:
         """Each usable track's observation at ``t`` and the capture time
         of its newest sample used."""
         out = {}
-        for key, track in list(self.tracks.items()):
+        for key, known in list(self.users.items()):
             view = key[0]
-            if track.newest < t - 2.0:
-                del self.tracks[key]
-                self.lags.pop(key, None)
-                self.last_raw.pop(key, None)
+            if known.track.newest < t - 2.0:
+                del self.users[key]
                 continue
             if self.health[view].clock_lost():
                 continue
-            a = track.at(t, self.params.max_extrapolation)
+            a = known.track.at(t, self.params.max_extrapolation)
             if a is None or not np.isfinite(a.positions).any():
                 continue
             weight = self.params.suspect_weight \
@@ -322,24 +339,26 @@ class Fusion:
         obs = self._observe(t)
         ids = self.associator.assign(
             t, {k: o.positions for k, (o, _) in obs.items()},
-            lambda key: self.tracks[key].unbroken_since())
+            lambda key: self.users[key].track.unbroken_since())
         groups: Dict[int, List[Key]] = {}
         for key, pid in ids.items():
             groups.setdefault(pid, []).append(key)
         people, bodies = [], {}
         for pid in sorted(groups):
             views = [obs[k][0] for k in groups[pid]]
-            self._put_arms_right(pid, t, views)
-            scatter = [(s, x) for s, x in self.scatter.get(pid, [])
-                       if s >= t - self.params.scatter_hold - 1e-9]
-            inflate = np.max([x for _, x in scatter], axis=0) \
-                if scatter else None
+            state = self.persons.get(pid) or PersonState(
+                Smoother(self.params.smooth))
+            self.persons[pid] = state
+            self._put_arms_right(state.past, t, views)
+            state.scatter = [(s, x) for s, x in state.scatter
+                             if s >= t - self.params.scatter_hold - 1e-9]
+            inflate = np.max([x for _, x in state.scatter], axis=0) \
+                if state.scatter else None
             body = fuse(views, self.params.fuse, inflate)
             if len(views) > 1 and self._by_vantage(body.positions, views):
                 body = fuse(views, self.params.fuse, inflate)
-            self.scatter[pid] = scatter + [(t, body.scatter)]
-            past = self.past.get(pid, []) + [(t, body.positions)]
-            self.past[pid] = past[-2:]
+            state.scatter.append((t, body.scatter))
+            state.past = (state.past + [(t, body.positions)])[-2:]
             bodies[pid] = body
             self.associator.update(pid, body.positions, t)
             if self.associator.held(pid, t):
@@ -348,9 +367,7 @@ class Fusion:
                                    for o in views})
             newest = max((obs[k][1] for k in groups[pid]
                           if k[0] in body.views), default=t)
-            smoother = self.smoothers.setdefault(
-                pid, Smoother(self.params.smooth))
-            smoothed = smoother.update(t, body.positions, body.sigma)
+            smoothed = state.smoother.update(t, body.positions, body.sigma)
             moved = np.linalg.norm(smoothed - body.positions, axis=1)
             people.append(Person(pid, replace(
                 body, positions=smoothed,
@@ -359,11 +376,9 @@ class Fusion:
                                          {k[0] for k in keys})
                                    for pid, keys in groups.items()},
                                self.poses)
-        for pid in [p for p, past in self.past.items()
-                    if past[-1][0] < t - 1.0]:
-            del self.past[pid]
-            self.scatter.pop(pid, None)
-            self.smoothers.pop(pid, None)
+        for pid in [p for p, state in self.persons.items()
+                    if state.past[-1][0] < t - 1.0]:
+            del self.persons[pid]
         blamed, _ = self.residuals.wrong()
         self._check_poses(t, obs, ids, bodies, blamed)
         for view, health in self.health.items():
@@ -384,12 +399,12 @@ class Fusion:
         self.health[view].beyond_range += 1
         return True
 
-    def _put_arms_right(self, pid: int, t: float,
-                        views: List[Observation]) -> None:
+    def _put_arms_right(self, past: List[Tuple[float, np.ndarray]],
+                        t: float, views: List[Observation]) -> None:
         """Exchange the arms of the views whose tracker exchanged them
-        (hri_sync.fusion.arms), against person ``pid``'s body predicted
-        at ``t`` from its fused instants just before; counted per view."""
-        past = self.past.get(pid, [])
+        (hri_sync.fusion.arms), against the person's body predicted at
+        ``t`` from its fused instants just before (``past``); counted per
+        view."""
         step = 1.0 / self.params.rate
         if len(past) < 2 or abs(t - past[1][0] - step) > step / 2 \
                 or abs(past[1][0] - past[0][0] - step) > step / 2:
@@ -478,8 +493,8 @@ class Fusion:
         """``view``'s fitted pose: its skeletons, kept ones too, are
         placed by it from now on."""
         pose, old = fit[0], self.poses[view]
-        for (v, _), track in self.tracks.items():
-            for sample in track.samples if v == view else ():
+        for (v, _), known in self.users.items():
+            for sample in known.track.samples if v == view else ():
                 sample.positions = pose.to_world(old.from_world(
                     sample.positions))
         self.poses[view] = pose
