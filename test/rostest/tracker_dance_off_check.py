@@ -26,6 +26,11 @@ within it to 2 plus its stamps' error bound at both ends).  With
 ~still_client (a tracker client too, of a person standing still), that
 client's score must be below the noise rule's bar, ~noise_factor times its
 noise floor, and below ~min_expressiveness, with its tracker tracking.
+With ~kill_at, it SIGKILLs the tracker client's skeleton_tracker that
+many s into the window, as a crash would: the launch goes on, the
+tracker client's result counts the gap (dropped frames, or a partial
+coverage), and the tracker is respawned (a new process) and publishes
+skeletons again.
 """
 import math
 import os
@@ -93,6 +98,17 @@ def freeze(node, seconds, frozen):
     rospy.loginfo('froze %s (pid %d) for %.2f s', node, pid, frozen[-1])
 
 
+def kill(node, killed):
+    """SIGKILL node ``node``; appends (its pid, when) to ``killed``."""
+    pid = node_pid(node)
+    if pid is None:
+        rospy.logerr('no node %s to kill', node)
+        return
+    os.kill(pid, signal.SIGKILL)
+    killed.append((pid, time.time()))
+    rospy.loginfo('killed %s (pid %d)', node, pid)
+
+
 def diag(result, key):
     """A result diagnostic as a number (NaN when absent)."""
     return next((float(kv.value) for kv in result.diagnostics
@@ -119,6 +135,11 @@ class TrackerDanceOffTest(unittest.TestCase):
             node = '/%s/tracker' % rospy.get_param('~tracker_client')
             at_in_window(rospy.get_param('~stall_at'), cls.windows,
                          lambda: freeze(node, cls.stall_for, cls.frozen))
+        cls.killed = []
+        if rospy.get_param('~kill_at', None) is not None:
+            node = '/%s/tracker' % rospy.get_param('~tracker_client')
+            at_in_window(rospy.get_param('~kill_at'), cls.windows,
+                         lambda: kill(node, cls.killed))
         cls.tracker_diags = {}      # client: [(tracking_state, dropped)]
         cls.diag_stamps = {}        # client: its newest diagnostics' stamp
         cls.result_at = {}          # client: when its result came here
@@ -165,6 +186,8 @@ class TrackerDanceOffTest(unittest.TestCase):
         seen = r.coverage * rospy.get_param('~dur')
         if self.unplug_file:
             seen = max(seen, rospy.get_param('~unplug_at'))
+        if self.killed:
+            seen = max(seen, rospy.get_param('~kill_at'))
         return r.frames < STARVED_RATE * seen
 
     def starved_to_nothing(self, r):
@@ -316,6 +339,31 @@ class TrackerDanceOffTest(unittest.TestCase):
         self.assertTrue(dropped, 'no /diagnostics from %s/tracker'
                         % tracker)
         self.assertGreaterEqual(max(dropped), n['frames_skipped'])
+
+    def test_a_killed_tracker_comes_back(self):
+        if rospy.get_param('~kill_at', None) is None:
+            self.skipTest('no ~kill_at')
+        self.assertTrue(self.killed, 'the tracker was not killed')
+        pid, at = self.killed[0]
+        node = '/%s/tracker' % rospy.get_param('~tracker_client')
+        deadline = time.time() + 60.0
+        while time.time() < deadline and not rospy.is_shutdown() and not (
+                node_pid(node) not in (None, pid)
+                and any(t > at + 1.0 for t in self.arrivals)):
+            time.sleep(0.2)
+        new = node_pid(node)
+        self.assertNotIn(new, (None, pid), 'the tracker was not respawned')
+        after = [t for t in self.arrivals if t > at + 1.0]
+        self.assertTrue(after, 'the respawned tracker (pid %s) published no '
+                        'skeleton in 60 s' % new)
+        r = self.results.get(rospy.get_param('~tracker_client'))
+        self.assertIsNotNone(r, 'no result from the tracker client')
+        rospy.loginfo('%s killed (pid %d), respawned (pid %d): skeletons '
+                      'again %.1f s after the kill; its result %s, coverage '
+                      '%.2f, %d frames dropped', node, pid, new,
+                      after[0] - at, r.status, r.coverage, r.frames_dropped)
+        self.assertTrue(r.frames_dropped > 0 or r.coverage < 0.9,
+                        'the gap is not counted')
 
     def test_still_client_below_the_noise_bar(self):
         still = rospy.get_param('~still_client', '')
