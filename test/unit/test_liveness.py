@@ -178,3 +178,31 @@ def test_health_for_diagnostics():
     assert h.value('dpm_state_age') == '0.500'
     h = live.health(101.5)
     assert h.level == 2 and 'sensor /left/skeleton silent' in h.message
+
+
+def test_a_silent_sensor_says_what_its_driver_said():
+    live = rule()
+    live.on_beat(beat(100.0, age=3.0))
+    assert live.verdict(100.0).reason == (
+        'sensor /left/skeleton silent: last sample 3.0 s ago '
+        '(~sensor_timeout 1.0 s)')
+    assert live.on_driver_status(99.5, 1, 'not tracking:\n  no user')
+    assert live.verdict(100.0).reason == (
+        'sensor /left/skeleton silent: last sample 3.0 s ago '
+        '(~sensor_timeout 1.0 s); its driver said 0.5 s ago: WARN not '
+        'tracking: no user')
+    live.on_beat(Beat(101.0, '/left/skeleton', 0, math.nan, math.nan))
+    assert live.verdict(101.0).reason.endswith(
+        'no sample from it; its driver said 1.5 s ago: WARN not tracking: '
+        'no user')
+    live.on_beat(beat(102.0))
+    assert live.verdict(102.0).ok           # delivering: no driver note
+
+
+def test_a_driver_status_that_is_not_one_is_counted():
+    live = rule()
+    for level, message in ((7, 'x'), (None, 'x'), (1.0, 'x'), (2, None)):
+        assert not live.on_driver_status(100.0, level, message)
+    assert live.on_driver_status(100.0, 3, 'y' * 1000)
+    assert live.driver == (100.0, 3, 'y' * 300)
+    assert live.health(100.0).value('driver_statuses_rejected') == '4'

@@ -7,7 +7,10 @@ how long ago the last one arrived.  The CPM feeds each heartbeat to a
 asks ``verdict(now)``: the CPM ACKs only when it is alive.  All times
 are the CPM's local clock (the DPM runs on the same host); durations
 measured by the DPM (the sample's age) are added to the heartbeat's
-arrival, so the two processes' clocks need not agree.
+arrival, so the two processes' clocks need not agree.  When the sensor's
+driver reports its own state (a tracker's /diagnostics status: "not
+tracking: no user", "cannot open ..."), a silent sensor's reason says
+what the driver last said, so a NACK names the cause.
 """
 
 from __future__ import annotations
@@ -16,7 +19,10 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
-from hri_sync.wire.health import ERROR, OK, Health, text
+from hri_sync.wire.health import ERROR, LEVEL_NAMES, OK, Health, text
+
+MAX_STATUS = 300    # characters of a driver's status message kept
+DRIVER_LEVELS = {**LEVEL_NAMES, 3: 'STALE'}   # DiagnosticStatus levels
 
 
 @dataclass
@@ -66,6 +72,32 @@ class Liveness:
         self.sensor_timeout = sensor_timeout
         self.started = started
         self.last: Beat | None = None
+        self.driver: tuple[float, int, str] | None = None
+        self.driver_rejected = 0
+
+    def on_driver_status(self, received: float, level: object,
+                         message: object) -> bool:
+        """The sensor driver's own status (a /diagnostics level and
+        message) as received at local time ``received``; one that is not
+        a diagnostic level and a message is rejected and counted
+        (returns False)."""
+        if not (isinstance(level, int) and level in DRIVER_LEVELS
+                and isinstance(message, str)):
+            self.driver_rejected += 1
+            return False
+        self.driver = (received, level, ' '.join(message.split())[
+            :MAX_STATUS])
+        return True
+
+    def _silent(self, now: float, why: str) -> Verdict:
+        """A silent sensor's Verdict: ``why``, and what its driver last
+        said."""
+        if self.driver is None:
+            return Verdict(False, why)
+        received, level, message = self.driver
+        return Verdict(False, '%s; its driver said %.1f s ago: %s %s'
+                       % (why, now - received, DRIVER_LEVELS[level],
+                          message))
 
     def on_beat(self, beat: Beat) -> bool:
         """Record a heartbeat (a ``Beat``); an older one than the last is
@@ -95,13 +127,13 @@ class Liveness:
                            % (beat.input, beat.refused,
                               beat.refused_reason or 'no reason given'))
         if beat.samples == 0 or not math.isfinite(beat.sample_age):
-            return Verdict(False, 'sensor %s silent: the DPM has received '
-                           'no sample from it' % beat.input)
+            return self._silent(now, 'sensor %s silent: the DPM has '
+                                'received no sample from it' % beat.input)
         age = beat.sample_age + silence
         if age > self.sensor_timeout:
-            return Verdict(False, 'sensor %s silent: last sample %.1f s ago '
-                           '(~sensor_timeout %.1f s)'
-                           % (beat.input, age, self.sensor_timeout))
+            return self._silent(now, 'sensor %s silent: last sample %.1f s '
+                                'ago (~sensor_timeout %.1f s)'
+                                % (beat.input, age, self.sensor_timeout))
         return Verdict(True)
 
     def health(self, now: float) -> Health:
@@ -111,7 +143,8 @@ class Liveness:
         beat = self.last
         values: tuple[tuple[str, str], ...] = (
             ('dpm_timeout', text(self.dpm_timeout)),
-            ('sensor_timeout', text(self.sensor_timeout)))
+            ('sensor_timeout', text(self.sensor_timeout)),
+            ('driver_statuses_rejected', text(self.driver_rejected)))
         if beat is not None:
             values += (('dpm_state_age', text(now - beat.received)),
                        ('sensor', beat.input),

@@ -4,6 +4,7 @@ import time
 from collections import Counter
 
 import rospy
+from diagnostic_msgs.msg import DiagnosticArray
 
 from hri_sync.msg import CaptureData, DpmState, SyncAck, SyncTime
 from hri_sync.ros.diagnostics import round_diagnostics
@@ -40,7 +41,9 @@ class ClientProcess:
     ``~dpm_timeout`` s old and its sensor's last sample at most
     ``~sensor_timeout`` s (<= 0: no sensor to watch); a failing check
     may turn within ``~liveness_wait`` s (a DPM starting) before the
-    CPM NACKs with its reason.
+    CPM NACKs with its reason.  With ``~sensor_driver`` (the sensor
+    driver's node, e.g. ``tracker``), a silent sensor's reason adds what
+    the driver last said on /diagnostics (its ``<node>: sensor`` status).
 
     Nothing is ACKed or scheduled before ``start()``: a round that came
     while the node was still being built would run its callbacks on a
@@ -110,6 +113,17 @@ class ClientProcess:
             'dpm',
             client=self.client_id,
             context=lambda: Context(local_now=time.time()), queue_size=1)
+        driver = param('sensor_driver', '', str)
+        if driver:
+            status = rospy.resolve_name(driver)[1:] + ': sensor'
+
+            def on_diagnostics(msg):
+                for st in msg.status:
+                    if st.name == status:
+                        live.on_driver_status(time.time(), st.level,
+                                              st.message)
+            rospy.Subscriber('/diagnostics', DiagnosticArray,
+                             on_diagnostics, queue_size=10)
         return live
 
     def alive(self):
