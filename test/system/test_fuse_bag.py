@@ -15,8 +15,9 @@ the live fused body recorded by rosbag record) against fuse_bag on that
 recording: the same instants, most of them identical (97.6-99.1 % within
 1 mm, the others within 6-35 mm, in five runs, three beside four busy
 loops); the median instant within 1 mm.  And that recording played
-into the live node under /use_sim_time (fuse_bag_replay.launch: rosbag
-play --clock): the same instants, the median within 1 mm, every view and
+into the live node under /use_sim_time (fuse_bag_replay.launch, then
+rosbag play --clock once the node and the recorder listen): the same
+instants, the median within 1 mm, every view and
 the people OK (not behind), a REP 155 body for each fused skeleton.  Run by
 scripts/run_rostests.py (make test) with the workspace sourced.
 """
@@ -274,10 +275,9 @@ def fused_by_instant(path):
                 for _, m, _ in bag.read_messages(topics=['/fused/skeleton'])}
 
 
-def roslaunch(folder, name, launch, args, run_for=None):
+def roslaunch(folder, name, launch, args, then):
     """``launch`` with ``args`` on a roscore of its own, its output in
-    ``folder``/``name``.log; stopped after ``run_for`` s once
-    ``folder``/live.bag.active exists, else run to its end."""
+    ``folder``/``name``.log; stopped once ``then(env, log)`` returns."""
     port = free_port()
     env = dict(os.environ, ROS_MASTER_URI='http://127.0.0.1:%d/' % port,
                ROS_HOME=str(folder), ROS_LOG_DIR=str(folder / 'log'))
@@ -286,25 +286,19 @@ def roslaunch(folder, name, launch, args, run_for=None):
                                   env=env, stdout=log,
                                   stderr=subprocess.STDOUT,
                                   start_new_session=True)
-        proc = None
+        procs = [master]
         try:
             wait_until('the master', lambda: master_answers(
                 env['ROS_MASTER_URI']), 60.0)
-            proc = subprocess.Popen(
+            procs.insert(0, subprocess.Popen(
                 ['roslaunch', launch] + args, env=env,
-                stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-            if run_for is None:
-                proc.wait(300)
-            else:
-                wait_until('the recording', lambda: os.path.exists(
-                    folder / 'live.bag.active'), 120.0)
-                time.sleep(run_for)
+                stdout=log, stderr=subprocess.STDOUT, start_new_session=True))
+            then(env, log)
         finally:
-            for p, sig in ((proc, signal.SIGINT), (master, signal.SIGTERM)):
-                if p is None:
-                    continue
+            for p in procs:
                 if p.poll() is None:
-                    os.killpg(p.pid, sig)
+                    os.killpg(p.pid, signal.SIGTERM if p is master
+                              else signal.SIGINT)
                 try:
                     p.wait(60)
                 except subprocess.TimeoutExpired:
@@ -313,13 +307,28 @@ def roslaunch(folder, name, launch, args, run_for=None):
     return (folder / (name + '.log')).read_text()
 
 
+def subscribed(env, topics):
+    """Whether every (topic, node) of ``topics`` is subscribed."""
+    try:
+        _, subs, _ = rosgraph.Master('/test_fuse_bag',
+                                     env['ROS_MASTER_URI']).getSystemState()
+    except (OSError, rosgraph.MasterException):
+        return False
+    nodes = dict(subs)
+    return all(node in nodes.get(topic, ()) for topic, node in topics)
+
+
 @pytest.fixture(scope='module')
 def live(tmp_path_factory):
     """A recording of the live fusion (fuse_bag_live.launch) and its
     /fused/skeleton by instant."""
     folder = tmp_path_factory.mktemp('live')
     recording = str(folder / 'live.bag')
-    log = roslaunch(folder, 'live', LIVE, ['bag:=' + recording], LIVE_FOR)
+    log = roslaunch(folder, 'live', LIVE, ['bag:=' + recording],
+                    lambda env, log: (wait_until(
+                        'the recording', lambda: os.path.exists(
+                            recording + '.active'), 120.0),
+                        time.sleep(LIVE_FOR)))
     assert os.path.exists(recording), log
     by_instant = fused_by_instant(recording)
     assert len(by_instant) >= 0.5 * LIVE_FOR * 30
@@ -356,8 +365,22 @@ def test_the_recording_played_into_the_live_node_under_sim_time(live):
     # (rep155_bridge) come with every fused skeleton.
     folder, recording, by_instant = live
     out = str(folder / 'replayed.bag')
-    log = roslaunch(folder, 'replay', REPLAY,
-                    ['bag:=' + recording, 'out:=' + out])
+    played = ['/%s/%s' % (v, t) for v in POSES
+              for t in ('skeleton', 'clock_state')]
+
+    def play(env, log):
+        # The node and the recorder listening first, then the recording
+        # played on its own clock.
+        wait_until('the fusion and the recorder', lambda: subscribed(
+            env, [(t, '/fused/fusion') for t in played]
+            + [('/fused/skeleton', '/recorder'), ('/tf', '/recorder')]),
+            120.0)
+        subprocess.run(['rosbag', 'play', '--clock', recording, '--topics']
+                       + played, env=env, stdout=log,
+                       stderr=subprocess.STDOUT, check=True, timeout=300)
+        time.sleep(2.0)
+
+    log = roslaunch(folder, 'replay', REPLAY, ['out:=' + out], play)
     assert os.path.exists(out), log
     again = fused_by_instant(out)
     _, median = compare(by_instant, again)

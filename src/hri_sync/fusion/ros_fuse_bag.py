@@ -44,7 +44,8 @@ from hri_sync.fusion.ros_fusion import fused_messages
 from hri_sync.fusion.settings import NAMES, fusion_params
 from hri_sync.msg import Skeleton
 from hri_sync.people.rep155 import TrackedBodies
-from hri_sync.people.ros_rep155 import body_tf, ids_list, transform
+from hri_sync.people.ros_rep155 import body_tf, ids_list
+from hri_sync.ros.transforms import transform
 
 LEVELS = {0: 'OK', 1: 'WARN', 2: 'ERROR'}
 TRACKED_PERIOD = 0.1    # s, and forgotten after 0.5 s: rep155_bridge's

@@ -1,23 +1,11 @@
 """REP 155 bodies as ROS messages: a hri_sync/Skeleton's tf tree and the
 tracked ids (rep155_bridge, fuse_bag)."""
-from geometry_msgs.msg import TransformStamped
 from tf2_msgs.msg import TFMessage
 
 from hri_sync.msg import IdsList
 from hri_sync.people.rep155 import body_transforms
 from hri_sync.ros.stamps import header
-
-
-def transform(stamp, parent, child, xyz, q):
-    """A geometry_msgs/TransformStamped."""
-    tr = TransformStamped()
-    tr.header.stamp, tr.header.frame_id = stamp, parent
-    tr.child_frame_id = child
-    (tr.transform.translation.x, tr.transform.translation.y,
-     tr.transform.translation.z) = xyz
-    (tr.transform.rotation.x, tr.transform.rotation.y,
-     tr.transform.rotation.z, tr.transform.rotation.w) = q
-    return tr
+from hri_sync.ros.transforms import transform
 
 
 def body_tf(msg, body_id):

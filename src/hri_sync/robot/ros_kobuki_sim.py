@@ -8,7 +8,7 @@ import threading
 import rospy
 import tf2_ros
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import TransformStamped, Twist
+from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 
 from hri_sync.msg import Led, Sound
@@ -18,6 +18,7 @@ from hri_sync.robot.kobuki import (LED_NAMES, ODOM_COVARIANCE, SOUND_NAMES,
 from hri_sync.ros.inbox import Inbox
 from hri_sync.ros.outbox import closed_at_shutdown
 from hri_sync.ros.params import ParamError, param, positive
+from hri_sync.ros.transforms import transform
 
 
 class KobukiSim:
@@ -121,14 +122,8 @@ class KobukiSim:
         odom.twist.twist.linear.x = s.linear
         odom.twist.twist.angular.z = s.angular
         odom.pose.covariance = odom.twist.covariance = ODOM_COVARIANCE
-        tf = TransformStamped()
-        tf.header.stamp = stamp
-        tf.header.frame_id = self.odom_frame
-        tf.child_frame_id = self.base_frame
-        tf.transform.translation.x = s.x
-        tf.transform.translation.y = s.y
-        (tf.transform.rotation.x, tf.transform.rotation.y,
-         tf.transform.rotation.z, tf.transform.rotation.w) = q
+        tf = transform(stamp, self.odom_frame, self.base_frame,
+                       (s.x, s.y, 0.0), q)
         with closed_at_shutdown():      # a tick as the node shuts down
             self.odom_pub.publish(odom)
             self.tf.sendTransform(tf)
