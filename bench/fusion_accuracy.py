@@ -465,17 +465,22 @@ def pose_figures(view, frames, fusion, true, declared, truth):
     }
 
 
-def oracle(frames, truth, tracks, best):
+def views_at(frames, truth, tracks):
+    """Each fused instant with people: (frame, the truth, {view: its
+    aligned skeleton there or None}), every view interpolated once."""
+    return [(f, truth([f.stamp])[0],
+             {n: tr.at(f.stamp, 0.04) for n, tr in tracks.items()})
+            for f in frames if f.people]
+
+
+def oracle(instants, best):
     """The view nearest the truth at each fused instant and joint (mean
-    error, and on the best view's hidden joints)."""
+    error, and on the best view's hidden joints); ``instants`` from
+    views_at."""
     near, hidden = [], []
-    for f in frames:
-        if not f.people:
-            continue
-        seen = {n: tr.at(f.stamp, 0.04) for n, tr in tracks.items()}
-        errs = np.array([np.linalg.norm(a.positions - truth([f.stamp])[0],
-                                        axis=1) for a in seen.values()
-                         if a is not None])
+    for _, true, seen in instants:
+        errs = np.array([np.linalg.norm(a.positions - true, axis=1)
+                         for a in seen.values() if a is not None])
         if not len(errs):
             continue
         low = np.nanmin(np.where(np.isfinite(errs), errs, np.inf), axis=0)
@@ -489,26 +494,23 @@ def oracle(frames, truth, tracks, best):
             'view_oracle_hidden_mean_m': round(float(np.mean(hidden)), 4)}
 
 
-def hidden_by_sight(frames, truth, tracks, best):
+def hidden_by_sight(instants, best):
     """The best view's hidden joints split by how many other views see
     them (confidence >= HIDDEN: none, one, two or more): per group its
     share of the instants, the best view's and the fused body's mean
-    error, and with one the error of the view that sees it."""
+    error, and with one the error of the view that sees it; ``instants``
+    from views_at."""
     groups = {'0': [], '1': [], '2+': []}   # (best, fused, lone) errors
-    for f in frames:
-        if not f.people:
-            continue
-        seen = {n: tr.at(f.stamp, 0.04) for n, tr in tracks.items()}
-        b = seen.pop(best)
+    for f, true, seen in instants:
+        b = seen[best]
         if b is None:
             continue
-        true = truth([f.stamp])[0]
         fused = np.linalg.norm(f.people[0].body.positions - true, axis=1)
         for j in np.flatnonzero((b.confidence < HIDDEN)
                                 & np.isfinite(b.positions).all(axis=1)
                                 & np.isfinite(fused)):
             sees = [np.linalg.norm(a.positions[j] - true[j])
-                    for a in seen.values() if a is not None
+                    for n, a in seen.items() if n != best and a is not None
                     and a.confidence[j] >= HIDDEN
                     and np.isfinite(a.positions[j]).all()]
             groups[str(len(sees)) if len(sees) < 2 else '2+'].append(
@@ -741,11 +743,11 @@ def main():
         result['unmatched_instants'] = dict(fusion.sightlines.instants)
         if aligned:
             out.update(result)
-            tracks = {n: best_view_track(msgs, n, poses, aligned, profile)
-                      for n in names}
-            out.update(oracle(frames, truth, tracks, best))
-            out['hidden_by_views_seeing'] = hidden_by_sight(
-                frames, truth, tracks, best)
+            instants = views_at(frames, truth, {
+                n: best_view_track(msgs, n, poses, aligned, profile)
+                for n in names})
+            out.update(oracle(instants, best))
+            out['hidden_by_views_seeing'] = hidden_by_sight(instants, best)
             if args.frozen:
                 out['frozen'] = frozen_figures(args.frozen, frames, fusion,
                                                truth)

@@ -51,8 +51,8 @@ def test_hidden_joints_are_grouped_by_the_views_that_see_them():
     fused = np.zeros((J, 3))
     fused[:, 1] = 0.05                   # the fused body 0.05 m off
     frames = [frame(t, fused) for t in (0.0, 1 / 30)]
-    out = bench.hidden_by_sight(frames, lambda ts: [truth for _ in ts],
-                                tracks, 'best')
+    out = bench.hidden_by_sight(bench.views_at(
+        frames, lambda ts: [truth for _ in ts], tracks), 'best')
     third = round(1 / 3, 3)
     assert out['0'] == {'share': third, 'best_view_m': 0.1, 'fused_m': 0.05}
     assert out['1'] == {'share': third, 'best_view_m': 0.1, 'fused_m': 0.05,
@@ -65,13 +65,13 @@ def test_an_instant_the_best_view_lacks_or_no_person_counts_nowhere():
     hidden = np.full(J, 0.3)
     tracks = {'best': FixedTrack(np.zeros((J, 3)), hidden)}
     tracks['best'].at = lambda t, e: None
-    out = bench.hidden_by_sight([frame(0.0, np.zeros((J, 3)))],
-                                lambda ts: [np.zeros((J, 3))], tracks,
-                                'best')
+    out = bench.hidden_by_sight(bench.views_at(
+        [frame(0.0, np.zeros((J, 3)))], lambda ts: [np.zeros((J, 3))],
+        tracks), 'best')
     assert all(g['share'] == 0 and g['fused_m'] is None
                for g in out.values())
     empty = types.SimpleNamespace(stamp=0.0, people=[])
     tracks = {'best': FixedTrack(np.zeros((J, 3)), hidden)}
-    out = bench.hidden_by_sight([empty], lambda ts: [np.zeros((J, 3))],
-                                tracks, 'best')
+    out = bench.hidden_by_sight(bench.views_at(
+        [empty], lambda ts: [np.zeros((J, 3))], tracks), 'best')
     assert not any(g['share'] for g in out.values())
