@@ -17,6 +17,7 @@
 // so that roslaunch's respawn registers it with the new master.
 #include <OpenNI.h>
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <diagnostic_msgs/DiagnosticStatus.h>
 #include <hri_sync/ClockState.h>
 #include <hri_sync/Skeleton.h>
 #include <ros/master.h>
@@ -76,6 +77,9 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     is_file_ = device_uri_.size() > 4 && device_uri_.compare(device_uri_.size() - 4, 4, ".oni") == 0;
     skeleton_pub_ = nh_.advertise<hri_sync::Skeleton>("skeleton", 30);
     diag_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
+    // The same status, latched, for its client's CPM alone (it names what
+    // the tracker says when the sensor falls silent).
+    status_pub_ = pnh_.advertise<diagnostic_msgs::DiagnosticStatus>("sensor_status", 1, true);
     clock_sub_ = nh_.subscribe("clock_state", 1, &TrackerNode::onClock, this);
     diag_timer_ = nh_.createWallTimer(ros::WallDuration(1.0), &TrackerNode::publishDiagnostics, this);
     watcher_ = std::thread(&TrackerNode::watchMaster, this);
@@ -473,10 +477,11 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     }
     arr.status.push_back(s);
     diag_pub_.publish(arr);
+    status_pub_.publish(s);
   }
 
   ros::NodeHandle nh_, pnh_;
-  ros::Publisher skeleton_pub_, diag_pub_;
+  ros::Publisher skeleton_pub_, diag_pub_, status_pub_;
   ros::Subscriber clock_sub_;
   ros::WallTimer diag_timer_;
   std::string device_uri_, backend_name_, client_id_, frame_id_;

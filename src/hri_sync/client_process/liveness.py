@@ -8,8 +8,9 @@ asks ``verdict(now)``: the CPM ACKs only when it is alive.  All times
 are the CPM's local clock (the DPM runs on the same host); durations
 measured by the DPM (the sample's age) are added to the heartbeat's
 arrival, so the two processes' clocks need not agree.  When the sensor's
-driver reports its own state (a tracker's /diagnostics status: "not
-tracking: no user", "cannot open ..."), a silent sensor's reason says
+driver reports its own state (a tracker's status: "not tracking:
+searching: no person-sized object in view", "cannot open ..."), a
+silent sensor's reason says
 what the driver last said, so a NACK names the cause.
 """
 

@@ -4,7 +4,7 @@ import time
 from collections import Counter
 
 import rospy
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticStatus
 
 from hri_sync.msg import CaptureData, DpmState, SyncAck, SyncTime
 from hri_sync.ros.diagnostics import round_diagnostics
@@ -43,7 +43,8 @@ class ClientProcess:
     may turn within ``~liveness_wait`` s (a DPM starting) before the
     CPM NACKs with its reason.  With ``~sensor_driver`` (the sensor
     driver's node, e.g. ``tracker``), a silent sensor's reason adds what
-    the driver last said on /diagnostics (its ``<node>: sensor`` status).
+    the driver last said (its latched ``~sensor_status``, the status it
+    puts on /diagnostics).
 
     Nothing is ACKed or scheduled before ``start()``: a round that came
     while the node was still being built would run its callbacks on a
@@ -115,15 +116,10 @@ class ClientProcess:
             context=lambda: Context(local_now=time.time()), queue_size=1)
         driver = param('sensor_driver', '', str)
         if driver:
-            status = rospy.resolve_name(driver)[1:] + ': sensor'
-
-            def on_diagnostics(msg):
-                for st in msg.status:
-                    if st.name == status:
-                        live.on_driver_status(time.time(), st.level,
-                                              st.message)
-            rospy.Subscriber('/diagnostics', DiagnosticArray,
-                             on_diagnostics, queue_size=10)
+            rospy.Subscriber(
+                rospy.resolve_name(driver) + '/sensor_status',
+                DiagnosticStatus, lambda st: live.on_driver_status(
+                    time.time(), st.level, st.message), queue_size=1)
         return live
 
     def alive(self):
