@@ -72,7 +72,7 @@ def main():
         print('three virtual Kinects show %s from %.1f s from now; scored '
               'from 4 s after for %.0f s' % (os.path.basename(args.motion),
                                               LEAD, args.seconds))
-        return subprocess.call([
+        status = subprocess.call([
             'roslaunch', 'hri_sync', 'demo_fusion.launch', 'tracks:=' + d,
             'motion:=' + os.path.abspath(args.motion),
             'epoch:=%.3f' % epoch, 'seconds:=%g' % args.seconds,
@@ -80,6 +80,15 @@ def main():
             'profile:=' + os.path.abspath(profile),
             'markers:=%s' % str(args.markers).lower(),
             'out:=' + (os.path.abspath(args.out) if args.out else '')])
+    if status == 0:
+        print('\ndemo-fusion: done. roslaunch\'s "REQUIRED process '
+              '[fusion_truth-N] has died ... finished cleanly" above is how '
+              'the demo ends: fusion_truth printed its table, then stopped '
+              'the launch.')
+    else:
+        print('\ndemo-fusion: roslaunch exited with status %d: see its '
+              'output above.' % status)
+    return status
 
 
 if __name__ == '__main__':
