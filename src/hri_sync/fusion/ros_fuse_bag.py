@@ -12,10 +12,10 @@ published to OUT.bag at the time it would have: /<client-id>/skeleton
 /<client-id>/joints (each joint's 95 % bound), the fusion's /diagnostics
 each second, and the REP 155 bodies fusion.launch's rep155_bridge gives
 (/tf: body_<client-id><person> under <client-id>_sensor, whose pose in
-the world frame is on /tf_static; /humans/bodies/tracked every 0.1 s). A study recorded raw can be
-fused again with refined poses (scripts/fusion_refine_pose.py) or other
-settings (--set NAME=VALUE, the launch file's args). Prints the views'
-and people's statuses at the end.
+the world frame is on /tf_static; /humans/bodies/tracked every 0.1 s).
+A study recorded raw can be fused again with refined poses
+(scripts/fusion_refine_pose.py) or other settings (--set NAME=VALUE, the
+launch file's args). Prints the views' and people's statuses at the end.
 
 Needs no roscore. Exit status: 0 fused; 1 nothing fused; 2 bad options or
 a bag it cannot read.
