@@ -23,6 +23,7 @@ scripts/run_rostests.py (make test) with the workspace sourced.
 """
 import math
 import os
+import re
 import signal
 import subprocess
 import time
@@ -214,6 +215,10 @@ def test_diagnostics_name_the_stalled_view(fused):
     assert 'stalled' in last['fused/fusion: view back'].message
     assert last['fused/fusion: view left'].level == 0
     assert 'ERROR view back: stalled' in stdout
+    assert 'OK    calibration: views agree' in stdout
+    pairs = re.search(r'back-left (\d+) mm, back-right (\d+) mm, '
+                      r'left-right (\d+) mm', stdout)
+    assert pairs and all(int(mm) < 100 for mm in pairs.groups()), stdout
     assert 'instants fused' in stdout
 
 

@@ -203,8 +203,13 @@ class Output:
                   'person %d' % i for i in sorted(self.ids)) or 'nobody',
                   self.args.out))
         print('at the end of the recording:')
-        for task, level, message, _ in self.summary:
+        for task, level, message, values in self.summary:
             print('  %-5s %s: %s' % (LEVELS[level], task, message))
+            if task == 'calibration' and values:   # each pair's residual
+                print('        %s' % ', '.join(
+                    '%s %s mm' % (k[:-len(' (mm)')], v)
+                    if k.endswith(' (mm)') else '%s %s' % (k, v)
+                    for k, v in values))
         if self.replay.bad_host_states:
             print('  %s: %d ClockStates left out (no usable clock model)'
                   % (self.args.clock_state, self.replay.bad_host_states))
