@@ -16,6 +16,14 @@ decided round is won by participant 2), and its defined outcome.
   missing result, round 3 aborts with left NACKing "dpm not alive"
   (and its CPM's ``dpm`` status on /diagnostics is ERROR saying so);
   after SIGCONT a later round is decided with left.
+- ``dpm_wedged``: both DPMs' processing wedged from round 2's window on
+  (their processor's result waits while ``~wedge_file`` exists, which
+  this checker creates mid-window), the processes alive: round 2 has no
+  usable result of either; the DPMs' heartbeats stop with their
+  processing (they take the same lock), so a round after it aborts with
+  both CPMs NACKing "dpm not alive" and their ``dpm`` status on
+  /diagnostics ERROR saying so; once the file is gone, a later round is
+  decided with both.
 - ``cpm_killed``: left's CPM frozen (SIGSTOP) after round 1's decision,
   so it cannot ACK round 2, and SIGKILLed once round 2 aborted naming
   left ("no ACK from left"); it is respawned and a later round is
@@ -161,6 +169,21 @@ class Fault(unittest.TestCase):
         rospy.loginfo('fault_check: left back from round %d', recovered)
         return recovered
 
+    def assert_dpm_not_alive(self, n, client):
+        """``client`` NACKed round ``n`` with 'dpm not alive', and its
+        CPM's ``dpm`` status said so (ERROR) on /diagnostics."""
+        ack = self.record(n)['acks'].get(client)
+        self.assertIsNotNone(ack, 'round %d: no ACK/NACK of %s'
+                             % (n, client))
+        self.assertFalse(ack.ok)
+        self.assertTrue(ack.reason.startswith(
+            'dpm not alive: no dpm_state for'), ack.reason)
+        name = '%s/cpm: dpm' % client
+        self.assertTrue(wait(lambda: any(
+            level == DiagnosticStatus.ERROR and m.startswith('dpm not alive')
+            for level, m in self.levels.get(name, [])), 10.0),
+            "/diagnostics: no ERROR 'dpm not alive' from %s" % name)
+
     def assert_all_alive(self):
         for name in NODES:
             pid = node_pid(name)
@@ -199,20 +222,42 @@ class Fault(unittest.TestCase):
             self.assertIn('left has no usable result (missing)', d.reason)
             d = self.wait_decision(3)
             self.assertEqual(d.outcome, 'aborted', d.reason)
-            ack = self.record(3)['acks'].get('left')
-            self.assertIsNotNone(ack, 'round 3: no ACK/NACK of left')
-            self.assertFalse(ack.ok)
-            self.assertTrue(ack.reason.startswith(
-                'dpm not alive: no dpm_state for'), ack.reason)
-            self.assertTrue(wait(lambda: any(
-                level == DiagnosticStatus.ERROR
-                and m.startswith('dpm not alive')
-                for level, m in self.levels.get('left/cpm: dpm', [])),
-                10.0), "/diagnostics: no ERROR 'dpm not alive' from "
-                'left/cpm: dpm')
+            self.assert_dpm_not_alive(3, 'left')
         finally:
             os.kill(frozen, signal.SIGCONT)
         self.later_rounds_recover(4, 'left refused (dpm not alive')
+
+    def check_dpm_wedged(self):
+        self.assert_won_by_right(1, with_left=True)
+        wedge = rospy.get_param('~wedge_file')
+        self.mid_window(2)
+        open(wedge, 'w').close()
+        rospy.loginfo('fault_check: created %s: the DPMs wedge', wedge)
+        try:
+            d = self.wait_decision(2)
+            self.assertNotEqual(d.outcome, 'winner', d.reason)
+            for c in ('left', 'right'):
+                self.assertIn('%s has no usable result (missing)' % c,
+                              d.reason)
+            # The round after may still have been ACKed (a heartbeat
+            # under ~dpm_timeout old): one of the next two aborts.
+            aborted = None
+            for n in (3, 4):
+                d = self.wait_decision(n)
+                if d.outcome == 'aborted':
+                    aborted = n
+                    break
+            self.assertIsNotNone(aborted, 'neither round 3 nor 4 aborted')
+            for c in ('left', 'right'):
+                self.assert_dpm_not_alive(aborted, c)
+        finally:
+            os.remove(wedge)
+        recovered = next((n for n in range(aborted + 1, self.rounds + 1)
+                          if self.wait_decision(n).outcome == 'winner'),
+                         None)
+        self.assertIsNotNone(recovered, 'no round after the wedge was '
+                             'decided')
+        self.assert_won_by_right(self.rounds, with_left=True)
 
     def check_cpm_killed(self):
         self.assert_won_by_right(1, with_left=True)
