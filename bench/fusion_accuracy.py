@@ -738,14 +738,13 @@ def main():
     for aligned in (True, False):
         frames, captured, fusion = run_fusion(msgs, declared, aligned,
                                               profile)
-        result = figures(frames, captured, truth, best_view_track(
-            msgs, best, poses, aligned, profile))
+        tracks = {n: best_view_track(msgs, n, poses, aligned, profile)
+                  for n in (names if aligned else [best])}
+        result = figures(frames, captured, truth, tracks[best])
         result['unmatched_instants'] = dict(fusion.sightlines.instants)
         if aligned:
             out.update(result)
-            instants = views_at(frames, truth, {
-                n: best_view_track(msgs, n, poses, aligned, profile)
-                for n in names})
+            instants = views_at(frames, truth, tracks)
             out.update(oracle(instants, best))
             out['hidden_by_views_seeing'] = hidden_by_sight(instants, best)
             if args.frozen:

@@ -39,7 +39,7 @@ from std_msgs.msg import Header
 from hri_sync.dance_off.motion import load_motion
 from hri_sync.fusion.frames import SensorPose, parse_pose
 from hri_sync.msg import ClockState, Skeleton
-from hri_sync_support.harness import free_port, wait_until
+from hri_sync_support.harness import free_port, wait_for_master, wait_until
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__))))
@@ -265,13 +265,6 @@ def test_bad_options_and_a_recording_without_the_views(fused):
     assert run.returncode == 2 and 'is one of the recording' in run.stderr
 
 
-def master_answers(uri):
-    try:
-        return rosgraph.Master('/test_fuse_bag', uri).getPid()
-    except (OSError, rosgraph.MasterException):
-        return None
-
-
 def fused_by_instant(path):
     """{(instant on the 30 Hz grid, person): joints} of /fused/skeleton."""
     with rosbag.Bag(path) as bag:
@@ -293,8 +286,7 @@ def roslaunch(folder, name, launch, args, then):
                                   start_new_session=True)
         procs = [master]
         try:
-            wait_until('the master', lambda: master_answers(
-                env['ROS_MASTER_URI']), 60.0)
+            wait_for_master(env['ROS_MASTER_URI'], 60.0)
             procs.insert(0, subprocess.Popen(
                 ['roslaunch', launch] + args, env=env,
                 stdout=log, stderr=subprocess.STDOUT, start_new_session=True))

@@ -10,8 +10,8 @@ measured by the DPM (the sample's age) are added to the heartbeat's
 arrival, so the two processes' clocks need not agree.  When the sensor's
 driver reports its own state (a tracker's status: "not tracking:
 searching: no person-sized object in view", "cannot open ..."), a
-silent sensor's reason says
-what the driver last said, so a NACK names the cause.
+silent sensor's reason says what the driver last said, so a NACK names
+the cause.
 """
 
 from __future__ import annotations

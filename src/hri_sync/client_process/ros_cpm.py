@@ -115,11 +115,12 @@ class ClientProcess:
             client=self.client_id,
             context=lambda: Context(local_now=time.time()), queue_size=1)
         driver = param('sensor_driver', '', str)
-        if driver:
-            rospy.Subscriber(
+        if driver:      # the client's sensor role only; Liveness checks it
+            self.inbox.subscribe(
                 rospy.resolve_name(driver) + '/sensor_status',
                 DiagnosticStatus, lambda st: live.on_driver_status(
-                    time.time(), st.level, st.message), queue_size=1)
+                    time.time(), st.level, st.message), 'sensor',
+                client=self.client_id, check=False, queue_size=1)
         return live
 
     def alive(self):

@@ -43,12 +43,14 @@ from hri_sync.fusion.report import statuses
 from hri_sync.fusion.ros_fusion import fused_messages
 from hri_sync.fusion.settings import NAMES, fusion_params
 from hri_sync.msg import Skeleton
-from hri_sync.people.rep155 import TrackedBodies
+from hri_sync.people.rep155 import BODY_ID, TrackedBodies
 from hri_sync.people.ros_rep155 import body_tf, ids_list
 from hri_sync.ros.transforms import transform
 
 LEVELS = {0: 'OK', 1: 'WARN', 2: 'ERROR'}
-TRACKED_PERIOD = 0.1    # s, and forgotten after 0.5 s: rep155_bridge's
+# s: /humans/bodies/tracked's period and how long a body stays in it
+# (rep155_bridge's defaults)
+TRACKED_PERIOD, FORGET_AFTER = 0.1, 0.5
 
 
 def arguments(argv):
@@ -150,7 +152,7 @@ class Output:
         self.output_pose, self.args = output_pose, args
         self.fused = self.people = 0
         self.ids, self.last, self.summary = set(), None, []
-        self.bodies, self.tracked_at = TrackedBodies(0.5), None
+        self.bodies, self.tracked_at = TrackedBodies(FORGET_AFTER), None
 
     def rep155(self, t, skeletons):
         """The bodies' tf; the sensor frame's pose first."""
@@ -161,7 +163,8 @@ class Output:
                 *pose(p.x, p.y, p.z, p.yaw, p.pitch, SENSOR))]), t)
             self.tracked_at = t.to_sec()
         for msg in skeletons:
-            body = '%s%d' % (msg.client_id, msg.user_id)
+            body = BODY_ID.format(client_id=msg.client_id,
+                                  user_id=msg.user_id)
             tf = body_tf(msg, body)
             if tf is not None:
                 self.bag.write('/tf', tf, t)

@@ -88,6 +88,9 @@ def body_transforms(body_id, positions, convention='kinect'):
     return out
 
 
+BODY_ID = '{client_id}{user_id}'    # a Skeleton's body id, by default
+
+
 class TrackedBodies:
     """The bodies seen in the last ``forget_after`` s (the ids of
     ``/humans/bodies/tracked``), on a clock the caller gives."""
