@@ -32,6 +32,10 @@ rendered truth. Prints one JSON object:
   other views see them (``0``, ``1``, ``2+``: at confidence >= 0.5): each
   group's share, the best view's and the fused error (``1``: and the
   error of the view that sees it);
+- ``best_view_instants``: the best view and the fused body on the same
+  instants and joints (the fused instants the best view has a skeleton
+  at: ``share``): ``single_view_mean_m`` covers a view's tracked frames
+  only, ``fused_mean_m`` every fused instant;
 - ``no_time_alignment``: the same fusion fed each view's arrival time as
   its stamp (a plain subscriber), same figures;
 - ``targets``: each target and whether it is met.
@@ -494,6 +498,31 @@ def oracle(instants, best):
             'view_oracle_hidden_mean_m': round(float(np.mean(hidden)), 4)}
 
 
+def paired_with_best(instants, best):
+    """The best view and the fused body on the same instants and joints:
+    the fused instants the best view has a skeleton at (its share of
+    them), each mean error (m) over the joints both have; the single
+    view's own mean covers its tracked frames only, where the fused body
+    covers every instant; ``instants`` from views_at."""
+    pairs, total = [], 0
+    for f, true, seen in instants:
+        total += 1
+        b = seen[best]
+        if b is None:
+            continue
+        e = np.stack([np.linalg.norm(b.positions - true, axis=1),
+                      np.linalg.norm(f.people[0].body.positions - true,
+                                     axis=1)], axis=1)
+        pairs.extend(e[np.isfinite(e).all(axis=1)])
+    if not pairs:
+        return {'share': 0.0, 'best_view_m': None, 'fused_m': None}
+    e = np.array(pairs)
+    return {'share': round(sum(seen[best] is not None
+                               for _, _, seen in instants) / total, 3),
+            'best_view_m': round(float(e[:, 0].mean()), 4),
+            'fused_m': round(float(e[:, 1].mean()), 4)}
+
+
 def hidden_by_sight(instants, best):
     """The best view's hidden joints split by how many other views see
     them (confidence >= HIDDEN: none, one, two or more): per group its
@@ -746,6 +775,7 @@ def main():
             out.update(result)
             instants = views_at(frames, truth, tracks)
             out.update(oracle(instants, best))
+            out['best_view_instants'] = paired_with_best(instants, best)
             out['hidden_by_views_seeing'] = hidden_by_sight(instants, best)
             if args.frozen:
                 out['frozen'] = frozen_figures(args.frozen, frames, fusion,

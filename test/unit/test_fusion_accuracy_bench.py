@@ -75,3 +75,21 @@ def test_an_instant_the_best_view_lacks_or_no_person_counts_nowhere():
     out = bench.hidden_by_sight(bench.views_at(
         [empty], lambda ts: [np.zeros((J, 3))], tracks), 'best')
     assert not any(g['share'] for g in out.values())
+
+
+def test_the_best_view_and_the_fused_body_are_paired_on_its_instants():
+    truth = np.zeros((J, 3))
+    off = np.zeros((J, 3))
+    off[:, 0] = 0.1                      # the best view 0.1 m off
+    fused = np.zeros((J, 3))
+    fused[:, 1] = 0.05                   # the fused body 0.05 m off ...
+    worse = np.zeros((J, 3))
+    worse[:, 1] = 0.4                    # ... but 0.4 m where it is alone
+    tracks = {'best': FixedTrack(off, np.ones(J))}
+    instants = bench.views_at([frame(0.0, fused), frame(1 / 30, fused)],
+                              lambda ts: [truth for _ in ts], tracks)
+    instants.append((frame(2 / 30, worse), truth, {'best': None}))
+    out = bench.paired_with_best(instants, 'best')
+    assert out == {'share': 0.667, 'best_view_m': 0.1, 'fused_m': 0.05}
+    assert bench.paired_with_best(instants[2:], 'best') == {
+        'share': 0.0, 'best_view_m': None, 'fused_m': None}

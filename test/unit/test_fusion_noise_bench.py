@@ -1,0 +1,53 @@
+"""bench/fusion_noise.py: the figures, their spread and the targets met
+over the noise seeds."""
+import importlib.util
+import os
+
+SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..',
+                      '..', 'bench', 'fusion_noise.py')
+spec = importlib.util.spec_from_file_location('fusion_noise', SCRIPT)
+bench = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(bench)
+
+
+def result(best, fused, best_hidden, fused_hidden, coverage=0.99,
+           duplicates=0, latency=99.0, slowest=96.0):
+    """A fusion_accuracy.py JSON result's keys the bench reads."""
+    return {'single_view_mean_m': {'front': best, 'right': best + 0.01},
+            'fused_mean_m': fused,
+            'best_view_hidden_mean_m': best_hidden,
+            'fused_hidden_mean_m': fused_hidden,
+            'latency_p95_ms': latency, 'slowest_pipeline_p95_ms': slowest,
+            'duplicate_people': duplicates, 'bound_coverage': coverage}
+
+
+def test_seed_one_is_the_scene_as_given():
+    assert bench.scene_for('noise=kinect1', 1) == 'noise=kinect1'
+    assert bench.scene_for('noise=kinect1', 3) == 'noise=kinect1&seed=3'
+
+
+def test_figures_are_below_the_best_view_in_percent():
+    f = bench.figures(result(0.060, 0.045, 0.160, 0.100, latency=101.0))
+    assert f['best_view_m'] == 0.060
+    assert f['below_best_pct'] == 25.0
+    assert f['hidden_below_best_pct'] == 37.5
+    assert f['latency_beyond_slowest_ms'] == 5.0
+
+
+def test_targets_are_counted_per_seed_and_spread_summarized():
+    runs = [dict(seed=s, **bench.figures(r)) for s, r in enumerate([
+        result(0.060, 0.045, 0.160, 0.090),             # 25 %, 43.8 %
+        result(0.060, 0.050, 0.160, 0.100),             # 16.7 %, 37.5 %
+        result(0.060, 0.040, 0.160, 0.080, coverage=0.94, duplicates=1,
+               latency=140.0)], start=1)]
+    met = bench.targets_met(runs)
+    assert met == {'fused_20pct_below_best_view': 2,
+                   'hidden_40pct_below_best_view': 2,
+                   'latency_p95_within_38_ms_of_slowest_view': 2,
+                   'no_duplicate_people': 2,
+                   'bound_coverage_95pct': 2}
+    s = bench.summary(runs)
+    assert 'seed' not in s
+    assert s['below_best_pct'] == {'median': 25.0, 'min': 16.7,
+                                   'max': 33.3}
+    assert s['bound_coverage']['min'] == 0.94
