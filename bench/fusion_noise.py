@@ -20,7 +20,9 @@ object:
         --views 4 --seeds 5
 
 Other arguments go to fusion_accuracy.py as they are (``--profile``,
-``--cache``, ...). Needs the built workspace sourced.
+``--cache``, ``--lost``, ...; not ``--people``, ``--fit-profile`` nor
+``--table``, which print other figures). Needs the built workspace
+sourced.
 """
 import argparse
 import json
@@ -32,6 +34,7 @@ import sys
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BENCH = os.path.join(ROOT, 'bench', 'fusion_accuracy.py')
 SCENE = 'noise=kinect1'
+OTHER_OUTPUTS = ('--people', '--fit-profile', '--table')
 
 
 def scene_for(scene, seed):
@@ -89,6 +92,10 @@ def main():
     args, rest = ap.parse_known_args()
     if args.seeds < 1:
         ap.error('--seeds must be 1 or more')
+    other = [a for a in rest if a.split('=')[0] in OTHER_OUTPUTS]
+    if other:
+        ap.error('%s prints other figures; run fusion_accuracy.py for it'
+                 % other[0])
     runs = []
     for seed in range(1, args.seeds + 1):
         proc = subprocess.run(

@@ -2,6 +2,8 @@
 over the noise seeds."""
 import importlib.util
 import os
+import subprocess
+import sys
 
 SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..',
                       '..', 'bench', 'fusion_noise.py')
@@ -51,3 +53,10 @@ def test_targets_are_counted_per_seed_and_spread_summarized():
     assert s['below_best_pct'] == {'median': 25.0, 'min': 16.7,
                                    'max': 33.3}
     assert s['bound_coverage']['min'] == 0.94
+
+
+def test_arguments_that_print_other_figures_are_refused():
+    proc = subprocess.run([sys.executable, SCRIPT, '--motion', 'x.track',
+                           '--people', '3'], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert '--people prints other figures' in proc.stderr
