@@ -37,19 +37,29 @@ def test_figures_are_below_the_best_view_in_percent():
 
 
 def test_targets_are_counted_per_seed_and_spread_summarized():
-    runs = [dict(seed=s, **bench.figures(r)) for s, r in enumerate([
-        result(0.060, 0.045, 0.160, 0.090),             # 25 %, 43.8 %
-        result(0.060, 0.050, 0.160, 0.100),             # 16.7 %, 37.5 %
-        result(0.060, 0.040, 0.160, 0.080, coverage=0.94, duplicates=1,
-               latency=140.0)], start=1)]
-    met = bench.targets_met(runs)
-    assert met == {'fused_20pct_below_best_view': 2,
-                   'hidden_40pct_below_best_view': 2,
-                   'latency_p95_within_38_ms_of_slowest_view': 2,
-                   'no_duplicate_people': 2,
-                   'bound_coverage_95pct': 2}
+    results = [result(0.060, 0.045, 0.160, 0.090),     # 25 %, 43.8 %
+               result(0.060, 0.050, 0.160, 0.100),     # 16.7 %, 37.5 %
+               result(0.060, 0.040, 0.160, 0.080, coverage=0.94)]
+    verdicts = [{'fused_20pct_below_best_view': True,
+                 'latency_p95_within_134_ms': True,
+                 'bound_coverage_95pct': True},
+                {'fused_20pct_below_best_view': False,
+                 'latency_p95_within_130_ms': True,
+                 'bound_coverage_95pct': True},
+                {'fused_20pct_below_best_view': True,
+                 'latency_p95_within_131_ms': False,
+                 'bound_coverage_95pct': False}]
+    runs = []
+    for seed, (r, v) in enumerate(zip(results, verdicts), start=1):
+        r['targets'] = v
+        runs.append(dict(seed=seed, targets=bench.verdicts(r),
+                         **bench.figures(r)))
+    assert bench.targets_met(runs) == {
+        'fused_20pct_below_best_view': 2,
+        'latency_p95_within_38_ms_of_slowest_view': 2,
+        'bound_coverage_95pct': 2}
     s = bench.summary(runs)
-    assert 'seed' not in s
+    assert 'seed' not in s and 'targets' not in s
     assert s['below_best_pct'] == {'median': 25.0, 'min': 16.7,
                                    'max': 33.3}
     assert s['bound_coverage']['min'] == 0.94
