@@ -4,7 +4,7 @@
 One run of bench/fusion_accuracy.py tracks each view once, through one
 draw of the Kinect v1 noise. The depth tracker's choices frame by frame
 (which tip is a hand, which arm is left) hang on that draw, and a clip's
-figures with them: "below the best view" moves by up to 18 points from
+figures with them: "below the best view" moves by up to 19 points from
 one draw to the next. This runs fusion_accuracy.py with the scene's noise
 seeds 1 to ``--seeds`` (seed 1 is its default scene) and prints one JSON
 object:
