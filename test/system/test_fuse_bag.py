@@ -357,9 +357,12 @@ def test_fuse_bag_fuses_a_live_recording_as_the_live_node_did(live):
 
 def test_the_recording_played_into_the_live_node_under_sim_time(live):
     # rosbag play --clock into fusion.launch with /use_sim_time: the node
-    # runs on the played clock, so its skeletons are on time (no WARN
+    # runs on the played clock, so its skeletons are on time (never WARN
     # behind), and it fuses them as it did live; its REP 155 bodies
-    # (rep155_bridge) come with every fused skeleton.
+    # (rep155_bridge) come with every fused skeleton. Under load a view's
+    # skeletons may reach the node a moment after the played clock (a
+    # view then reads stalled), so the views are OK in most statuses, not
+    # in every one.
     folder, recording, by_instant = live
     out = str(folder / 'replayed.bag')
     played = ['/%s/%s' % (v, t) for v in POSES
@@ -382,14 +385,19 @@ def test_the_recording_played_into_the_live_node_under_sim_time(live):
     again = fused_by_instant(out)
     _, median = compare(by_instant, again)
     assert median < 1e-3
-    last, tf = {}, 0
+    statuses, tf = {}, 0
     with rosbag.Bag(out) as bag:
         for topic, msg, _ in bag.read_messages(['/diagnostics', '/tf']):
             if topic == '/tf':
                 tf += any(t.child_frame_id == 'body_fused1'
                           for t in msg.transforms)
                 continue
-            last.update({s.name.split(': ')[-1]: s for s in msg.status})
+            for s in msg.status:
+                statuses.setdefault(s.name.split(': ')[-1], []).append(s)
     assert tf >= 0.9 * len(again)
+    assert not [s.message for s in statuses['people']
+                if 'behind' in s.message]
     for name in ('view left', 'view right', 'view back', 'people'):
-        assert last[name].level == 0, (name, last[name].message)
+        ok = [s.level == 0 for s in statuses[name]]
+        assert sum(ok) >= 0.75 * len(ok), (name, [
+            s.message for s in statuses[name] if s.level])
