@@ -504,12 +504,12 @@ def paired_with_best(instants, best):
     them), each mean error (m) over the joints both have; the single
     view's own mean covers its tracked frames only, where the fused body
     covers every instant; ``instants`` from views_at."""
-    pairs, total = [], 0
+    pairs, have = [], 0
     for f, true, seen in instants:
-        total += 1
         b = seen[best]
         if b is None:
             continue
+        have += 1
         e = np.stack([np.linalg.norm(b.positions - true, axis=1),
                       np.linalg.norm(f.people[0].body.positions - true,
                                      axis=1)], axis=1)
@@ -517,8 +517,7 @@ def paired_with_best(instants, best):
     if not pairs:
         return {'share': 0.0, 'best_view_m': None, 'fused_m': None}
     e = np.array(pairs)
-    return {'share': round(sum(seen[best] is not None
-                               for _, _, seen in instants) / total, 3),
+    return {'share': round(have / len(instants), 3),
             'best_view_m': round(float(e[:, 0].mean()), 4),
             'fused_m': round(float(e[:, 1].mean()), 4)}
 
