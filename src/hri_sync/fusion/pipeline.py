@@ -62,7 +62,8 @@ from hri_sync.fusion.fuse import FuseParams, Fused, Observation, fuse
 from hri_sync.fusion.lag import FilterLag
 from hri_sync.fusion.profile import Profile
 from hri_sync.fusion.smooth import SmoothParams, Smoother
-from hri_sync.fusion.sightlines import SightParams, Sightlines, place
+from hri_sync.fusion.sightlines import (SightParams, Sightlines, outside_image,
+                                        place)
 from hri_sync.fusion.views import NOTED, HealthParams, ViewHealth
 from hri_sync.wire.vocabulary import NUM_JOINTS
 
@@ -350,6 +351,7 @@ class Fusion:
                 Smoother(self.params.smooth))
             self.persons[pid] = state
             self._put_arms_right(state.past, t, views)
+            self._leave_out_of_image(state.past, t, views)
             state.scatter = [(s, x) for s, x in state.scatter
                              if s >= t - self.params.scatter_hold - 1e-9]
             inflate = np.max([x for _, x in state.scatter], axis=0) \
@@ -416,6 +418,28 @@ class Fusion:
                 o.positions = exchanged(o.positions)
                 o.confidence = exchanged(o.confidence)
                 self.health[o.view].arms_exchanged += 1
+
+    def _leave_out_of_image(self, past: List[Tuple[float, np.ndarray]],
+                            t: float, views: List[Observation]) -> None:
+        """Leave out (confidence 0) each view's joints that the person's
+        body, predicted at ``t`` from its fused instants just before
+        (``past``), has outside that view's image (sightlines.
+        outside_image): what the tracker gives there it did not see (a
+        walker's feet below the image of a sensor 2 m away); counted per
+        view."""
+        if not past or past[-1][0] < t - self.params.smooth.max_gap:
+            return
+        predicted = past[-1][1]
+        step = 1.0 / self.params.rate
+        if len(past) == 2 and abs(past[1][0] - past[0][0] - step) <= step / 2:
+            predicted = past[1][1] + (past[1][1] - past[0][1]) \
+                * (t - past[1][0]) / step
+        for o in views:
+            out = outside_image(self.poses[o.view], predicted,
+                                self.params.sight) & (o.confidence > 0)
+            if out.any():
+                o.confidence = np.where(out, 0.0, o.confidence)
+                self.health[o.view].out_of_image += int(out.sum())
 
     def _by_vantage(self, positions: np.ndarray,
                     views: List[Observation]) -> bool:

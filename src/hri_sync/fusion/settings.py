@@ -32,6 +32,8 @@ SETTINGS: Tuple[Setting, ...] = (
     ('residual_threshold', 'residual_threshold', _positive, '> 0 m'),
     ('arms_margin', 'arms.margin', lambda x: x > 0, '> 0 m (inf: never)'),
     ('fov_deg', 'sight.fov_deg', lambda x: 0 < x < 360, '0-360 degrees'),
+    ('vertical_fov_deg', 'sight.vertical_fov_deg', lambda x: 0 < x < 180,
+     '0-180 degrees'),
     ('max_range', 'sight.far', _positive, '> 0 m'),
 )
 NAMES = tuple(s[0] for s in SETTINGS)

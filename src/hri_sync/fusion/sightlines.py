@@ -14,6 +14,10 @@ others agree on; with two there is no third to say which pose is wrong,
 so the pair is reported (``unmatched``) with the distance between their
 people, and ``fusion_refine`` mends it. The check is along the floor: a sensor's
 pitch and vertical field are not used.
+
+``outside_image`` is what a view cannot measure of a body: its joints
+farther than ``beyond_deg`` outside the sensor's image (``fov_deg`` wide,
+``vertical_fov_deg`` high), whatever its tracker says of them.
 """
 
 from __future__ import annotations
@@ -38,6 +42,8 @@ class SightParams:
     far: float = 4.5            # m
     shadow: float = 0.35        # m each side of a line of sight
     after: float = 3.0          # s the disagreement lasts before a report
+    vertical_fov_deg: float = 43.0  # the image's height
+    beyond_deg: float = 5.0     # outside an image's edge: not measured
 
 
 def place(body: np.ndarray) -> Optional[np.ndarray]:
@@ -68,6 +74,21 @@ def in_sight(pose: SensorPose, point: np.ndarray,
         if 0.0 < along < r and abs(e[0] * u[1] - e[1] * u[0]) < params.shadow:
             return False
     return True
+
+
+def outside_image(pose: SensorPose, positions: np.ndarray,
+                  params: SightParams) -> np.ndarray:
+    """(15,) mask of the world ``positions`` (15, 3) farther than
+    ``beyond_deg`` outside ``pose``'s image (False where not finite)."""
+    local = pose.from_world(positions)
+    ahead = np.where(local[:, 2] > 0, local[:, 2], np.nan)
+    across = np.degrees(np.arctan2(np.abs(local[:, 0]), ahead))
+    up = np.degrees(np.arctan2(np.abs(local[:, 1]), ahead))
+    with np.errstate(invalid='ignore'):
+        out = (across > params.fov_deg / 2.0 + params.beyond_deg) \
+            | (up > params.vertical_fov_deg / 2.0 + params.beyond_deg) \
+            | (local[:, 2] <= 0)
+    return out & np.isfinite(local).all(axis=1)
 
 
 class Sightlines:

@@ -15,7 +15,8 @@ left out); ``wrong_pose`` is set by the
 calibration check (the view is down-weighted), and ``arms_exchanged``
 counts the instants its tracker's left and right arms were exchanged
 back (hri_sync.fusion.arms), ``beyond_range`` its skeletons of someone
-farther than the sensor tracks (down-weighted). The view's pipeline
+farther than the sensor tracks (down-weighted), ``out_of_image`` its
+joints left out where the fused body stands outside its image. The view's pipeline
 latency (arrival minus capture) is kept to know how long to wait for it.
 """
 
@@ -70,6 +71,7 @@ class ViewHealth:
     wrong_pose: bool = False
     arms_exchanged: int = 0         # instants its arms were put right
     beyond_range: int = 0           # its skeletons of someone too far
+    out_of_image: int = 0           # its joints outside its image
     rejected: Dict[str, int] = field(default_factory=dict)
     _latency: float = 0.0
     _late: float = 0.0
