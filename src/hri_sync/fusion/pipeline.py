@@ -422,18 +422,18 @@ class Fusion:
     def _leave_out_of_image(self, past: List[Tuple[float, np.ndarray]],
                             t: float, views: List[Observation]) -> None:
         """Leave out (confidence 0) each view's joints that the person's
-        body, predicted at ``t`` from its fused instants just before
-        (``past``), has outside that view's image (sightlines.
+        body at ``t`` has outside that view's image (sightlines.
         outside_image): what the tracker gives there it did not see (a
         walker's feet below the image of a sensor 2 m away); counted per
-        view."""
-        if not past or past[-1][0] < t - self.params.smooth.max_gap:
+        view. The body is predicted from its last two fused instants
+        (``past``, constant velocity; the last alone if the two are not
+        consecutive), and only when the last is the instant before."""
+        step = 1.0 / self.params.rate
+        if not past or abs(t - past[-1][0] - step) > step / 2:
             return
         predicted = past[-1][1]
-        step = 1.0 / self.params.rate
         if len(past) == 2 and abs(past[1][0] - past[0][0] - step) <= step / 2:
-            predicted = past[1][1] + (past[1][1] - past[0][1]) \
-                * (t - past[1][0]) / step
+            predicted = 2 * past[1][1] - past[0][1]
         for o in views:
             out = outside_image(self.poses[o.view], predicted,
                                 self.params.sight) & (o.confidence > 0)
