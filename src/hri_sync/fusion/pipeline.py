@@ -23,7 +23,9 @@ of the body's back, each person is fused twice: once to find where the
 body faces, then with each view's arms weighted by its vantage on that
 body. Before that, a view whose tracker exchanged the left and right arms
 has them put back (hri_sync.fusion.arms), against the person's body
-predicted from its last two fused instants. A view's skeleton of someone
+predicted from its last two fused instants, and each view's joints that
+body has outside the view's image are left out (its tracker did not see
+them). A view's skeleton of someone
 farther than its sensor tracks (``sight.far``) is taken to err
 ``far_sigma`` times its profile's sigma. Each person's fused joints then
 go through a constant-velocity Kalman filter (hri_sync.fusion.smooth),
