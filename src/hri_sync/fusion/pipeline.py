@@ -352,8 +352,9 @@ class Fusion:
             state = self.persons.get(pid) or PersonState(
                 Smoother(self.params.smooth))
             self.persons[pid] = state
-            self._put_arms_right(state.past, t, views)
-            self._leave_out_of_image(state.past, t, views)
+            before = self._just_before(state.past, t)
+            self._put_arms_right(before, views)
+            self._leave_out_of_image(before, views)
             state.scatter = [(s, x) for s, x in state.scatter
                              if s >= t - self.params.scatter_hold - 1e-9]
             inflate = np.max([x for _, x in state.scatter], axis=0) \
@@ -403,17 +404,29 @@ class Fusion:
         self.health[view].beyond_range += 1
         return True
 
-    def _put_arms_right(self, past: List[Tuple[float, np.ndarray]],
-                        t: float, views: List[Observation]) -> None:
-        """Exchange the arms of the views whose tracker exchanged them
-        (hri_sync.fusion.arms), against the person's body predicted at
-        ``t`` from its fused instants just before (``past``); counted per
-        view."""
+    def _just_before(self, past: List[Tuple[float, np.ndarray]],
+                     t: float) -> List[np.ndarray]:
+        """The person's fused bodies (``past``, oldest first) at the
+        instants running up to ``t`` one step apart: the last two, the
+        last alone, or none when the last is not the instant before."""
         step = 1.0 / self.params.rate
-        if len(past) < 2 or abs(t - past[1][0] - step) > step / 2 \
-                or abs(past[1][0] - past[0][0] - step) > step / 2:
+        run: List[np.ndarray] = []
+        for stamp, body in reversed(past):
+            if abs(t - stamp - step) > step / 2:
+                break
+            run.insert(0, body)
+            t = stamp
+        return run
+
+    def _put_arms_right(self, before: List[np.ndarray],
+                        views: List[Observation]) -> None:
+        """Exchange the arms of the views whose tracker exchanged them
+        (hri_sync.fusion.arms), against the person's body predicted from
+        its last two fused instants (``before``, constant velocity);
+        counted per view."""
+        if len(before) < 2:
             return
-        predicted = 2 * past[1][1] - past[0][1]
+        predicted = 2 * before[1] - before[0]
         for o, swap in zip(views, arms_to_exchange(
                 views, predicted, self.params.arms, self.params.fuse)):
             if swap:
@@ -421,21 +434,18 @@ class Fusion:
                 o.confidence = exchanged(o.confidence)
                 self.health[o.view].arms_exchanged += 1
 
-    def _leave_out_of_image(self, past: List[Tuple[float, np.ndarray]],
-                            t: float, views: List[Observation]) -> None:
+    def _leave_out_of_image(self, before: List[np.ndarray],
+                            views: List[Observation]) -> None:
         """Leave out (confidence 0) each view's joints that the person's
-        body at ``t`` has outside that view's image (sightlines.
-        outside_image): what the tracker gives there it did not see (a
-        walker's feet below the image of a sensor 2 m away); counted per
-        view. The body is predicted from its last two fused instants
-        (``past``, constant velocity; the last alone if the two are not
-        consecutive), and only when the last is the instant before."""
-        step = 1.0 / self.params.rate
-        if not past or abs(t - past[-1][0] - step) > step / 2:
+        body has outside that view's image (sightlines.outside_image):
+        what the tracker gives there it did not see (a walker's feet below
+        the image of a sensor 2 m away); counted per view. The body is
+        predicted from its fused instants just before (``before``:
+        constant velocity from two, the last alone from one)."""
+        if not before:
             return
-        predicted = past[-1][1]
-        if len(past) == 2 and abs(past[1][0] - past[0][0] - step) <= step / 2:
-            predicted = 2 * past[1][1] - past[0][1]
+        predicted = before[0] if len(before) == 1 \
+            else 2 * before[1] - before[0]
         for o in views:
             out = outside_image(self.poses[o.view], predicted,
                                 self.params.sight) & (o.confidence > 0)

@@ -16,8 +16,9 @@ calibration check (the view is down-weighted), and ``arms_exchanged``
 counts the instants its tracker's left and right arms were exchanged
 back (hri_sync.fusion.arms), ``beyond_range`` its skeletons of someone
 farther than the sensor tracks (down-weighted), ``out_of_image`` its
-joints left out where the fused body stands outside its image. The view's pipeline
-latency (arrival minus capture) is kept to know how long to wait for it.
+joints left out where the fused body stands outside its image. The view's
+pipeline latency (arrival minus capture) is kept to know how long to wait
+for it.
 """
 
 from __future__ import annotations
