@@ -269,6 +269,15 @@ BodyPose placeJoints(TrunkFrame tf, const std::array<std::vector<Vec3>, NUM_LABE
                      const std::array<Vec3, NUM_LABELS>& tips, const LabelAssignment& assign,
                      const BodyModel& model, const Vec3& lateral, const Joints* prev_mid);
 
+/// Poses with one arm reaching to one of `tips`: for each arm whose hand
+/// explains fewer than 5 depth points (`support`, a fit's), and each tip
+/// within the arm's reach and 0.15 m or more from that hand, the pose `j`
+/// with the hand at the tip (as placeJoints places a hand) and the elbow
+/// where both bones fit, bent as before. The tracker tries them from the
+/// extremities no label took.
+std::vector<Joints> armsToTips(const Joints& j, const std::array<int, NUM_JOINTS>& support,
+                               const std::vector<Vec3>& tips, const BodyModel& model);
+
 class ModelSearch;
 
 struct TrackerParams {
@@ -316,7 +325,8 @@ class DepthTracker {
   void calibrate(const PointGrid& g, const Segmentation& seg, const Joints& j, const LabelAssignment& assign);
   /// Stage "fit": the model fit refines this frame's estimate and last frame's
   /// pose; the one explaining the depth better wins.
-  void fit(const PointGrid& g, const Segmentation& seg, Joints* j, std::array<float, NUM_JOINTS>* conf);
+  void fit(const PointGrid& g, const Segmentation& seg, const std::vector<Vec3>& spare_tips, Joints* j,
+           std::array<float, NUM_JOINTS>* conf);
   /// Stage "facing": a fitted pose that both knees, bent the same way, say
   /// faces the other way (after a fast spin) has its left and right exchanged.
   void checkFacing(const std::vector<Vec3>& legs, const Vec3& up, Joints* j, std::array<float, NUM_JOINTS>* conf);

@@ -1052,8 +1052,27 @@ void DepthTracker::calibrate(const PointGrid& g, const Segmentation& seg, const 
   if (model_.calibrated) model_ = towards(model_, target_, kModelStepPerFrame);
 }
 
-void DepthTracker::fit(const PointGrid& g, const Segmentation& seg, Joints* j,
-                       std::array<float, NUM_JOINTS>* conf) {
+std::vector<Joints> armsToTips(const Joints& j, const std::array<int, NUM_JOINTS>& support,
+                               const std::vector<Vec3>& tips, const BodyModel& model) {
+  std::vector<Joints> out;
+  const double reach = model.upper_arm + model.forearm;
+  for (auto [root, mid, end] : {std::array<int, 3>{L_SHOULDER, L_ELBOW, L_HAND}, {R_SHOULDER, R_ELBOW, R_HAND}}) {
+    if (support[end] >= kSeenPoints) continue;
+    for (const Vec3& tip : tips) {
+      // The hand joint as placeJoints puts it: 5 cm back from the tip, behind its surface.
+      const Vec3 hand = behind(tip + (j[root] - tip).normalized() * 0.05, 0.04);
+      if ((hand - j[root]).norm() > reach || (hand - j[end]).norm() < 0.15) continue;
+      Joints a = j;
+      a[end] = hand;
+      a[mid] = twoBone(j[root], hand, model.upper_arm, model.forearm, j[mid] - j[root]);
+      out.push_back(a);
+    }
+  }
+  return out;
+}
+
+void DepthTracker::fit(const PointGrid& g, const Segmentation& seg, const std::vector<Vec3>& spare_tips,
+                       Joints* j, std::array<float, NUM_JOINTS>* conf) {
   // Soles go to the floor once the first length search is over: with the
   // rough first lengths the pull would drag the trunk down instead.
   PoseFitParams fp;
@@ -1069,6 +1088,15 @@ void DepthTracker::fit(const PointGrid& g, const Segmentation& seg, Joints* j,
       swapped[b] = best.joints[a] - best.joints[L_SHOULDER] + best.joints[R_SHOULDER];
     }
     best = fitter.fitMixed(best.joints, {j, &prev_fit_, &swapped});
+    // A hand the fit leaves unseen is tried at each extremity no label took
+    // (a hand the labelling lost, against the body or taken for something
+    // else, is often still a tip of the surface); kept when the fit is
+    // better and the hands explain more depth points.
+    for (const Joints& a : armsToTips(best.joints, best.support, spare_tips, model_)) {
+      PoseFit f = fitter.fit(a, fp.iterations / 2);
+      if (f.energy < best.energy && f.support[L_HAND] + f.support[R_HAND] > best.support[L_HAND] + best.support[R_HAND])
+        best = f;
+    }
   }
   // An arm that explains no depth point keeps last frame's fitted pose on
   // its shoulder, and an unseen elbow last frame's bend: with nothing to
@@ -1195,7 +1223,10 @@ SkeletonEstimate DepthTracker::follow(const PointGrid& g, const Segmentation& se
     // came from another estimator, and a still joint's filter would take
     // seconds to cross the gap.
     if (!have_fit_) for (auto& f : filters_) f.reset();
-    fit(g, seg, &pose.joints, &pose.confidence);
+    std::vector<Vec3> spare;
+    for (size_t i = 0; i < ex.points.size(); ++i)
+      if (std::find(assign.begin(), assign.end(), static_cast<int>(i)) == assign.end()) spare.push_back(ex.points[i]);
+    fit(g, seg, spare, &pose.joints, &pose.confidence);
     // A fast spin can leave the fit facing the wrong way round; strong knee bends turn it back.
     checkFacing(legs, up, &pose.joints, &pose.confidence);
   }

@@ -326,6 +326,58 @@ TEST(PoseFit, PullsAShakenPoseBackOntoTheBody) {
   EXPECT_LT(after, 0.6 * before);
 }
 
+// A hand the fit lost against the body (unseen: it explains no depth
+// point) is tried at each spare extremity within the arm's reach; from the
+// true hand's tip the fit explains the frame better and sees the hand.
+TEST(PoseFit, AnArmLostAgainstTheBodyComesBackAtASpareTip) {
+  Camera cam;
+  const Track& m = motion();
+  double t = 0.25;
+  while (t < m.duration() && (m.at(t, false)[L_HAND] - m.at(t, false)[TORSO]).norm() < 0.45) t += 0.25;
+  ASSERT_LT(t, m.duration()) << "no frame with the left hand held out";
+  Staged s = staged(cam, m.at(t, false));
+  ASSERT_TRUE(s.seg.found) << s.seg.reason;
+  const BodyModel model = BodyModel::fromHeight(1.74);
+  const PoseFitter fitter(cam, s.grid, s.seg, s.floor, model);
+  // The left hand lost where the tracker puts an unseen hand: before the trunk.
+  Joints lost = s.truth;
+  lost[L_HAND] = s.truth[TORSO] - s.truth[TORSO].normalized() * 0.13;
+  lost[L_ELBOW] = (s.truth[L_SHOULDER] + lost[L_HAND]) * 0.5 + Vec3(0, -0.1, 0);
+  const PoseFit lost_fit = fitter.fit(lost);
+  ASSERT_LT(lost_fit.support[L_HAND], 5) << "the fit found the hand by itself";
+  ASSERT_GT((lost_fit.joints[L_HAND] - s.truth[L_HAND]).norm(), 0.2);
+
+  const std::vector<Joints> arms = armsToTips(lost_fit.joints, lost_fit.support, s.ex.points, model);
+  ASSERT_FALSE(arms.empty());
+  PoseFit best = lost_fit;
+  for (const Joints& a : arms) {
+    const bool left = (a[L_HAND] - lost_fit.joints[L_HAND]).norm() > 0;
+    const int root = left ? L_SHOULDER : R_SHOULDER, mid = left ? L_ELBOW : R_ELBOW, end = left ? L_HAND : R_HAND;
+    for (int k = 0; k < NUM_JOINTS; ++k) {
+      if (k == mid || k == end) continue;
+      EXPECT_EQ((a[k] - lost_fit.joints[k]).norm(), 0.0) << "joint " << k;
+    }
+    EXPECT_NEAR((a[mid] - a[root]).norm(), model.upper_arm, 1e-3);
+    EXPECT_LE((a[end] - a[root]).norm(), model.upper_arm + model.forearm);
+    EXPECT_GE((a[end] - lost_fit.joints[end]).norm(), 0.15);
+    if (left || lost_fit.support[R_HAND] < 5) {
+      const PoseFit f = fitter.fit(a, 6);
+      if (f.energy < best.energy) best = f;
+    }
+  }
+  std::printf("a lost left hand: %.3f m off (energy %.5f); from the best spare tip %.3f m (energy %.5f, "
+              "%d points)\n", (lost_fit.joints[L_HAND] - s.truth[L_HAND]).norm(), lost_fit.energy,
+              (best.joints[L_HAND] - s.truth[L_HAND]).norm(), best.energy, best.support[L_HAND]);
+  EXPECT_LT(best.energy, lost_fit.energy);
+  EXPECT_GE(best.support[L_HAND], 5);
+  EXPECT_LT((best.joints[L_HAND] - s.truth[L_HAND]).norm(), 0.1);
+
+  // A hand the fit sees is left where it is.
+  std::array<int, NUM_JOINTS> seen = lost_fit.support;
+  seen[L_HAND] = seen[R_HAND] = 5;
+  EXPECT_TRUE(armsToTips(lost_fit.joints, seen, s.ex.points, model).empty());
+}
+
 TEST(Calibration, ModelSearchMovesTheLegsTowardsTheirLength) {
   Camera cam;
   const Track& m = motion();
