@@ -324,7 +324,8 @@ class DepthTracker {
   /// The bone lengths: calibrated on the first frames, then refined by the search.
   void calibrate(const PointGrid& g, const Segmentation& seg, const Joints& j, const LabelAssignment& assign);
   /// Stage "fit": the model fit refines this frame's estimate and last frame's
-  /// pose; the one explaining the depth better wins.
+  /// pose; the one explaining the depth better wins. A hand it leaves unseen
+  /// is tried at each of `spare_tips`, the extremities no label took.
   void fit(const PointGrid& g, const Segmentation& seg, const std::vector<Vec3>& spare_tips, Joints* j,
            std::array<float, NUM_JOINTS>* conf);
   /// Stage "facing": a fitted pose that both knees, bent the same way, say

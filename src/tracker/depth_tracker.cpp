@@ -1059,7 +1059,8 @@ std::vector<Joints> armsToTips(const Joints& j, const std::array<int, NUM_JOINTS
   for (auto [root, mid, end] : {std::array<int, 3>{L_SHOULDER, L_ELBOW, L_HAND}, {R_SHOULDER, R_ELBOW, R_HAND}}) {
     if (support[end] >= kSeenPoints) continue;
     for (const Vec3& tip : tips) {
-      // The hand joint as placeJoints puts it: 5 cm back from the tip, behind its surface.
+      // The hand joint about where placeJoints puts one: 5 cm back from the tip
+      // towards the shoulder, 4 cm behind the surface.
       const Vec3 hand = behind(tip + (j[root] - tip).normalized() * 0.05, 0.04);
       if ((hand - j[root]).norm() > reach || (hand - j[end]).norm() < 0.15) continue;
       Joints a = j;
