@@ -272,7 +272,8 @@ BodyPose placeJoints(TrunkFrame tf, const std::array<std::vector<Vec3>, NUM_LABE
 /// Poses with one arm reaching to one of `tips`: for each arm whose hand
 /// explains fewer than 5 depth points (`support`, a fit's), and each tip
 /// within the arm's reach and 0.15 m or more from that hand, the pose `j`
-/// with the hand at the tip (as placeJoints places a hand) and the elbow
+/// with the hand about where placeJoints places one from a tip (5 cm back
+/// towards the shoulder, 4 cm behind the surface) and the elbow
 /// where both bones fit, bent as before. The tracker tries them from the
 /// extremities no label took.
 std::vector<Joints> armsToTips(const Joints& j, const std::array<int, NUM_JOINTS>& support,
