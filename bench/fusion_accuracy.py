@@ -151,10 +151,14 @@ def build_id(path):
         return hashlib.sha1(f.read()).hexdigest()
 
 
-def positions_id(positions):
-    """A digest of joint positions to 0.1 mm: motions that differ (a clip's
-    .npz and its .track) get renders of their own."""
-    return hashlib.sha1(np.round(positions, 4).tobytes()).hexdigest()
+def motion_id(motion):
+    """A digest of a motion's times and joint positions (to 1 ns and 1 nm):
+    motions that differ at all get renders of their own. A clip's .npz and
+    its .track do: the .track's times are rounded to 0.1 ms, which moves
+    the sampled joints by up to 0.1 mm, enough to change a view's tracking
+    by centimetres."""
+    return hashlib.sha1(np.round(motion.times, 9).tobytes()
+                        + np.round(motion.positions, 9).tobytes()).hexdigest()
 
 
 def render(i, motions, cache, scene, eval_path):
@@ -164,11 +168,10 @@ def render(i, motions, cache, scene, eval_path):
     user tracked (``--dump-users``)."""
     world = motions[0]
     n = int(world.duration * FPS) - 2
-    ident = (world.name, positions_id(world.positions), VIEWS[i], scene, n,
+    ident = (world.name, motion_id(world), VIEWS[i], scene, n,
              build_id(eval_path)) + ((FPS,) if FPS != 30 else ())
     if len(motions) > 1:
-        ident += (USERS, positions_id(np.concatenate(
-            [m.positions for m in motions[1:]])))
+        ident += (USERS,) + tuple(motion_id(m) for m in motions[1:])
     key = hashlib.sha1(repr(ident).encode()).hexdigest()[:12]
     dump = os.path.join(cache, '%s_%s%s_%s.dump' % (
         world.name, VIEWS[i][0], '_%dp' % len(motions) if len(motions) > 1

@@ -1,5 +1,5 @@
-"""bench/fusion_accuracy.py's split of the best view's hidden joints by how
-many other views see them."""
+"""bench/fusion_accuracy.py: the split of the best view's hidden joints by
+how many other views see them, and what a render is cached by."""
 import importlib.util
 import os
 import types
@@ -93,3 +93,15 @@ def test_the_best_view_and_the_fused_body_are_paired_on_its_instants():
     assert out == {'share': 0.667, 'best_view_m': 0.1, 'fused_m': 0.05}
     assert bench.paired_with_best(instants[2:], 'best') == {
         'share': 0.0, 'best_view_m': None, 'fused_m': None}
+
+
+def test_a_clips_npz_and_track_are_rendered_apart():
+    """The .track's times are rounded to 0.1 ms: another motion to the
+    renderer, so another cache entry; the same file twice is one."""
+    motion = os.path.join(os.path.dirname(SCRIPT), '..', 'data', 'motion',
+                          'cmu_60_01_salsa')
+    npz = bench.world_motion(bench.load_motion(motion + '.npz'))
+    track = bench.world_motion(bench.load_motion(motion + '.track'))
+    again = bench.world_motion(bench.load_motion(motion + '.npz'))
+    assert bench.motion_id(npz) != bench.motion_id(track)
+    assert bench.motion_id(npz) == bench.motion_id(again)
