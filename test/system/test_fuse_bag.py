@@ -337,7 +337,8 @@ def compare(live, again):
     their median difference (m)."""
     assert {k[1] for k in live} == {k[1] for k in again} == {1}
     common = sorted(set(live) & set(again))
-    assert len(common) >= 0.9 * len(live)
+    assert len(common) >= 0.9 * len(live), 'live instants missing: %s' % (
+        sorted(k[0] for k in set(live) - set(again)))
     diff = [np.abs(live[k] - again[k]).max() for k in common]
     print('%d live instants, %d fused again, %d common: %.1f %% within '
           '1 mm, max %.3f m' % (len(live), len(again), len(common),
@@ -370,13 +371,16 @@ def test_the_recording_played_into_the_live_node_under_sim_time(live):
 
     def play(env, log):
         # The node and the recorder listening first, then the recording
-        # played on its own clock.
+        # played on its own clock: after each topic's advertisement a
+        # second for the node to connect (the first skeletons are not
+        # lost), at half speed (on a busy machine the node keeps up with
+        # the played clock and skips no instant).
         wait_until('the fusion and the recorder', lambda: subscribed(
             env, [(t, '/fused/fusion') for t in played]
             + [('/fused/skeleton', '/recorder'), ('/tf', '/recorder')]),
             120.0)
-        subprocess.run(['rosbag', 'play', '--clock', recording, '--topics']
-                       + played, env=env, stdout=log,
+        subprocess.run(['rosbag', 'play', '--clock', '-d', '1', '-r', '0.5',
+                        recording, '--topics'] + played, env=env, stdout=log,
                        stderr=subprocess.STDOUT, check=True, timeout=300)
         time.sleep(2.0)
 
