@@ -193,6 +193,7 @@ struct BodyModel {
   double upper_arm = 0.30, forearm = 0.27, shoulder_width = 0.36, neck_drop = 0.03;
   double thigh = 0.42, shin = 0.42, hip_width = 0.20;
   double torso_to_neck = 0.25, torso_to_hips = 0.22, head_top = 0.15, head_to_neck = 0.12;
+  double girth = 1.0;  ///< the trunk's and thighs' radii against the average adult's (render.h)
   bool calibrated = false;
   /// Proportions of a height (Drillis and Contini's segment table).
   static BodyModel fromHeight(double h);

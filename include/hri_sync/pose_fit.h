@@ -53,7 +53,7 @@ class PoseFitter {
   double step(Joints* j, std::vector<int8_t>* hint, std::array<int, NUM_JOINTS>* support, bool move) const;
   void constrain(Joints* j) const;
   /// The model's body: the head ball, then the virtual Kinect's capsules (render.h).
-  const BodyPart& part(int c) const { return c == 0 ? head_ : kBodyParts[c - 1]; }
+  const BodyPart& part(int c) const { return c == 0 ? head_ : parts_[c - 1]; }
 
   Camera cam_;
   const PointGrid& g_;
@@ -63,12 +63,13 @@ class PoseFitter {
   std::vector<int> nearest_;   ///< per grid cell: the nearest user cell
   std::vector<Bone> bones_;
   BodyPart head_;
+  std::array<BodyPart, kBodyParts.size()> parts_;  ///< kBodyParts, the girth's radii scaled
 };
 
 /// from with each searched length moved towards to's by at most max_step of itself.
 BodyModel towards(const BodyModel& from, const BodyModel& to, double max_step);
 
-/// The search for the bone lengths and trunk proportions with which the model
+/// The search for the bone lengths, trunk proportions and girth with which the model
 /// explains kept frames best: coordinate descent over each length's scale from
 /// a start, a few pose fits at a time so that tracking goes on meanwhile.
 class ModelSearch {

@@ -34,6 +34,7 @@ struct CapsuleEnd {
 struct BodyPart {
   CapsuleEnd a, b;
   double radius;
+  bool girth = false;  ///< the tracker scales its radius by the person's girth (BodyModel::girth)
 };
 constexpr CapsuleEnd atJoint(int i) { return {i, i, 0.0}; }
 
@@ -42,23 +43,27 @@ constexpr CapsuleEnd atJoint(int i) { return {i, i, 0.0}; }
 inline constexpr double kFootBall = 0.09;
 
 /// The body below the head (radii of an average adult): the virtual Kinect
-/// renders these capsules and the tracker's model fit assumes the same shape.
-inline constexpr std::array<BodyPart, 19> kBodyParts = {{
+/// renders these capsules (`body=model`) and the tracker's model fit assumes
+/// the same shape, the trunk's and thighs' radii scaled by the girth it
+/// measures per person. The fifth part is the chest, a third of the way from
+/// the shoulders down to the torso joint.
+inline constexpr std::array<BodyPart, 20> kBodyParts = {{
     {atJoint(NECK), atJoint(HEAD), 0.055},
-    {{NECK, TORSO, 0.1}, atJoint(TORSO), 0.10},
-    {atJoint(TORSO), {L_HIP, R_HIP, 0.5}, 0.12},
-    {atJoint(L_SHOULDER), atJoint(R_SHOULDER), 0.06},
-    {atJoint(L_SHOULDER), atJoint(L_HIP), 0.09},
-    {atJoint(R_SHOULDER), atJoint(R_HIP), 0.09},
-    {atJoint(L_HIP), atJoint(R_HIP), 0.09},
+    {{NECK, TORSO, 0.1}, atJoint(TORSO), 0.10, true},
+    {atJoint(TORSO), {L_HIP, R_HIP, 0.5}, 0.12, true},
+    {atJoint(L_SHOULDER), atJoint(R_SHOULDER), 0.06, true},
+    {{L_SHOULDER, TORSO, 1.0 / 3}, {R_SHOULDER, TORSO, 1.0 / 3}, 0.09, true},
+    {atJoint(L_SHOULDER), atJoint(L_HIP), 0.09, true},
+    {atJoint(R_SHOULDER), atJoint(R_HIP), 0.09, true},
+    {atJoint(L_HIP), atJoint(R_HIP), 0.09, true},
     {atJoint(L_SHOULDER), atJoint(L_ELBOW), 0.05},
     {atJoint(R_SHOULDER), atJoint(R_ELBOW), 0.05},
     {atJoint(L_ELBOW), atJoint(L_HAND), 0.04},
     {atJoint(R_ELBOW), atJoint(R_HAND), 0.04},
     {atJoint(L_HAND), atJoint(L_HAND), 0.05},
     {atJoint(R_HAND), atJoint(R_HAND), 0.05},
-    {atJoint(L_HIP), atJoint(L_KNEE), 0.075},
-    {atJoint(R_HIP), atJoint(R_KNEE), 0.075},
+    {atJoint(L_HIP), atJoint(L_KNEE), 0.075, true},
+    {atJoint(R_HIP), atJoint(R_KNEE), 0.075, true},
     {atJoint(L_KNEE), {L_FOOT, L_KNEE, kFootBall}, 0.055},
     {atJoint(R_KNEE), {R_FOOT, R_KNEE, kFootBall}, 0.055},
     {{L_FOOT, L_KNEE, kFootBall}, {L_FOOT, L_KNEE, kFootBall}, 0.045},

@@ -79,6 +79,9 @@ PoseFitter::PoseFitter(const Camera& cam, const PointGrid& g, const Segmentation
   // length: the best ball for a head whose face lies below and before the crown.
   const double beyond = -kFitHeadAbove / std::max(m.head_to_neck, 0.02);
   head_ = {{HEAD, NECK, beyond}, {HEAD, NECK, beyond}, kHeadRadius};
+  parts_ = kBodyParts;
+  for (BodyPart& part : parts_)
+    if (part.girth) part.radius *= m.girth;
   // Nearest user cell of every grid cell (multi-source breadth-first search).
   nearest_.assign(g.width * g.height, -1);
   std::vector<int> queue(seg.cells.begin(), seg.cells.end());
@@ -313,12 +316,12 @@ PoseFit PoseFitter::fitMixed(const Joints& init, const std::vector<const Joints*
 
 namespace {
 
-// The lengths the search scales, in order.
+// The lengths (and the girth) the search scales, in order.
 double BodyModel::* const kLengths[] = {&BodyModel::thigh,         &BodyModel::shin,
                                         &BodyModel::upper_arm,     &BodyModel::forearm,
                                         &BodyModel::torso_to_neck, &BodyModel::torso_to_hips,
                                         &BodyModel::shoulder_width, &BodyModel::hip_width,
-                                        &BodyModel::head_to_neck};
+                                        &BodyModel::head_to_neck,  &BodyModel::girth};
 constexpr int kNumLengths = sizeof(kLengths) / sizeof(kLengths[0]);
 constexpr double kSearchSteps[] = {0.08, 0.04};  // relative scale steps, coarse then fine
 constexpr int kSearchRounds = 3;                  // passes over the lengths per step

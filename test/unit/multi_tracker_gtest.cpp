@@ -607,6 +607,17 @@ TEST(Calibration, APersonSeenFromBehindAndSideOnGetsItsHeight) {
   }
 }
 
+// The model's trunk is the average adult's until the search measures the
+// person's girth: a dancer rendered 1.4 times as broad in the trunk and thighs
+// is fitted with a wider trunk than one rendered 0.8 times as broad.
+TEST(Calibration, TheSearchMeasuresTheTrunksGirth) {
+  const BodyModel broad = modelAfter(makeScene(salsa(), "girth=1.4&noise=kinect1"), 240);
+  const BodyModel slim = modelAfter(makeScene(salsa(), "girth=0.8&noise=kinect1"), 240);
+  std::printf("girth measured: %.3f (rendered 1.4), %.3f (rendered 0.8)\n", broad.girth, slim.girth);
+  EXPECT_GT(broad.girth, 1.05);
+  EXPECT_LT(slim.girth, 1.0);
+}
+
 // A taller person (tall_slim, 1.93 m) standing still 0.35 m behind a shorter
 // one (short_broad, 1.55 m) shows head and shoulders above the shorter one's
 // head, a part resting on its top: it is someone else, farther from the
