@@ -299,6 +299,8 @@ struct SkeletonEstimate {
   int user_cells = 0;
   int extremities = 0;
   std::vector<Vec3> extremity_points;   ///< geodesic extrema found this frame
+  double body_height = 0;     ///< the body model's calibrated height (m); 0 until calibrated
+  double girth = 0;           ///< the body model's girth (BodyModel::girth); 0 until calibrated
 };
 
 class DepthTracker {

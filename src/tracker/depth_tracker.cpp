@@ -1238,6 +1238,10 @@ SkeletonEstimate DepthTracker::follow(const PointGrid& g, const Segmentation& se
   zeroOutOfView(cam_, out.joints, &out.confidence);
   out.tracked = model_.calibrated && found >= 2;
   out.state = model_.calibrated ? (out.tracked ? "tracking" : "tracking (few extremities)") : "calibrating";
+  if (model_.calibrated) {
+    out.body_height = model_.height;
+    out.girth = model_.girth;
+  }
   if (!out.tracked) out.confidence.fill(0.f);
   return out;
 }

@@ -418,6 +418,17 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     return ids;
   }
 
+  /// Each calibrated user's body model, e.g. "1: 1.72 m, girth 1.04; 3: 1.60 m, girth 1.12".
+  std::string userBodies() const {
+    std::string out;
+    for (const UserEstimate& u : users_.users) {
+      if (u.estimate.body_height <= 0) continue;
+      out += (out.empty() ? "" : "; ") + std::to_string(u.user_id) + ": " + fmt(u.estimate.body_height, 2) +
+             " m, girth " + fmt(u.estimate.girth, 2);
+    }
+    return out;
+  }
+
   void publishDiagnostics(const ros::WallTimerEvent&) {
     diagnostic_msgs::DiagnosticArray arr;
     arr.header.stamp = ros::Time::now();
@@ -465,6 +476,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
       kv("tracking_state", state_);
       kv("tracked_users", std::to_string(users_.tracked_users));
       kv("tracked_user_ids", userIds());
+      kv("user_bodies", userBodies());
       kv("people_in_view", std::to_string(users_.people_in_view));
       kv("lost_users", std::to_string(users_.lost_users));
       kv("max_users", std::to_string(nite_ ? 1 : max_users_));

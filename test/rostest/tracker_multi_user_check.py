@@ -3,7 +3,8 @@
 
 Three people in the virtual Kinect's view: once calibrated, /diagnostics
 says how many users it tracks (``tracked_users`` = 3, message "tracking 3
-users", ``tracked_user_ids`` naming them), never more than are in view;
+users", ``tracked_user_ids`` naming them, ``user_bodies`` their calibrated
+heights and girths), never more than are in view;
 skeletons arrive under that many distinct ``user_id`` values, each id's
 torso staying in one place (the people do not swap ids).
 """
@@ -55,6 +56,14 @@ class TrackerMultiUserTest(unittest.TestCase):
         self.assertTrue(full, 'never %d users: %s' % (people, counts))
         self.assertEqual(full[0]['message'], 'tracking %d users' % people)
         self.assertEqual(len(full[0]['tracked_user_ids'].split()), people)
+        # Each calibrated user's body model: "1: 1.72 m, girth 1.04; ...".
+        bodies = full[-1]['user_bodies'].split('; ')
+        self.assertGreaterEqual(len(bodies), people, bodies)
+        for body in bodies:
+            uid, rest = body.split(': ')
+            height, girth = rest.split(' m, girth ')
+            self.assertTrue(1.2 <= float(height) <= 2.2, body)
+            self.assertTrue(0.5 <= float(girth) <= 2.0, body)
         self.assertLessEqual(max(counts), people, counts)
         for d in diags:
             self.assertIn('people_in_view', d)
