@@ -60,7 +60,7 @@ class TrackerMultiUserTest(unittest.TestCase):
         bodies = full[-1]['user_bodies'].split('; ')
         self.assertGreaterEqual(len(bodies), people, bodies)
         for body in bodies:
-            uid, rest = body.split(': ')
+            _, rest = body.split(': ')
             height, girth = rest.split(' m, girth ')
             self.assertTrue(1.2 <= float(height) <= 2.2, body)
             self.assertTrue(0.5 <= float(girth) <= 2.0, body)
