@@ -169,6 +169,14 @@ Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* pre
 /// half of the body (most of it is seen; zeroOutOfView marks the joints out of view).
 std::string partialView(const PointGrid& g, const Segmentation& seg, const Plane& floor);
 
+/// Why the user is only partly within the sensor's range ("" when not): 60 % or
+/// more of the user's cells lie within two depth steps of the farthest depth the
+/// frame reads, and those border a void (no return all round, not a dropout's
+/// speck) over more than a hand's width. Beyond its range the sensor reads
+/// nothing, and the rest of the body is not seen (a walker leaving a Kinect v1's
+/// 5 m).
+std::string rangeCut(const PointGrid& g, const Segmentation& seg);
+
 /// Confidence 0 for every joint the camera cannot see (outside the image or
 /// behind the sensor): such a joint is never measured, only inferred.
 void zeroOutOfView(const Camera& cam, const Joints& j, std::array<float, NUM_JOINTS>* conf);

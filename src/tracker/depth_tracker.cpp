@@ -17,7 +17,8 @@ namespace {
 constexpr float kInf = std::numeric_limits<float>::infinity();
 // DepthSteadier: cells within 3 disparity steps (2.85e-3 1/m each) of their
 // reference measure the shift; at least this many of them; the reference's rate.
-constexpr double kSteadyBand = 3 * 2.85e-3;
+constexpr double kKinectDepthStep = 2.85e-3;  // a Kinect v1's depth step at z: this times z^2 (m)
+constexpr double kSteadyBand = 3 * kKinectDepthStep;
 constexpr size_t kSteadyCells = 200;
 constexpr double kSteadyRate = 0.1;
 constexpr double kSteadyMeanRate = 1.0 / 900;  // the shifts' mean over about 30 s
@@ -599,6 +600,49 @@ Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* pre
     if (static_cast<int>(k) != best && isFragmentOf(parts[k], parts[best])) fragments.push_back(static_cast<int>(k));
   }
   return partSegmentation(g.width * g.height, parts, best, fragments);
+}
+
+std::string rangeCut(const PointGrid& g, const Segmentation& seg) {
+  constexpr double kCutWidth = 0.20;  // wider than a hand or a foot (m)
+  // A body sliced by the range piles up at it: most of what is seen of it lies
+  // there (82-98 % of a still person's cells 5.05 m away). One whole in an open
+  // room, the farthest thing the sensor reads, has the edge of its back there
+  // (at most 7 % at 4.5 m), a dancer whose back reaches the range up to half.
+  constexpr double kCutShare = 0.6;
+  double far = 0;
+  for (size_t i = 0; i < g.points.size(); ++i)
+    if (g.ok(static_cast<int>(i))) far = std::max(far, g.points[i].z);
+  const double edge = far - 2 * kKinectDepthStep * far * far;
+  auto isVoid = [&](int x, int y) {
+    int none = 0, all = 0;
+    for (int dy = -2; dy <= 2; ++dy)
+      for (int dx = -2; dx <= 2; ++dx) {
+        const int u = x + dx, v = y + dy;
+        if (u < 0 || v < 0 || u >= g.width || v >= g.height) continue;
+        ++all;
+        none += g.ok(v * g.width + u) ? 0 : 1;
+      }
+    return none * 5 >= all * 4;
+  };
+  double lo = 1e9, hi = -1e9;
+  size_t at_edge = 0;
+  for (int i : seg.cells) {
+    if (g.points[i].z < edge) continue;
+    ++at_edge;
+    const int x = i % g.width, y = i / g.width;
+    for (auto [dx, dy] : {std::pair<int, int>{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+      const int u = x + dx, v = y + dy;
+      if (u < 0 || v < 0 || u >= g.width || v >= g.height || g.ok(v * g.width + u) || !isVoid(u, v)) continue;
+      lo = std::min(lo, g.points[i].x);
+      hi = std::max(hi, g.points[i].x);
+      break;
+    }
+  }
+  if (hi - lo <= kCutWidth || at_edge < kCutShare * seg.cells.size()) return "";
+  char why[160];
+  std::snprintf(why, sizeof why, "the body is cut by the sensor's range (%.2f m) over %.2f m, %.0f %% of it at the cut: "
+                "the rest reads no depth", far, hi - lo, 100.0 * at_edge / seg.cells.size());
+  return why;
 }
 
 std::string partialView(const PointGrid& g, const Segmentation& seg, const Plane& floor) {
@@ -1183,10 +1227,11 @@ SkeletonEstimate DepthTracker::follow(const PointGrid& g, const Segmentation& se
 SkeletonEstimate DepthTracker::follow(const PointGrid& g, const Segmentation& seg, double t) {
   SkeletonEstimate out;
   out.user_cells = static_cast<int>(seg.cells.size());
-  const std::string partial = partialView(g, seg, floor_);
+  const std::string far = rangeCut(g, seg);
+  const std::string partial = far.empty() ? partialView(g, seg, floor_) : far;
   if (!partial.empty()) {  // no skeleton made up for the unseen part; calibration waits
     have_prev_ = have_fit_ = false;
-    out.state = "too close / partial view: " + partial;
+    out.state = (far.empty() ? "too close / partial view: " : "too far / partial view: ") + partial;
     return out;
   }
   Geodesic geo = geodesicExtremities(g, seg, 8, 0.5);

@@ -353,6 +353,43 @@ TEST(StillPerson, StaysApartFromAWallAtTheSensorsRange) {
   EXPECT_LE(s.trunk_expressiveness, 0.1);
 }
 
+// A person at the sensor's range: the Kinect v1 reads nothing beyond 5 m, so a
+// person 5.05 m away is cut by it, only what reaches nearer seen. The tracker
+// makes no skeleton up for the rest (rangeCut: "too far / partial view"),
+// where it followed the part seen with the whole body's confidence; a person at
+// 3-4.5 m, or at 4 m with a wall 0.1 m behind, is never taken for one cut.
+TEST(RangeCut, APersonBeyondTheSensorsRangeIsNotTracked) {
+  for (auto [z, wall] : {std::pair<double, const char*>{3.0, ""}, {4.0, ""}, {4.5, ""}, {4.0, "wall=0.1&"},
+                         {5.05, ""}}) {
+    const Scene scene = makeScene(stillAt(z), std::string(wall) + "noise=kinect1");
+    Camera cam;
+    DepthTracker tracker(cam);
+    SceneFrame f;
+    int cut = 0, tracked = 0;
+    std::string said;
+    const int frames = 150;
+    for (int n = 0; n < frames; ++n) {
+      scene.render(n / 30.0, n + 1, cam, &f);
+      const SkeletonEstimate est = tracker.update(f.depth_mm.data(), n / 30.0);
+      if (est.state.rfind("too far / partial view: ", 0) == 0) {
+        ++cut;
+        said = est.state;
+      }
+      tracked += est.tracked;
+    }
+    std::printf("person at %.2f m%s: cut by the range in %d of %d frames, tracked in %d%s%s\n", z,
+                wall[0] ? " (wall 0.1 m behind)" : "", cut, frames, tracked, said.empty() ? "" : "; the last: ",
+                said.c_str());
+    if (z > 5.0) {
+      EXPECT_GE(cut, frames * 9 / 10) << z;
+      EXPECT_LE(tracked, frames / 10) << z;
+    } else {
+      EXPECT_EQ(cut, 0) << z << wall;
+      EXPECT_GE(tracked, frames / 2) << z << wall;
+    }
+  }
+}
+
 // People near walls: a still person with a wall 0.1 m behind at 2.5 m (the
 // wall hides all but a strip of the floor) and 0.3 m behind at 3.5 m, Kinect
 // v1 noise. Once the bone lengths are known (the last 5 s of 15), the head
