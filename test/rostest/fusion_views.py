@@ -4,7 +4,9 @@
 Publishes /<view>/skeleton (hri_sync/Skeleton, 30 Hz, stamped 20 ms
 before now, joints of data/motion ~motion seen from each view's pose in
 ~poses, 1 cm noise) and /<view>/clock_state (ok, 0.5 ms). ~fault, on view
-~faulty from ~fault_after s: ``stall`` (it stops), ``clock_lost`` (its
+~faulty from ~fault_after s: ``stall`` (it stops), ``not_tracking`` (it
+stops, and its tracker's /<view>/tracker/sensor_status says, each second,
+that it tracks no one: the person left its range), ``clock_lost`` (its
 ClockState is not ok), ``wrong_pose`` (it is seen from its pose moved
 ~wrong_shift m along x and turned ~wrong_turn degrees, default 0.3 and 10;
 the fusion keeps the declared one),
@@ -21,6 +23,7 @@ import time
 
 import numpy as np
 import rospy
+from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import Point
 
 from hri_sync.dance_off.motion import load_motion
@@ -58,6 +61,9 @@ def main():
                                  queue_size=1, latch=True) for v in poses}
     for v in poses:
         clocks[v].publish(clock_state(v, True))
+    status = rospy.Publisher('/%s/tracker/sensor_status' % faulty,
+                             DiagnosticStatus, queue_size=1, latch=True)
+    said = 0.0
     pauses = []     # [t0, t1) host time: the calibration window's, widened
 
     def on_calibration(msg):
@@ -76,7 +82,13 @@ def main():
             [stamp - start - held])[0])
         for v, pub in pubs.items():
             bad = late and v == faulty
-            if bad and fault == 'stall':
+            if bad and fault == 'not_tracking' and time.time() - said > 1.0:
+                status.publish(DiagnosticStatus(
+                    level=DiagnosticStatus.WARN, name='tracker',
+                    message="not tracking: too far / partial view: the body "
+                    "is cut by the sensor's range (4.93 m) over 0.26 m"))
+                said = time.time()
+            if bad and fault in ('stall', 'not_tracking'):
                 continue
             if bad and fault == 'clock_lost' and not lost:
                 clocks[v].publish(clock_state(v, False))

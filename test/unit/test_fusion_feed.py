@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from hri_sync.fusion.feed import (
-    HOST_CLOCK, SKELETON, VIEW_CLOCK, Recorded, Replay, clock_model,
-    stamp_uncertainty, to_global)
+    HOST_CLOCK, SKELETON, VIEW_CLOCK, VIEW_STATUS, Recorded, Replay,
+    clock_model, stamp_uncertainty, to_global)
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.pipeline import Fusion
 from hri_sync.fusion.settings import NAMES, SETTINGS, fusion_params
@@ -143,6 +143,24 @@ def test_a_view_clock_lost_in_the_recording_is_named():
     list(r.run(sorted(records, key=lambda x: x.t)))
     assert r.fusion.health['b'].clock_lost()
     assert not r.fusion.health['a'].clock_lost()
+
+
+def test_a_recorded_tracker_status_names_a_view_that_tracks_no_one():
+    # View b's skeletons end at 101 s, its tracker saying it tracks no
+    # one from then; a message of another type on its status topic is
+    # counted, not read.
+    records = [r for r in recording(n=90)
+               if r.kind != SKELETON or r.view != 'b' or r.t < 101.0]
+    said = 'not tracking: searching: no person-sized object in view'
+    records += [Recorded(101.0 + k, VIEW_STATUS, 'b',
+                         types.SimpleNamespace(level=1, message=said))
+                for k in range(3)]
+    records.append(Recorded(101.5, VIEW_STATUS, 'a', state()))
+    r = replay()
+    list(r.run(sorted(records, key=lambda x: x.t)))
+    faults = r.fusion.faults()
+    assert faults['b'] == [('not_tracking', 'its sensor: ' + said)]
+    assert r.fusion.health['a'].rejected == {'bad_sensor_status': 1}
 
 
 def test_records_out_of_order_and_unknown_kinds_are_refused():

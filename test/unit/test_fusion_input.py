@@ -3,6 +3,7 @@ not waited for past the time it was due; a skeleton repeated joint for
 joint (a Kinect SDK repeats its last one) is no new measurement: left
 out, counted, and a view that only repeats is named frozen; a skeleton
 stamped ahead of the fusion's clock or long ago is left out and named;
+a view whose tracker says it tracks no one is not called stalled;
 joints at the sensor's origin (a Kinect SDK's "not tracked") are
 missing, on real Kinect recordings too."""
 import os
@@ -105,6 +106,40 @@ def test_a_view_that_only_repeats_is_frozen_and_left_out():
     error = [np.linalg.norm(f.people[0].body.positions - truth(f.stamp),
                             axis=1).mean() for f in late]
     assert max(error) < 0.03
+
+
+def test_a_view_whose_tracker_tracks_no_one_is_not_stalled():
+    # From 1 s the view on the right sends nothing: stalled (ERROR) while
+    # its tracker says nothing or says it tracks someone; `not_tracking`
+    # (WARN, its tracker's own words) while its tracker's status, at most
+    # 3 s old, says it tracks no one (the person out of its range).
+    fusion, frames, _ = feed(lambda view, k: k if view != 'right' or k < 30
+                             else None)
+    _, level, message, _ = view_status(fusion, 'right')
+    assert level == ERROR and message.startswith('stalled')
+    said = 'not tracking: too far / partial view: the body is cut by ' \
+        "the sensor's range (4.93 m) over 0.26 m"
+    assert fusion.sensor_said('right', 1, said) is None
+    _, level, message, values = view_status(fusion, 'right')
+    assert level == WARN and message == 'not_tracking: its sensor: ' + said
+    assert ('faults', 'not_tracking') in values
+    assert fusion.faults()['left'] == []    # a view that sends is fused
+    assert fusion.sensor_said('right', 0, 'tracking') is None
+    assert view_status(fusion, 'right')[1] == ERROR
+    fusion.sensor_said('right', 1, said)
+    fusion.clock = lambda: 6.1          # the status 3.1 s old
+    assert view_status(fusion, 'right')[2].startswith('stalled')
+
+
+@pytest.mark.parametrize('level, message', [(7, 'not tracking: x'),
+                                            (-1, 'x'), (1.0, 'x'),
+                                            (1, None), (1, b'x')])
+def test_a_malformed_sensor_status_is_left_out_and_counted(level, message):
+    fusion, _, _ = feed(lambda view, k: k, seconds=1.0)
+    assert fusion.sensor_said('right', level, message) == 'bad_sensor_status'
+    assert fusion.health['right'].rejected == {'bad_sensor_status': 1}
+    assert fusion.health['right'].sensor[2] == ''
+    assert fusion.sensor_said('nobody', 1, 'x') == 'unknown_view'
 
 
 def test_a_skeleton_stamped_ahead_or_long_ago_is_left_out_and_named():

@@ -22,6 +22,7 @@ from hri_sync.fusion.pipeline import Frame, Fusion
 from hri_sync.wire.times import GlobalTime, LocalTime
 
 SKELETON, VIEW_CLOCK, HOST_CLOCK = 'skeleton', 'view_clock', 'host_clock'
+VIEW_STATUS = 'view_status'
 
 
 def clock_model(state: Any) -> Optional[ClockModel]:
@@ -74,8 +75,9 @@ def add_skeleton(fusion: Fusion, view: str, msg: Any,
 class Recorded:
     """One recorded message.  ``t``: when the recorder got it (its host's
     clock, s); ``kind``: SKELETON (``data`` a hri_sync/Skeleton),
-    VIEW_CLOCK (a view's ClockState) or HOST_CLOCK (the recorder host's
-    ClockState); ``view``: the view it belongs to."""
+    VIEW_CLOCK (a view's ClockState), VIEW_STATUS (its sensor's
+    DiagnosticStatus) or HOST_CLOCK (the recorder host's ClockState);
+    ``view``: the view it belongs to."""
 
     t: float
     kind: str
@@ -160,6 +162,9 @@ class Replay:
                 self.bad_host_states += 1
         elif r.kind == VIEW_CLOCK:
             self.uncertainty[r.view] = stamp_uncertainty(r.data, self.extra)
+        elif r.kind == VIEW_STATUS:
+            self.fusion.sensor_said(r.view, getattr(r.data, 'level', None),
+                                    getattr(r.data, 'message', None))
         elif r.kind == SKELETON:
             add_skeleton(self.fusion, r.view, r.data,
                          self.uncertainty.get(r.view, self.extra))

@@ -171,6 +171,19 @@ class Fusion:
         # every view's newest: the fusion (or its host's clock) is behind.
         self.behind: Deque[float] = deque(maxlen=1000)
 
+    def sensor_said(self, view: str, level, message) -> Optional[str]:
+        """A view's sensor status (diagnostic level 0-3 and message, as
+        its tracker's ``sensor_status``); the reason when it is left out
+        (counted)."""
+        if view not in self.poses:
+            return 'unknown_view'
+        if not isinstance(level, int) or not 0 <= level <= 3 \
+                or not isinstance(message, str):
+            self.health[view].reject('bad_sensor_status')
+            return 'bad_sensor_status'
+        self.health[view].sensor = (self.clock(), level, message)
+        return None
+
     def add(self, view: str, user: Hashable, stamp: float,
             positions: np.ndarray, confidence: np.ndarray,
             uncertainty: float) -> Optional[str]:

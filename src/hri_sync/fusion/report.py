@@ -1,7 +1,8 @@
 """What the fusion says on /diagnostics, as plain statuses.
 
 ``view <id>``: the view's faults (ERROR when it is left out: stalled,
-frozen, clock lost; WARN: no data yet, repeated skeletons, bad stamps,
+frozen, clock lost; WARN: no data yet, its sensor tracking no one,
+repeated skeletons, bad stamps,
 NaN joints, joints at the sensor's origin or beyond its depth, wrong
 pose), its pipeline
 latency and stamp uncertainty; ``calibration``: the residual (mm) of each

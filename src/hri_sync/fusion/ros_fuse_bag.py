@@ -1,8 +1,9 @@
 """``fuse_bag BAG... --out OUT.bag --poses YAML``: a recording's views
 fused afterwards (the executable is ``nodes/fuse_bag``; docs/fusion.md).
 
-Reads each view's hri_sync/Skeleton (/<view>/skeleton) and ClockState
-(/<view>/clock_state) from a recording (several bags, as the parts of a
+Reads each view's hri_sync/Skeleton (/<view>/skeleton), ClockState
+(/<view>/clock_state) and, if recorded, its tracker's status
+(/<view>/tracker/sensor_status) from a recording (several bags, as the parts of a
 ``rosbag record --split``, are read as one, in time order), runs the
 fusion node's core on them in the order the recorder got them, its
 clock the recorder's (through the recorder host's ClockState,
@@ -35,7 +36,8 @@ from tf2_msgs.msg import TFMessage
 
 from hri_sync.dance_off.frames import SENSOR, pose
 from hri_sync.fusion.feed import (
-    HOST_CLOCK, SKELETON, VIEW_CLOCK, Recorded, Replay, to_global)
+    HOST_CLOCK, SKELETON, VIEW_CLOCK, VIEW_STATUS, Recorded, Replay,
+    to_global)
 from hri_sync.fusion.frames import parse_pose
 from hri_sync.fusion.pipeline import Fusion
 from hri_sync.fusion.profile import profiles
@@ -72,6 +74,8 @@ def arguments(argv):
     parser.add_argument('--world-frame', default='world')
     parser.add_argument('--skeleton-topic', default='/%s/skeleton')
     parser.add_argument('--clock-topic', default='/%s/clock_state')
+    parser.add_argument('--status-topic',
+                        default='/%s/tracker/sensor_status')
     parser.add_argument('--clock-state', default='', help="the recorder "
                         "host's ClockState topic ('': its clock is the "
                         'global clock)')
@@ -242,7 +246,7 @@ def setup(parser, args):
         parser.error('--out %s is one of the recording\'s bags' % args.out)
     if not args.stamp_uncertainty >= 0:
         parser.error('--stamp-uncertainty must be >= 0 s')
-    for name in ('skeleton_topic', 'clock_topic'):
+    for name in ('skeleton_topic', 'clock_topic', 'status_topic'):
         pattern = getattr(args, name)
         if pattern.count('%s') != 1 or pattern.count('%') != 1:
             parser.error('--%s %s: a topic with one %%s, the view id (as '
@@ -251,6 +255,7 @@ def setup(parser, args):
     for v in poses:
         topics[args.skeleton_topic % v] = (SKELETON, v)
         topics[args.clock_topic % v] = (VIEW_CLOCK, v)
+        topics[args.status_topic % v] = (VIEW_STATUS, v)
     if args.clock_state:
         topics[args.clock_state] = (HOST_CLOCK, '')
     return poses, output_pose, profile, settings(parser, args.set), topics

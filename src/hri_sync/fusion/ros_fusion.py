@@ -11,6 +11,7 @@ import time
 import diagnostic_updater
 import numpy as np
 import rospy
+from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import Point, Point32, Quaternion
 from sensor_msgs.msg import ChannelFloat32, PointCloud
 
@@ -64,6 +65,9 @@ class FusionNode:
                              Skeleton, self.on_skeleton, v, queue_size=100)
             rospy.Subscriber(param('clock_topic', '/%s/clock_state') % v,
                              ClockState, self.on_clock, v)
+            rospy.Subscriber(param('status_topic',
+                                   '/%s/tracker/sensor_status') % v,
+                             DiagnosticStatus, self.on_status, v)
         self.updater = diagnostic_updater.Updater()
         self.updater.setHardwareID(self.client_id)
         for name in ['view %s' % v for v in sorted(self.views)] + [
@@ -87,6 +91,10 @@ class FusionNode:
 
     def on_clock(self, msg, view):  # its uncertainty: the next skeletons'
         self.uncertainty_of[view] = stamp_uncertainty(msg, self.extra)
+
+    def on_status(self, msg, view):  # its tracker tracking no one
+        with self.lock:
+            self.fusion.sensor_said(view, msg.level, msg.message)
 
     def on_skeleton(self, msg, view):
         if self.sim and rospy.get_rostime().is_zero():

@@ -1,7 +1,10 @@
 """Each view's health as the fusion sees it.
 
 A view is ``stalled`` when no skeleton came for ``stall_after`` s (the
-fusion stops waiting for it), ``frozen`` when its skeletons keep coming
+fusion stops waiting for it), ``not_tracking`` instead when its sensor's
+own status (a tracker's ``sensor_status``, at most ``sensor_fresh`` s
+old) says it tracks no one (a person out of its view or range: nothing
+to send, not a fault of the view), ``frozen`` when its skeletons keep coming
 but only repeat the one before (joint for joint the same: no new
 measurement: a driver re-sending its last skeleton) for as long;
 ``repeated`` counts such skeletons in the last ``window`` s. Its clock is
@@ -50,6 +53,7 @@ class HealthParams:
     """Fault thresholds."""
 
     stall_after: float = 0.5        # s without a skeleton
+    sensor_fresh: float = 3.0       # s its sensor's status is believed
     max_uncertainty: float = 0.02   # s
     window: float = 5.0             # s
 
@@ -74,6 +78,8 @@ class ViewHealth:
     beyond_range: int = 0           # its skeletons of someone too far
     out_of_image: int = 0           # its joints outside its image
     rejected: Dict[str, int] = field(default_factory=dict)
+    # its sensor's last status: (received at, level, message)
+    sensor: Tuple[float, int, str] = (-math.inf, 0, '')
     _latency: float = 0.0
     _late: float = 0.0
     _period: float = 0.0
@@ -121,6 +127,12 @@ class ViewHealth:
         """Median interval between its stamps (s), 0 before two."""
         return self._period
 
+    def tracks_no_one(self, now: float) -> bool:
+        """Its sensor said lately that it tracks no one."""
+        at, _, message = self.sensor
+        return now - at <= self.params.sensor_fresh \
+            and message.startswith('not tracking')
+
     def stalled(self, now: float) -> bool:
         """No new skeleton for stall_after s (or none yet)."""
         return now - self.last_new > self.params.stall_after
@@ -135,7 +147,9 @@ class ViewHealth:
             while times and now - times[0] > self.params.window:
                 times.popleft()
         out = []
-        if self.arrivals == 0:
+        if self.stalled(now) and self.tracks_no_one(now):
+            out.append(('not_tracking', 'its sensor: %s' % self.sensor[2]))
+        elif self.arrivals == 0:
             out.append(('no_data', 'no skeleton yet'))
         elif not self.stalled(now):
             pass
