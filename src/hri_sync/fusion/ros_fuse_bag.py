@@ -3,10 +3,10 @@ fused afterwards (the executable is ``nodes/fuse_bag``; docs/fusion.md).
 
 Reads each view's hri_sync/Skeleton (/<view>/skeleton), ClockState
 (/<view>/clock_state) and, if recorded, its tracker's status
-(/<view>/tracker/sensor_status) from a recording (several bags, as the parts of a
-``rosbag record --split``, are read as one, in time order), runs the
-fusion node's core on them in the order the recorder got them, its
-clock the recorder's (through the recorder host's ClockState,
+(/<view>/tracker/sensor_status) from a recording (several bags, as the
+parts of a ``rosbag record --split``, are read as one, in time order),
+runs the fusion node's core on them in the order the recorder got them,
+its clock the recorder's (through the recorder host's ClockState,
 --clock-state, when recorded), and writes what the node would have
 published to OUT.bag at the time it would have: /<client-id>/skeleton
 (a hri_sync/Skeleton per person, a DPM input like the live one),

@@ -4,8 +4,8 @@ A view is ``stalled`` when no skeleton came for ``stall_after`` s (the
 fusion stops waiting for it), ``not_tracking`` instead when its sensor's
 own status (a tracker's ``sensor_status``, at most ``sensor_fresh`` s
 old) says it tracks no one (a person out of its view or range: nothing
-to send, not a fault of the view), ``frozen`` when its skeletons keep coming
-but only repeat the one before (joint for joint the same: no new
+to send, not a fault of the view), ``frozen`` when its skeletons keep
+coming but only repeat the one before (joint for joint the same: no new
 measurement: a driver re-sending its last skeleton) for as long;
 ``repeated`` counts such skeletons in the last ``window`` s. Its clock is
 ``lost`` when its samples' stamp uncertainty is over ``max_uncertainty``
