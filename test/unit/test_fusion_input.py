@@ -138,7 +138,7 @@ def test_a_malformed_sensor_status_is_left_out_and_counted(level, message):
     fusion, _, _ = feed(lambda view, k: k, seconds=1.0)
     assert fusion.sensor_said('right', level, message) == 'bad_sensor_status'
     assert fusion.health['right'].rejected == {'bad_sensor_status': 1}
-    assert fusion.health['right'].sensor[2] == ''
+    assert fusion.health['right'].sensor[1] == ''
     assert fusion.sensor_said('nobody', 1, 'x') == 'unknown_view'
 
 

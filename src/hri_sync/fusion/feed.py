@@ -23,6 +23,11 @@ from hri_sync.wire.times import GlobalTime, LocalTime
 
 SKELETON, VIEW_CLOCK, HOST_CLOCK = 'skeleton', 'view_clock', 'host_clock'
 VIEW_STATUS = 'view_status'
+# Each view's topics (%s: the view id), as client.launch names them: the
+# fusion node's ~skeleton_topic, ~clock_topic, ~status_topic and fuse_bag's
+# --skeleton-topic, --clock-topic, --status-topic default to them.
+VIEW_TOPICS = {SKELETON: '/%s/skeleton', VIEW_CLOCK: '/%s/clock_state',
+               VIEW_STATUS: '/%s/tracker/sensor_status'}
 
 
 def clock_model(state: Any) -> Optional[ClockModel]:

@@ -181,7 +181,7 @@ class Fusion:
                 or not isinstance(message, str):
             self.health[view].reject('bad_sensor_status')
             return 'bad_sensor_status'
-        self.health[view].sensor = (self.clock(), level, message)
+        self.health[view].sensor = (self.clock(), message)
         return None
 
     def add(self, view: str, user: Hashable, stamp: float,

@@ -36,8 +36,8 @@ from tf2_msgs.msg import TFMessage
 
 from hri_sync.dance_off.frames import SENSOR, pose
 from hri_sync.fusion.feed import (
-    HOST_CLOCK, SKELETON, VIEW_CLOCK, VIEW_STATUS, Recorded, Replay,
-    to_global)
+    HOST_CLOCK, SKELETON, VIEW_CLOCK, VIEW_STATUS, VIEW_TOPICS, Recorded,
+    Replay, to_global)
 from hri_sync.fusion.frames import parse_pose
 from hri_sync.fusion.pipeline import Fusion
 from hri_sync.fusion.profile import profiles
@@ -72,10 +72,9 @@ def arguments(argv):
                         "fusion_depth_tracker.yaml, as fusion.launch)")
     parser.add_argument('--client-id', default='fused')
     parser.add_argument('--world-frame', default='world')
-    parser.add_argument('--skeleton-topic', default='/%s/skeleton')
-    parser.add_argument('--clock-topic', default='/%s/clock_state')
-    parser.add_argument('--status-topic',
-                        default='/%s/tracker/sensor_status')
+    parser.add_argument('--skeleton-topic', default=VIEW_TOPICS[SKELETON])
+    parser.add_argument('--clock-topic', default=VIEW_TOPICS[VIEW_CLOCK])
+    parser.add_argument('--status-topic', default=VIEW_TOPICS[VIEW_STATUS])
     parser.add_argument('--clock-state', default='', help="the recorder "
                         "host's ClockState topic ('': its clock is the "
                         'global clock)')

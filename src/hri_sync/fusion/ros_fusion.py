@@ -16,7 +16,8 @@ from geometry_msgs.msg import Point, Point32, Quaternion
 from sensor_msgs.msg import ChannelFloat32, PointCloud
 
 from hri_sync.fusion.feed import (
-    add_skeleton, clock_model, stamp_uncertainty, to_global)
+    SKELETON, VIEW_CLOCK, VIEW_STATUS, VIEW_TOPICS, add_skeleton,
+    clock_model, stamp_uncertainty, to_global)
 from hri_sync.fusion.frames import parse_pose
 from hri_sync.fusion.pipeline import Fusion
 from hri_sync.fusion.profile import profiles
@@ -61,13 +62,13 @@ class FusionNode:
         if host:
             rospy.Subscriber(host, ClockState, self.on_host_clock)
         for v in self.views:
-            rospy.Subscriber(param('skeleton_topic', '/%s/skeleton') % v,
-                             Skeleton, self.on_skeleton, v, queue_size=100)
-            rospy.Subscriber(param('clock_topic', '/%s/clock_state') % v,
-                             ClockState, self.on_clock, v)
-            rospy.Subscriber(param('status_topic',
-                                   '/%s/tracker/sensor_status') % v,
-                             DiagnosticStatus, self.on_status, v)
+            rospy.Subscriber(param('skeleton_topic', VIEW_TOPICS[SKELETON])
+                             % v, Skeleton, self.on_skeleton, v,
+                             queue_size=100)
+            rospy.Subscriber(param('clock_topic', VIEW_TOPICS[VIEW_CLOCK])
+                             % v, ClockState, self.on_clock, v)
+            rospy.Subscriber(param('status_topic', VIEW_TOPICS[VIEW_STATUS])
+                             % v, DiagnosticStatus, self.on_status, v)
         self.updater = diagnostic_updater.Updater()
         self.updater.setHardwareID(self.client_id)
         for name in ['view %s' % v for v in sorted(self.views)] + [

@@ -78,8 +78,8 @@ class ViewHealth:
     beyond_range: int = 0           # its skeletons of someone too far
     out_of_image: int = 0           # its joints outside its image
     rejected: Dict[str, int] = field(default_factory=dict)
-    # its sensor's last status: (received at, level, message)
-    sensor: Tuple[float, int, str] = (-math.inf, 0, '')
+    # its sensor's last status: (received at, message)
+    sensor: Tuple[float, str] = (-math.inf, '')
     _latency: float = 0.0
     _late: float = 0.0
     _period: float = 0.0
@@ -129,7 +129,7 @@ class ViewHealth:
 
     def tracks_no_one(self, now: float) -> bool:
         """Its sensor said lately that it tracks no one."""
-        at, _, message = self.sensor
+        at, message = self.sensor
         return now - at <= self.params.sensor_fresh \
             and message.startswith('not tracking')
 
@@ -148,7 +148,7 @@ class ViewHealth:
                 times.popleft()
         out = []
         if self.stalled(now) and self.tracks_no_one(now):
-            out.append(('not_tracking', 'its sensor: %s' % self.sensor[2]))
+            out.append(('not_tracking', 'its sensor: %s' % self.sensor[1]))
         elif self.arrivals == 0:
             out.append(('no_data', 'no skeleton yet'))
         elif not self.stalled(now):
