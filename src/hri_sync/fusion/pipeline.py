@@ -26,8 +26,9 @@ has them put back (hri_sync.fusion.arms), against the person's body
 predicted from its last two fused instants, and each view's joints that
 body has outside the view's image are left out (its tracker did not see
 them). A view's skeleton of someone
-farther than its sensor tracks (``sight.far``) is taken to err
-``far_sigma`` times its profile's sigma. Each person's fused joints then
+farther than its sensor tracks (``sight.far``) is taken to err more than
+its profile says: its sigma grows linearly to ``far_sigma`` times at the
+sensor's depth range (``sight.range``), and stays there beyond. Each person's fused joints then
 go through a constant-velocity Kalman filter (hri_sync.fusion.smooth),
 each joint's bound the fused one plus the distance the filter moved it.
 
@@ -84,8 +85,8 @@ class FusionParams:
     suspect_weight: float = 0.1         # a wrong-pose view's weight
     scatter_hold: float = 0.5           # s a joint's bound keeps the
                                         # views' largest scatter
-    far_sigma: float = 3.0              # a view's error beyond its range,
-                                        # times its profile's
+    far_sigma: float = 3.0              # a view's error at its sensor's
+                                        # depth range, times its profile's
     skip_after: float = 1.0             # s behind the newest: skip ahead
     fuse: FuseParams = field(default_factory=FuseParams)
     smooth: SmoothParams = field(default_factory=SmoothParams)
@@ -341,9 +342,7 @@ class Fusion:
             weight = self.params.suspect_weight \
                 if self.health[view].wrong_pose else 1.0
             profile = self.profiles[view]
-            sigma = profile.sigma * (self.params.far_sigma if
-                                     self._beyond_range(view, a.positions)
-                                     else 1.0)
+            sigma = profile.sigma * self._range_scale(view, a.positions)
             out[key] = (Observation(view, a.positions, a.confidence,
                                     a.speed, a.uncertainty, weight, sigma,
                                     profile.sigma_common,
@@ -403,19 +402,24 @@ class Fusion:
             health.wrong_pose = view in blamed or view in self.fitted
         return Frame(t, people, self.clock())
 
-    def _beyond_range(self, view: str, positions: np.ndarray) -> bool:
-        """Whether the body at ``positions`` (world) stands farther from
-        ``view``'s sensor along the floor than the sensors track
-        (``sight.far``): the view's joints are then far worse than its
-        profile says (``far_sigma`` times), its confidence unchanged;
-        counted."""
+    def _range_scale(self, view: str, positions: np.ndarray) -> float:
+        """How many times its profile's sigma ``view`` errs on the body at
+        ``positions`` (world): 1 up to ``sight.far`` from its sensor along
+        the floor, then growing linearly to ``far_sigma`` at the sensor's
+        depth range (``sight.range``: the body at its edge is cut), and
+        ``far_sigma`` beyond; its confidence unchanged. A body beyond
+        ``sight.far`` is counted."""
         xy = place(positions)
         pose = self.poses[view]
-        if xy is None or math.hypot(xy[0] - pose.x, xy[1] - pose.y) \
-                <= self.params.sight.far:
-            return False
+        if xy is None:
+            return 1.0
+        far, edge = self.params.sight.far, self.params.sight.range
+        d = math.hypot(xy[0] - pose.x, xy[1] - pose.y)
+        if d <= far:
+            return 1.0
         self.health[view].beyond_range += 1
-        return True
+        share = min(1.0, (d - far) / (edge - far)) if edge > far else 1.0
+        return 1.0 + (self.params.far_sigma - 1.0) * share
 
     def _just_before(self, past: List[Tuple[float, np.ndarray]],
                      t: float) -> List[np.ndarray]:

@@ -35,6 +35,7 @@ SETTINGS: Tuple[Setting, ...] = (
     ('vertical_fov_deg', 'sight.vertical_fov_deg', lambda x: 0 < x < 180,
      '0-180 degrees'),
     ('max_range', 'sight.far', _positive, '> 0 m'),
+    ('depth_range', 'sight.range', _positive, '> 0 m, >= max_range'),
 )
 NAMES = tuple(s[0] for s in SETTINGS)
 
@@ -58,4 +59,7 @@ def fusion_params(get: Callable[[str, float], Any]) -> FusionParams:
             raise ValueError('%s=%r is out of range: %s'
                              % (name, value, values))
         setattr(owner, last, value)
+    if params.sight.range < params.sight.far:
+        raise ValueError('depth_range=%r is out of range: below max_range=%r'
+                         % (params.sight.range, params.sight.far))
     return params

@@ -40,6 +40,7 @@ class SightParams:
     margin_deg: float = 4.0     # kept inside each edge
     near: float = 0.8           # m
     far: float = 4.5            # m
+    range: float = 5.0          # m the sensor reads depth to
     shadow: float = 0.35        # m each side of a line of sight
     after: float = 3.0          # s the disagreement lasts before a report
     vertical_fov_deg: float = 43.0  # the image's height
