@@ -22,6 +22,10 @@ errors, before the outlier cut and the agreement: the Birge ratio, the
 chi-square over its degrees of freedom) more than those errors allow,
 the two error terms are scaled by that ratio: the tracker errs more than
 its profile says, alike in what the views share.
+A joint no view gives at ``min_confidence`` or more is fused from the
+views' guesses below it (a tracker's estimate of a joint it does not
+see), each at the error the profile gives its least confidence, and
+published at confidence 0; NaN only where no view has it at all.
 """
 
 from __future__ import annotations
@@ -95,8 +99,10 @@ def _stack(obs: List[Observation], p: FuseParams) -> Dict[str, np.ndarray]:
          'conf': np.array([o.confidence for o in obs], float),
          'timing': np.array([o.uncertainty * o.speed for o in obs], float)}
     weight = np.array([o.weight for o in obs], float)[:, None]
-    usable = np.isfinite(a['pts']).all(axis=2) \
-        & (a['conf'] >= p.min_confidence) & (weight > 0)
+    finite = np.isfinite(a['pts']).all(axis=2) & (weight > 0)
+    usable = finite & (a['conf'] >= p.min_confidence)
+    a['guessed'] = ~usable.any(axis=0)
+    usable |= finite & a['guessed']
     a['own'] = own_sigma(np.array([o.sigma for o in obs])[:, None],
                          a['conf'], np.array([o.power for o in obs])[:, None],
                          p.min_confidence) \
@@ -182,7 +188,7 @@ def fuse(obs: List[Observation], p: FuseParams,
     bound = p.k * sigma * np.sqrt(np.maximum(np.maximum(a['scatter'], held),
                                              1.0)) \
         + (w * a['timing']).sum(axis=0) / safe
-    confidence = np.where(w > 0, a['conf'], 0.0).max(axis=0)
+    confidence = np.where((w > 0) & ~a['guessed'], a['conf'], 0.0).max(axis=0)
     positions[~has] = np.nan
     bound[~has] = np.nan
     sigma[~has] = np.nan

@@ -25,10 +25,12 @@ body. Before that, a view whose tracker exchanged the left and right arms
 has them put back (hri_sync.fusion.arms), against the person's body
 predicted from its last two fused instants, and each view's joints that
 body has outside the view's image are left out (its tracker did not see
-them). A view's skeleton of someone
-farther than its sensor tracks (``sight.far``) is taken to err more than
-its profile says: its sigma grows linearly to ``far_sigma`` times at the
-sensor's depth range (``sight.range``), and stays there beyond. Each person's fused joints then
+them); after the first fusion, so is each view's hand farther from the
+fused elbow than an arm reaches (hri_sync.fusion.reach). A view's
+skeleton of someone farther than its sensor tracks (``sight.far``) is
+taken to err more than its profile says: its sigma grows linearly to
+``far_sigma`` times at the sensor's depth range (``sight.range``), and
+stays there beyond. Each person's fused joints then
 go through a constant-velocity Kalman filter (hri_sync.fusion.smooth),
 each joint's bound the fused one plus the distance the filter moved it.
 
@@ -64,6 +66,7 @@ from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import FuseParams, Fused, Observation, fuse
 from hri_sync.fusion.lag import FilterLag
 from hri_sync.fusion.profile import Profile
+from hri_sync.fusion.reach import ReachParams, out_of_reach
 from hri_sync.fusion.smooth import SmoothParams, Smoother
 from hri_sync.fusion.sightlines import (SightParams, Sightlines, outside_image,
                                         place)
@@ -91,6 +94,7 @@ class FusionParams:
     fuse: FuseParams = field(default_factory=FuseParams)
     smooth: SmoothParams = field(default_factory=SmoothParams)
     arms: ArmParams = field(default_factory=ArmParams)
+    reach: ReachParams = field(default_factory=ReachParams)
     health: HealthParams = field(default_factory=HealthParams)
     gate: float = 0.5                   # m, association (associate.py)
     residual_threshold: float = 0.2     # m, wrong pose (calibration.py)
@@ -372,7 +376,9 @@ class Fusion:
             inflate = np.max([x for _, x in state.scatter], axis=0) \
                 if state.scatter else None
             body = fuse(views, self.params.fuse, inflate)
-            if len(views) > 1 and self._by_vantage(body.positions, views):
+            if len(views) > 1 and (
+                    self._by_vantage(body.positions, views)
+                    | self._leave_out_of_reach(body.positions, views)):
                 body = fuse(views, self.params.fuse, inflate)
             state.scatter.append((t, body.scatter))
             state.past = (state.past + [(t, body.positions)])[-2:]
@@ -469,6 +475,21 @@ class Fusion:
             if out.any():
                 o.confidence = np.where(out, 0.0, o.confidence)
                 self.health[o.view].out_of_image += int(out.sum())
+
+    def _leave_out_of_reach(self, positions: np.ndarray,
+                            views: List[Observation]) -> bool:
+        """Leave out (NaN) each view's hands farther from the elbows of
+        the body fused at ``positions`` than an arm reaches
+        (hri_sync.fusion.reach); counted per view; whether any was."""
+        left = False
+        for o, mask in zip(views, out_of_reach(views, positions,
+                                               self.params.reach)):
+            if mask.any():
+                o.positions = np.where(mask[:, None], np.nan, o.positions)
+                o.confidence = np.where(mask, 0.0, o.confidence)
+                self.health[o.view].out_of_reach += int(mask.sum())
+                left = True
+        return left
 
     def _by_vantage(self, positions: np.ndarray,
                     views: List[Observation]) -> bool:

@@ -42,7 +42,8 @@ def view_status(fusion: Fusion, view: str) -> Status:
                '%.3f' % (health.last_uncertainty * 1e3)),
               ('arms exchanged back', str(health.arms_exchanged)),
               ('beyond range', str(health.beyond_range)),
-              ('joints out of image', str(health.out_of_image))]
+              ('joints out of image', str(health.out_of_image)),
+              ('hands out of reach', str(health.out_of_reach))]
     values += [('rejected ' + r, str(n))
                for r, n in sorted(health.rejected.items())]
     return 'view %s' % view, level, message, values

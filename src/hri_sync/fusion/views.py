@@ -19,7 +19,9 @@ calibration check (the view is down-weighted), and ``arms_exchanged``
 counts the instants its tracker's left and right arms were exchanged
 back (hri_sync.fusion.arms), ``beyond_range`` its skeletons of someone
 farther than the sensor tracks (down-weighted), ``out_of_image`` its
-joints left out where the fused body stands outside its image. The view's
+joints left out where the fused body stands outside its image,
+``out_of_reach`` its hands left out that no fused arm reaches
+(hri_sync.fusion.reach). The view's
 pipeline latency (arrival minus capture) is kept to know how long to wait
 for it.
 """
@@ -77,6 +79,7 @@ class ViewHealth:
     arms_exchanged: int = 0         # instants its arms were put right
     beyond_range: int = 0           # its skeletons of someone too far
     out_of_image: int = 0           # its joints outside its image
+    out_of_reach: int = 0           # its hands no fused arm reaches
     rejected: Dict[str, int] = field(default_factory=dict)
     # its sensor's last status: (received at, message)
     sensor: Tuple[float, str] = (-math.inf, '')
