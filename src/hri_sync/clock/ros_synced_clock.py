@@ -8,6 +8,7 @@ import rospy
 from hri_sync.msg import ClockState
 from hri_sync.clock.ros_clock_state import msg_from_model
 from hri_sync.ros.names import client_topic
+from hri_sync.ros.outbox import closed_at_shutdown
 from hri_sync.ros.params import param, positive
 from hri_sync.ros.timers import wait_for
 from hri_sync.clock import ntp
@@ -83,13 +84,10 @@ class SyncedClock:
         with self._publish_lock:
             status = self.sync.status()
             local = time.time()
-            try:
+            with closed_at_shutdown():
                 self._state_pub.publish(msg_from_model(
                     self.name, status.model.snapshot(local),
                     status.reason(local), status.samples, status.round_trip))
-            except rospy.ROSException:
-                if not rospy.is_shutdown():
-                    raise       # closed at shutdown: nothing to tell
 
     def _report(self, status):
         self._publish()

@@ -24,6 +24,7 @@ from hri_sync.fusion.profile import profiles
 from hri_sync.fusion.report import statuses
 from hri_sync.fusion.settings import fusion_params
 from hri_sync.msg import ClockState, Skeleton
+from hri_sync.ros.outbox import closed_at_shutdown
 from hri_sync.ros.params import ParamError, csv_list, param, positive
 
 
@@ -112,14 +113,10 @@ class FusionNode:
             return
         with self.lock:
             frames = self.fusion.poll()
-        for frame in frames:
-            try:
+        with closed_at_shutdown():
+            for frame in frames:
                 self.publish(frame)
-            except rospy.ROSException:  # publishers closed: shutting down
-                if not rospy.is_shutdown():
-                    raise
-                return
-            self.last = frame
+                self.last = frame
 
     def publish(self, frame):
         skeletons, cloud = fused_messages(
