@@ -1,16 +1,19 @@
 """hri_sync.fusion.arms: a view whose tracker exchanged the left and right
-arms is put right when both the person's predicted body and the person's
-other views say so, never on one of them alone, and counted."""
+arms, or took the body's back for its front, is put right when both the
+person's predicted body and the person's other views say so, never on
+one of them alone, and counted."""
 import math
 
 import numpy as np
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
-from hri_sync.fusion.arms import (ARMS, ArmParams, arms_to_exchange,
-                                  exchanged)
+from hri_sync.fusion.arms import (BODY_LEFT, BODY_RIGHT, ArmParams,
+                                  arms_to_exchange, bodies_to_turn,
+                                  exchanged, turned)
 from hri_sync.fusion.frames import SensorPose, parse_pose
 from hri_sync.fusion.fuse import FuseParams, Observation
 from hri_sync.fusion.pipeline import FusionParams
+from hri_sync.fusion.profile import ARMS
 from hri_sync.fusion.report import view_status
 from test_fusion_core import body
 from test_fusion_wrong_pose import ORIGINAL, dancer, run as feed
@@ -18,12 +21,12 @@ from test_fusion_wrong_pose import ORIGINAL, dancer, run as feed
 RNG = np.random.default_rng(38)
 
 
-def views(names, swapped=()):
+def views(names, swapped=(), swap=exchanged):
     truth = body()
     out = []
     for v in names:
         p = truth + RNG.normal(0, 0.01, truth.shape)
-        out.append(Observation(v, exchanged(p) if v in swapped else p,
+        out.append(Observation(v, swap(p) if v in swapped else p,
                                np.full(NUM_JOINTS, 0.8), np.zeros(NUM_JOINTS),
                                0.001))
     return out
@@ -96,10 +99,11 @@ POSES = {'front': SensorPose(3.3, 0.0, 1.0, math.pi),
          'right': parse_pose('0.0 -3.3 1.0 1.571')}
 
 
-def run(arms, swap_from=2.0, swap_to=4.0, seconds=6.0):
+def run(arms, swap_from=2.0, swap_to=4.0, seconds=6.0, swap=exchanged):
     """A Fusion of four views of the salsa dancer (1 cm noise, 50 ms
-    late); the back view's tracker exchanges the arms from ``swap_from``
-    to ``swap_to`` s. Returns the fusion, its frames and the truth."""
+    late); the back view's tracker exchanges the arms (``swap``) from
+    ``swap_from`` to ``swap_to`` s. Returns the fusion, its frames and the
+    truth."""
     motion = dancer()
 
     def truth(t):
@@ -107,15 +111,15 @@ def run(arms, swap_from=2.0, swap_to=4.0, seconds=6.0):
 
     def seen(view, t):
         swapped = view == 'back' and swap_from <= t < swap_to
-        return exchanged(truth(t)) if swapped else truth(t)
+        return swap(truth(t)) if swapped else truth(t)
     fusion, frames = feed(seconds, {}, [seen], poses=POSES,
                           params=FusionParams(arms=arms))
     return fusion, frames, truth
 
 
-def hand_error(frames, truth, t0, t1):
+def hand_error(frames, truth, t0, t1, joints=ARMS):
     return np.mean([np.linalg.norm(
-        f.people[0].body.positions[ARMS] - truth(f.stamp)[ARMS], axis=1)
+        f.people[0].body.positions[joints] - truth(f.stamp)[joints], axis=1)
         for f in frames if f.people and t0 <= f.stamp < t1])
 
 
@@ -132,3 +136,44 @@ def test_a_view_that_exchanges_the_arms_is_put_right_and_counted():
         < hand_error(kept_frames, truth, 2.0, 4.0)
     _, _, _, values = view_status(fusion, 'back')
     assert ('arms exchanged back', str(counted)) in values
+
+
+def test_turned_exchanges_every_left_and_right_joint():
+    p = body()
+    q = turned(p)
+    assert np.array_equal(q[BODY_LEFT], p[BODY_RIGHT])
+    assert np.array_equal(q[BODY_RIGHT], p[BODY_LEFT])
+    for j in ('head', 'neck', 'torso'):
+        assert np.array_equal(q[INDEX[j]], p[INDEX[j]])
+
+
+def test_a_view_that_took_the_back_for_the_front_is_turned_with_three():
+    obs = views('abc', swapped='c', swap=turned)
+    assert bodies_to_turn(obs, body(), ArmParams(), FuseParams()) \
+        == [False, False, True]
+    # Its arms alone are not judged with three views.
+    assert not any(decide(obs, body()).values())
+    # Two of three turned: no majority; nor without a prediction.
+    obs = views('abc', swapped='bc', swap=turned)
+    assert not any(bodies_to_turn(obs, body(), ArmParams(), FuseParams()))
+    assert not any(bodies_to_turn(views('abc', swapped='c', swap=turned),
+                                  None, ArmParams(), FuseParams()))
+    # A view whose arms alone are exchanged is not turned.
+    obs = views('abcd', swapped='c')
+    assert not any(bodies_to_turn(obs, body(), ArmParams(), FuseParams()))
+
+
+def test_a_view_that_took_the_back_for_the_front_is_turned_back_and_counted():
+    fusion, frames, truth = run(ArmParams(), swap=turned)
+    kept, kept_frames, _ = run(ArmParams(turn_margin=math.inf), swap=turned)
+    sides = BODY_LEFT + BODY_RIGHT
+    during = sum(1 for f in frames if 2.0 <= f.stamp < 4.0)
+    counted = fusion.health['back'].turned_back
+    assert 0.8 * during <= counted <= during
+    assert all(fusion.health[v].turned_back == 0
+               for v in ('front', 'left', 'right'))
+    assert kept.health['back'].turned_back == 0
+    assert hand_error(frames, truth, 2.0, 4.0, sides) \
+        < hand_error(kept_frames, truth, 2.0, 4.0, sides)
+    _, _, _, values = view_status(fusion, 'back')
+    assert ('turned back', str(counted)) in values

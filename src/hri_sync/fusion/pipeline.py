@@ -21,8 +21,9 @@ filter's lag at its speed, hri_sync.fusion.lag) and corrects its joints
 first; where a profile says a view errs more on the arms as it sees more
 of the body's back, each person is fused twice: once to find where the
 body faces, then with each view's arms weighted by its vantage on that
-body. Before that, a view whose tracker exchanged the left and right arms
-has them put back (hri_sync.fusion.arms), against the person's body
+body. Before that, a view whose tracker took the body's back for its
+front is turned back, and one whose tracker exchanged the left and right
+arms has them put back (hri_sync.fusion.arms), against the person's body
 predicted from its last two fused instants, and each view's joints that
 body has outside the view's image are left out (its tracker did not see
 them); after the first fusion, so is each view's hand farther from the
@@ -59,7 +60,8 @@ from typing import Callable, Deque, Dict, Hashable, List, Optional, Tuple
 import numpy as np
 
 from hri_sync.fusion.align import Sample, Track
-from hri_sync.fusion.arms import ArmParams, arms_to_exchange, exchanged
+from hri_sync.fusion.arms import (ArmParams, arms_to_exchange,
+                                  bodies_to_turn, exchanged, turned)
 from hri_sync.fusion.associate import Associator, Key, body_distance, views_of
 from hri_sync.fusion.calibration import Fit, PoseFit, Residuals
 from hri_sync.fusion.frames import SensorPose
@@ -443,13 +445,20 @@ class Fusion:
 
     def _put_arms_right(self, before: List[np.ndarray],
                         views: List[Observation]) -> None:
-        """Exchange the arms of the views whose tracker exchanged them
-        (hri_sync.fusion.arms), against the person's body predicted from
-        its last two fused instants (``before``, constant velocity);
+        """Turn back the views whose tracker took the body's back for its
+        front, then exchange the arms of those whose tracker exchanged
+        them (hri_sync.fusion.arms), against the person's body predicted
+        from its last two fused instants (``before``, constant velocity);
         counted per view."""
         if len(before) < 2:
             return
         predicted = 2 * before[1] - before[0]
+        for o, turn in zip(views, bodies_to_turn(
+                views, predicted, self.params.arms, self.params.fuse)):
+            if turn:
+                o.positions = turned(o.positions)
+                o.confidence = turned(o.confidence)
+                self.health[o.view].turned_back += 1
         for o, swap in zip(views, arms_to_exchange(
                 views, predicted, self.params.arms, self.params.fuse)):
             if swap:

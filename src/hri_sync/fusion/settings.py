@@ -31,6 +31,8 @@ SETTINGS: Tuple[Setting, ...] = (
     ('smooth_accel', 'smooth.accel', _at_least_0, '>= 0 m/s^2'),
     ('residual_threshold', 'residual_threshold', _positive, '> 0 m'),
     ('arms_margin', 'arms.margin', lambda x: x > 0, '> 0 m (inf: never)'),
+    ('turn_margin', 'arms.turn_margin', lambda x: x > 0,
+     '> 0 m (inf: never)'),
     ('hand_reach', 'reach.hand', lambda x: x > 0, '> 0 m (inf: never)'),
     ('fov_deg', 'sight.fov_deg', lambda x: 0 < x < 360, '0-360 degrees'),
     ('vertical_fov_deg', 'sight.vertical_fov_deg', lambda x: 0 < x < 180,

@@ -17,7 +17,8 @@ or farther than a sensor sees, in the last ``window`` s (those joints are
 left out); ``wrong_pose`` is set by the
 calibration check (the view is down-weighted), and ``arms_exchanged``
 counts the instants its tracker's left and right arms were exchanged
-back (hri_sync.fusion.arms), ``beyond_range`` its skeletons of someone
+back (hri_sync.fusion.arms), ``turned_back`` those its tracker took the
+body's back for its front, ``beyond_range`` its skeletons of someone
 farther than the sensor tracks (down-weighted), ``out_of_image`` its
 joints left out where the fused body stands outside its image,
 ``out_of_reach`` its hands left out that no fused arm reaches
@@ -77,6 +78,7 @@ class ViewHealth:
         default_factory=lambda: {k: collections.deque() for k in NOTED})
     wrong_pose: bool = False
     arms_exchanged: int = 0         # instants its arms were put right
+    turned_back: int = 0            # instants its body was turned back
     beyond_range: int = 0           # its skeletons of someone too far
     out_of_image: int = 0           # its joints outside its image
     out_of_reach: int = 0           # its hands no fused arm reaches
