@@ -5,6 +5,7 @@ one of them alone, and counted."""
 import math
 
 import numpy as np
+import pytest
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
 from hri_sync.fusion.arms import (BODY_LEFT, BODY_RIGHT, ArmParams,
@@ -123,19 +124,25 @@ def hand_error(frames, truth, t0, t1, joints=ARMS):
         for f in frames if f.people and t0 <= f.stamp < t1])
 
 
-def test_a_view_that_exchanges_the_arms_is_put_right_and_counted():
-    fusion, frames, truth = run(ArmParams())
-    kept, kept_frames, _ = run(ArmParams(margin=math.inf))
+@pytest.mark.parametrize('swap, off, counter, label, joints', [
+    (exchanged, ArmParams(margin=math.inf), 'arms_exchanged',
+     'arms exchanged back', ARMS),
+    (turned, ArmParams(turn_margin=math.inf), 'turned_back', 'turned back',
+     BODY_LEFT + BODY_RIGHT)])
+def test_a_view_put_right_is_counted_and_fused_nearer(swap, off, counter,
+                                                       label, joints):
+    fusion, frames, truth = run(ArmParams(), swap=swap)
+    kept, kept_frames, _ = run(off, swap=swap)
     during = sum(1 for f in frames if 2.0 <= f.stamp < 4.0)
-    counted = fusion.health['back'].arms_exchanged
+    counted = getattr(fusion.health['back'], counter)
     assert 0.8 * during <= counted <= during
-    assert all(fusion.health[v].arms_exchanged == 0
+    assert all(getattr(fusion.health[v], counter) == 0
                for v in ('front', 'left', 'right'))
-    assert kept.health['back'].arms_exchanged == 0
-    assert hand_error(frames, truth, 2.0, 4.0) \
-        < hand_error(kept_frames, truth, 2.0, 4.0)
+    assert getattr(kept.health['back'], counter) == 0
+    assert hand_error(frames, truth, 2.0, 4.0, joints) \
+        < hand_error(kept_frames, truth, 2.0, 4.0, joints)
     _, _, _, values = view_status(fusion, 'back')
-    assert ('arms exchanged back', str(counted)) in values
+    assert (label, str(counted)) in values
 
 
 def test_turned_exchanges_every_left_and_right_joint():
@@ -161,19 +168,3 @@ def test_a_view_that_took_the_back_for_the_front_is_turned_with_three():
     # A view whose arms alone are exchanged is not turned.
     obs = views('abcd', swapped='c')
     assert not any(bodies_to_turn(obs, body(), ArmParams(), FuseParams()))
-
-
-def test_a_view_that_took_the_back_for_the_front_is_turned_back_and_counted():
-    fusion, frames, truth = run(ArmParams(), swap=turned)
-    kept, kept_frames, _ = run(ArmParams(turn_margin=math.inf), swap=turned)
-    sides = BODY_LEFT + BODY_RIGHT
-    during = sum(1 for f in frames if 2.0 <= f.stamp < 4.0)
-    counted = fusion.health['back'].turned_back
-    assert 0.8 * during <= counted <= during
-    assert all(fusion.health[v].turned_back == 0
-               for v in ('front', 'left', 'right'))
-    assert kept.health['back'].turned_back == 0
-    assert hand_error(frames, truth, 2.0, 4.0, sides) \
-        < hand_error(kept_frames, truth, 2.0, 4.0, sides)
-    _, _, _, values = view_status(fusion, 'back')
-    assert ('turned back', str(counted)) in values

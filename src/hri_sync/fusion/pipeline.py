@@ -453,18 +453,17 @@ class Fusion:
         if len(before) < 2:
             return
         predicted = 2 * before[1] - before[0]
-        for o, turn in zip(views, bodies_to_turn(
-                views, predicted, self.params.arms, self.params.fuse)):
-            if turn:
-                o.positions = turned(o.positions)
-                o.confidence = turned(o.confidence)
-                self.health[o.view].turned_back += 1
-        for o, swap in zip(views, arms_to_exchange(
-                views, predicted, self.params.arms, self.params.fuse)):
-            if swap:
-                o.positions = exchanged(o.positions)
-                o.confidence = exchanged(o.confidence)
-                self.health[o.view].arms_exchanged += 1
+        for decide, swap, counter in (
+                (bodies_to_turn, turned, 'turned_back'),
+                (arms_to_exchange, exchanged, 'arms_exchanged')):
+            for o, yes in zip(views, decide(views, predicted,
+                                            self.params.arms,
+                                            self.params.fuse)):
+                if yes:
+                    o.positions = swap(o.positions)
+                    o.confidence = swap(o.confidence)
+                    health = self.health[o.view]
+                    setattr(health, counter, getattr(health, counter) + 1)
 
     def _leave_out_of_image(self, before: List[np.ndarray],
                             views: List[Observation]) -> None:
