@@ -453,9 +453,11 @@ class Fusion:
         if len(before) < 2:
             return
         predicted = 2 * before[1] - before[0]
-        for decide, swap, counter in (
-                (bodies_to_turn, turned, 'turned_back'),
-                (arms_to_exchange, exchanged, 'arms_exchanged')):
+        steps: Tuple[Tuple[Callable[..., List[bool]],
+                           Callable[[np.ndarray], np.ndarray], str], ...] = (
+            (bodies_to_turn, turned, 'turned_back'),
+            (arms_to_exchange, exchanged, 'arms_exchanged'))
+        for decide, swap, counter in steps:
             for o, yes in zip(views, decide(views, predicted,
                                             self.params.arms,
                                             self.params.fuse)):
