@@ -13,6 +13,12 @@ object:
   single view and the fused body (m, and how far below the best view in
   %), the same on the best view's hidden joints, the latency beyond the
   slowest view's pipeline (ms), duplicate people and the bound coverage;
+  and ``below_best_same_instants_pct``, the fused body below the best
+  view on the instants and joints both have (fusion_accuracy.py's
+  ``best_view_instants``: the best view's own mean covers its tracked
+  frames only, the fused body's every instant), with
+  ``best_view_instant_share``, the share of the fused instants the best
+  view has a skeleton at;
 - ``summary``: each figure's median, least and greatest over the seeds;
 - ``targets_met``: per target, in how many of the seeds it is met.
 
@@ -46,6 +52,7 @@ def figures(out):
     """The target figures of one fusion_accuracy.py JSON result."""
     best = min(out['single_view_mean_m'].values())
     hidden = out['best_view_hidden_mean_m']
+    paired = out['best_view_instants']
     return {
         'best_view_m': best,
         'fused_m': out['fused_mean_m'],
@@ -58,6 +65,9 @@ def figures(out):
             out['latency_p95_ms'] - out['slowest_pipeline_p95_ms'], 1),
         'duplicate_people': out['duplicate_people'],
         'bound_coverage': out['bound_coverage'],
+        'below_best_same_instants_pct': round(
+            100 * (1 - paired['fused_m'] / paired['best_view_m']), 1),
+        'best_view_instant_share': paired['share'],
     }
 
 

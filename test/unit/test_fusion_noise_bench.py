@@ -13,9 +13,14 @@ spec.loader.exec_module(bench)
 
 
 def result(best, fused, best_hidden, fused_hidden, coverage=0.99,
-           duplicates=0, latency=99.0, slowest=96.0):
-    """A fusion_accuracy.py JSON result's keys the bench reads."""
+           duplicates=0, latency=99.0, slowest=96.0, paired=None):
+    """A fusion_accuracy.py JSON result's keys the bench reads
+    (``paired``: the best view and the fused body on the same instants,
+    and its share of them; the run's own figures by default)."""
+    best_m, fused_m, share = paired or (best, fused, 1.0)
     return {'single_view_mean_m': {'front': best, 'right': best + 0.01},
+            'best_view_instants': {'share': share, 'best_view_m': best_m,
+                                   'fused_m': fused_m},
             'fused_mean_m': fused,
             'best_view_hidden_mean_m': best_hidden,
             'fused_hidden_mean_m': fused_hidden,
@@ -34,6 +39,14 @@ def test_figures_are_below_the_best_view_in_percent():
     assert f['below_best_pct'] == 25.0
     assert f['hidden_below_best_pct'] == 37.5
     assert f['latency_beyond_slowest_ms'] == 5.0
+    assert f['below_best_same_instants_pct'] == 25.0
+    # The best view lost the person for the last third: on its instants
+    # the fused body is 20 % below it, over the run 10 % above.
+    f = bench.figures(result(0.100, 0.110, 0.2, 0.1,
+                             paired=(0.100, 0.080, 0.7)))
+    assert f['below_best_pct'] == -10.0
+    assert f['below_best_same_instants_pct'] == 20.0
+    assert f['best_view_instant_share'] == 0.7
 
 
 def test_targets_are_counted_per_seed_and_spread_summarized():
