@@ -20,6 +20,9 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr double kKinectDepthStep = 2.85e-3;  // a Kinect v1's depth step at z: this times z^2 (m)
 constexpr double kSteadyBand = 3 * kKinectDepthStep;
 constexpr size_t kSteadyCells = 200;
+// A body cut by the image's edge or the sensor's range over more than this is
+// only partly seen: wider than a hand or a foot (m).
+constexpr double kCutWidth = 0.20;
 constexpr double kSteadyRate = 0.1;
 constexpr double kSteadyMeanRate = 1.0 / 900;  // the shifts' mean over about 30 s
 constexpr int kSearchFitsPerFrame = 2;  // pose fits of the bone-length search per frame
@@ -53,13 +56,14 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-// Calls f(j) for each grid neighbour j of cell i (8-neighbourhood).
+// Calls f(j) for each grid neighbour j of cell i: the 8-neighbourhood, or with
+// n = 4 the 4-neighbourhood (its first four).
 template <typename F>
-void forNeighbours(const PointGrid& g, int i, F f) {
+void forNeighbours(const PointGrid& g, int i, F f, int n = 8) {
   static const int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1};
   static const int kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
   const int x = i % g.width, y = i / g.width;
-  for (int k = 0; k < 8; ++k) {
+  for (int k = 0; k < n; ++k) {
     const int nx = x + kDx[k], ny = y + kDy[k];
     if (nx >= 0 && ny >= 0 && nx < g.width && ny < g.height) f(ny * g.width + nx);
   }
@@ -603,7 +607,6 @@ Segmentation segmentUser(const PointGrid& g, const Plane& floor, const Vec3* pre
 }
 
 std::string rangeCut(const PointGrid& g, const Segmentation& seg) {
-  constexpr double kCutWidth = 0.20;  // wider than a hand or a foot (m)
   // A body sliced by the range piles up at it: most of what is seen of it lies
   // there (82-98 % of a still person's cells 5.05 m away). One whole in an open
   // room, the farthest thing the sensor reads, has the edge of its back there
@@ -629,14 +632,11 @@ std::string rangeCut(const PointGrid& g, const Segmentation& seg) {
   for (int i : seg.cells) {
     if (g.points[i].z < edge) continue;
     ++at_edge;
-    const int x = i % g.width, y = i / g.width;
-    for (auto [dx, dy] : {std::pair<int, int>{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
-      const int u = x + dx, v = y + dy;
-      if (u < 0 || v < 0 || u >= g.width || v >= g.height || g.ok(v * g.width + u) || !isVoid(u, v)) continue;
-      lo = std::min(lo, g.points[i].x);
-      hi = std::max(hi, g.points[i].x);
-      break;
-    }
+    bool borders = false;
+    forNeighbours(g, i, [&](int j) { borders = borders || (!g.ok(j) && isVoid(j % g.width, j / g.width)); }, 4);
+    if (!borders) continue;
+    lo = std::min(lo, g.points[i].x);
+    hi = std::max(hi, g.points[i].x);
   }
   if (hi - lo <= kCutWidth || at_edge < kCutShare * seg.cells.size()) return "";
   char why[160];
@@ -646,7 +646,6 @@ std::string rangeCut(const PointGrid& g, const Segmentation& seg) {
 }
 
 std::string partialView(const PointGrid& g, const Segmentation& seg, const Plane& floor) {
-  constexpr double kCutWidth = 0.20;  // wider than a hand or a foot (m)
   double nearest = 1e9;
   for (int i : seg.cells) nearest = std::min(nearest, g.points[i].z);
   for (int row : {g.height - 1, 0}) {
