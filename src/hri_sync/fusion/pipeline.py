@@ -371,17 +371,18 @@ class Fusion:
                 Smoother(self.params.smooth))
             self.persons[pid] = state
             before = self._just_before(state.past, t)
-            self._put_arms_right(before, views)
+            self._put_sides_right(before, views)
             self._leave_out_of_image(before, views)
             state.scatter = [(s, x) for s, x in state.scatter
                              if s >= t - self.params.scatter_hold - 1e-9]
             inflate = np.max([x for _, x in state.scatter], axis=0) \
                 if state.scatter else None
             body = fuse(views, self.params.fuse, inflate)
-            if len(views) > 1 and (
-                    self._by_vantage(body.positions, views)
-                    | self._leave_out_of_reach(body.positions, views)):
-                body = fuse(views, self.params.fuse, inflate)
+            if len(views) > 1:
+                scaled = self._by_vantage(body.positions, views)
+                left = self._leave_out_of_reach(body.positions, views)
+                if scaled or left:
+                    body = fuse(views, self.params.fuse, inflate)
             state.scatter.append((t, body.scatter))
             state.past = (state.past + [(t, body.positions)])[-2:]
             bodies[pid] = body
@@ -443,7 +444,7 @@ class Fusion:
             t = stamp
         return run
 
-    def _put_arms_right(self, before: List[np.ndarray],
+    def _put_sides_right(self, before: List[np.ndarray],
                         views: List[Observation]) -> None:
         """Turn back the views whose tracker took the body's back for its
         front, then exchange the arms of those whose tracker exchanged
