@@ -275,14 +275,16 @@ def frozen_figures(spec, frames, fusion, truth):
                          for v, h in fusion.health.items() if h.rejected}}
 
 
-def run_fusion(msgs, poses, aligned, profile):
+def run_fusion(msgs, poses, aligned, profile, inspect=None):
     """Frames of the fusion fed ``msgs`` in arrival order, polled after
     each and every TICK s; stamps are arrival times when not ``aligned``.
-    Also {stamp used: true capture} for the latency, and the Fusion."""
+    Also {stamp used: true capture} for the latency, and the Fusion.
+    ``inspect``: the Fusion's recorder (Fusion.inspect)."""
     sim = {'now': 0.0, 'wall': time.thread_time()}
     fusion = Fusion(poses, FusionParams(),
                     lambda: sim['now'] + time.thread_time() - sim['wall'],
                     {v: profile for v in poses})
+    fusion.inspect = inspect
     frames, captured = [], {}
     tick = msgs[0]['arrival']
     for m in msgs + [None]:
@@ -585,7 +587,7 @@ def frozen_spec(text):
     return view, t0, t1
 
 
-def arguments():
+def arguments(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--motion', required=True, help='.bvh, .npz or .track')
     ap.add_argument('--views', type=int, default=3, choices=(2, 3, 4))
@@ -616,7 +618,7 @@ def arguments():
     ap.add_argument('--fit-profile', action='store_true',
                     help='print the tracker profile measured on this '
                     'motion (YAML) instead of the figures')
-    return ap.parse_args()
+    return ap.parse_args(argv)
 
 
 def rendered_views(args, motions):

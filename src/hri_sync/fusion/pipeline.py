@@ -21,7 +21,10 @@ filter's lag at its speed, hri_sync.fusion.lag) and corrects its joints
 first; where a profile says a view errs more on the arms as it sees more
 of the body's back, each person is fused twice: once to find where the
 body faces, then with each view's arms weighted by its vantage on that
-body. Before that, a view whose tracker took the body's back for its
+body; where the profile has a learned error model
+(hri_sync.fusion.errors), once more with the views' joints weighed
+against each other by it, given where they lie on the body fused so
+far. Before that, a view whose tracker took the body's back for its
 front is turned back, and one whose tracker exchanged the left and right
 arms has them put back (hri_sync.fusion.arms), against the person's body
 predicted from its last two fused instants, and each view's joints that
@@ -64,8 +67,10 @@ from hri_sync.fusion.arms import (ArmParams, arms_to_exchange,
                                   bodies_to_turn, exchanged, turned)
 from hri_sync.fusion.associate import Associator, Key, body_distance, views_of
 from hri_sync.fusion.calibration import Fit, PoseFit, Residuals
+from hri_sync.fusion.errors import Bones, inputs
 from hri_sync.fusion.frames import SensorPose
-from hri_sync.fusion.fuse import FuseParams, Fused, Observation, fuse
+from hri_sync.fusion.fuse import (FuseParams, Fused, Observation, fuse,
+                                  own_sigma)
 from hri_sync.fusion.lag import FilterLag
 from hri_sync.fusion.profile import Profile
 from hri_sync.fusion.reach import ReachParams, out_of_reach
@@ -131,12 +136,14 @@ class ViewUser:
 @dataclass
 class PersonState:
     """What the fusion keeps of one person between instants: its joints'
-    filter, its last two fused instants (t, positions) and, within
-    ``scatter_hold``, the views' scatter of each joint (t, scatter)."""
+    filter, its last two fused instants (t, positions), within
+    ``scatter_hold``, the views' scatter of each joint (t, scatter), and
+    its bone lengths."""
 
     smoother: Smoother
     past: List[Tuple[float, np.ndarray]] = field(default_factory=list)
     scatter: List[Tuple[float, np.ndarray]] = field(default_factory=list)
+    bones: Bones = field(default_factory=Bones)
 
 
 @dataclass
@@ -171,6 +178,11 @@ class Fusion:
         self.fitted: Dict[str, Fit] = {}    # view: (pose, before, after)
         self.tried: Dict[str, float] = {}   # view: when its pose was fitted
         self.sightlines = Sightlines(self.params.sight)
+        # Called with each person's views and fused body at every instant
+        # (t, person, observations as fused, Fused, the person's bone
+        # lengths as the error model took them): a bench's recorder.
+        self.inspect: Optional[Callable[[float, int, List[Observation],
+                                         Fused, np.ndarray], None]] = None
         self.next_k: Optional[int] = None
         # Each fused body's output time less the newest capture it used.
         self.latencies: Deque[float] = deque(maxlen=300)
@@ -377,12 +389,18 @@ class Fusion:
                              if s >= t - self.params.scatter_hold - 1e-9]
             inflate = np.max([x for _, x in state.scatter], axis=0) \
                 if state.scatter else None
+            bones = state.bones.lengths()
             body = fuse(views, self.params.fuse, inflate)
             if len(views) > 1:
                 scaled = self._by_vantage(body.positions, views)
                 left = self._leave_out_of_reach(body.positions, views)
                 if scaled or left:
                     body = fuse(views, self.params.fuse, inflate)
+                if self._by_error_model(body.positions, views, bones):
+                    body = fuse(views, self.params.fuse, inflate)
+            if self.inspect is not None:
+                self.inspect(t, pid, views, body, bones)
+            state.bones.add(body.positions)
             state.scatter.append((t, body.scatter))
             state.past = (state.past + [(t, body.positions)])[-2:]
             bodies[pid] = body
@@ -513,6 +531,40 @@ class Fusion:
                 positions, self.poses[o.view].translation())
             changed |= o.scale is not None
         return changed
+
+    def _by_error_model(self, positions: np.ndarray,
+                        views: List[Observation], bones: np.ndarray) -> bool:
+        """Weigh the views' joints by their profiles' learned error model
+        (hri_sync.fusion.errors) at the body fused at ``positions`` and the
+        person's ``bones``: the model says how the views' errors on each
+        joint compare, their level (over the views that give the joint,
+        geometric mean) stays the profiles' (the model, fitted on a
+        dancer, would tighten a walker's bounds) and the range's growth
+        (``far_sigma``) stays on top; whether any view has a model."""
+        modelled = [o for o in views
+                    if self.profiles[o.view].errors is not None]
+        if not modelled:
+            return False
+        was, now = [], []
+        for o in modelled:
+            profile = self.profiles[o.view]
+            base = own_sigma(profile.sigma, o.confidence, o.power,
+                             self.params.fuse.min_confidence)
+            was.append(np.ones(NUM_JOINTS) if o.scale is None else o.scale)
+            now.append(np.sqrt(profile.errors.predict(inputs(
+                o.positions, o.confidence, base * was[-1], positions,
+                self.poses[o.view].translation(), bones)) / 3.0) / base)
+        finite = np.array([np.isfinite(o.positions).all(axis=1)
+                           for o in modelled])
+        gives = finite & (np.array([o.confidence for o in modelled])
+                          >= self.params.fuse.min_confidence)
+        gives = np.where(gives.any(axis=0), gives, finite)     # guesses
+        level = (np.log(was) - np.log(now)) * gives
+        scale = np.array(now) * np.exp(level.sum(axis=0)
+                                       / np.maximum(gives.sum(axis=0), 1))
+        for o, new, old in zip(modelled, scale, was):
+            o.scale = np.where(np.isfinite(new) & (new > 0), new, old)
+        return True
 
     def _check_poses(self, t: float, obs: Dict[Key, Tuple[Observation,
                                                          float]],

@@ -24,7 +24,10 @@ A profile with a ``filter`` (hri_sync.fusion.lag: the tracker's one-euro
 filter) re-dates each joint by its own lag first, so that every joint
 shows the body ``delay`` s before the capture.
 ``fit_profile`` measures them from views of a motion with its truth
-(bench/fusion_accuracy.py --fit-profile).
+(bench/fusion_accuracy.py --fit-profile). A profile may also carry an
+``errors`` model (hri_sync.fusion.errors: each joint's error from where it
+lies, learned; bench/fit_error_model.py), which the fusion then weighs
+the views' joints by in place of the error model above.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from typing import Any, Dict, List, Optional
 import numpy as np
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
+from hri_sync.fusion.errors import ErrorModel
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import own_sigma
 from hri_sync.fusion.lag import FilterLag, FilterParams
@@ -78,6 +82,7 @@ class Profile:
         default_factory=lambda: np.zeros((NUM_JOINTS, 3)))
     depth: np.ndarray = field(default_factory=lambda: np.zeros(NUM_JOINTS))
     filter: Optional[FilterParams] = None
+    errors: Optional[ErrorModel] = None
 
     def filter_lag(self) -> Optional[FilterLag]:
         """A new track's re-dating by the tracker's filter (None: the
@@ -133,6 +138,8 @@ class Profile:
                 'depth': np.round(self.depth, 4).tolist()}
         if self.filter is not None:
             out['filter'] = self.filter.to_dict()
+        if self.errors is not None:
+            out['errors'] = self.errors.to_dict()
         return out
 
     @classmethod
@@ -148,6 +155,7 @@ class Profile:
         if depth.shape != (NUM_JOINTS,) or not np.isfinite(depth).all():
             raise ValueError('a profile has 15 finite depth offsets')
         filtered = d.pop('filter', None)
+        errors = d.pop('errors', None)
         unknown = set(d) - set(KEYS)
         if unknown:
             raise ValueError('unknown profile keys: %s' % sorted(unknown))
@@ -155,7 +163,9 @@ class Profile:
         if not all(np.isfinite(v) and v >= 0 for v in values.values()):
             raise ValueError('profile values are finite and >= 0: %r' % d)
         return cls(offsets=offsets, depth=depth, filter=None if filtered
-                   is None else FilterParams.from_dict(filtered), **values)
+                   is None else FilterParams.from_dict(filtered),
+                   errors=None if errors is None
+                   else ErrorModel.from_dict(errors), **values)
 
 
 def rays(positions: np.ndarray, sensor: np.ndarray) -> np.ndarray:

@@ -1,0 +1,174 @@
+#!/usr/bin/python3
+"""Fit the fusion's learned error model on views of a motion with its truth.
+
+Runs bench/fusion_accuracy.py's fusion (its renders and its tracker
+profile, without an error model) on MOTION with 3 and 4 views and the
+renderer's noise seeds 1..N, records at every fused instant each view's
+joints as the model takes them (hri_sync.fusion.errors.inputs: where the
+joint lies on the fused body, its confidence, its bone) and their squared
+error against the rendered truth, and fits a Poisson-loss boosted tree
+ensemble on them (scikit-learn's HistGradientBoostingRegressor, seeded).
+Writes the profile with the model as its ``errors`` (--out; the profile's
+other lines unchanged) and prints JSON: the rows, and per joint kind the
+measured and the model's rms error.
+
+    bench/fit_error_model.py --motion data/motion/cmu_60_01_salsa.npz \\
+        --out config/fusion_depth_tracker.yaml
+
+Needs the built workspace sourced and scikit-learn (make setup).
+"""
+import argparse
+import dataclasses
+import json
+import os
+import sys
+
+import numpy as np
+import yaml
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+
+import fusion_accuracy as fa  # noqa: E402
+from hri_sync.fusion.errors import (  # noqa: E402
+    INPUTS, ErrorModel, Tree, inputs)
+from hri_sync.fusion.fuse import LEAST_CONFIDENCE, own_sigma  # noqa: E402
+from hri_sync.fusion.profile import Profile  # noqa: E402
+
+KINDS = ('trunk', 'shoulders', 'elbows', 'hands', 'knees', 'feet')
+TREES = 60          # boosting steps
+DEPTH = 4           # each tree's depth
+LEAST = 200         # rows a leaf holds at least
+
+
+def recorder(rows, poses, truth, profile):
+    """A Fusion.inspect that appends each view's inputs and squared error
+    (the joints it can give) to ``rows``, as the fusion takes them with
+    ``profile`` (its sigma before the range's growth)."""
+    def inspect(t, person, views, body, bones):
+        true = truth(np.array([t]))[0]
+        for o in views:
+            sigma = own_sigma(profile.sigma, o.confidence, o.power)
+            if o.scale is not None:
+                sigma = sigma * o.scale
+            x = inputs(o.positions, o.confidence, sigma, body.positions,
+                       poses[o.view].translation(), bones)
+            err2 = ((o.positions - true) ** 2).sum(axis=1)
+            ok = np.isfinite(err2) & (o.confidence >= LEAST_CONFIDENCE)
+            rows.append(np.column_stack([x[ok], err2[ok]]))
+    return inspect
+
+
+def record(motion, views, seed, profile, cache):
+    """(rows, inputs + 1) of one run: ``views`` views, noise ``seed``."""
+    scene = 'noise=kinect1' if seed == 1 else 'noise=kinect1&seed=%d' % seed
+    args = fa.arguments(['--motion', motion, '--views', str(views),
+                         '--scene', scene, '--cache', cache, '--jobs', '1'])
+    names = [v[0] for v in fa.VIEWS[:views]]
+    dumps, poses = fa.rendered_views(
+        args, [fa.world_motion(fa.load_motion(motion))])
+    rendered = [fa.read_dump(d) for d in dumps]
+    msgs = fa.messages(rendered, np.random.default_rng(args.seed))
+    rows = []
+    fa.run_fusion(msgs, fa.declared_poses(None, names, poses), True,
+                  profile, recorder(rows, dict(zip(names, poses)),
+                                    lambda t: fa.truth_at(rendered, poses,
+                                                          t), profile))
+    return np.concatenate(rows)
+
+
+def exported(model):
+    """An ErrorModel of a fitted HistGradientBoostingRegressor."""
+    trees = []
+    for (predictor,) in model._predictors:
+        n = predictor.nodes
+        trees.append(Tree(np.where(n['is_leaf'], -1,
+                                   n['feature_idx']).astype(int),
+                          n['num_threshold'].astype(float),
+                          n['left'].astype(int), n['right'].astype(int),
+                          n['value'].astype(float),
+                          n['missing_go_to_left'].astype(bool)))
+    return ErrorModel(float(np.ravel(model._baseline_prediction)[0]), trees)
+
+
+def fit(rows, seed=0):
+    """An ErrorModel of rows (inputs, squared error), and the fitted
+    scikit-learn model."""
+    from sklearn.ensemble import HistGradientBoostingRegressor
+    model = HistGradientBoostingRegressor(
+        loss='poisson', max_iter=TREES, max_depth=DEPTH,
+        min_samples_leaf=LEAST, early_stopping=False, random_state=seed)
+    model.fit(rows[:, :-1], rows[:, -1])
+    return exported(model), model
+
+
+def summary(model, rows):
+    """Per joint kind: rows, measured and modelled rms error (m)."""
+    predicted = model.predict(rows[:, :-1])
+    kind = rows[:, INPUTS.index('kind')]
+    return {name: {'rows': int((kind == k).sum()),
+                   'rms_m': round(float(np.sqrt(rows[kind == k, -1].mean())),
+                                  4),
+                   'model_rms_m': round(float(np.sqrt(
+                       predicted[kind == k].mean())), 4)}
+            for k, name in enumerate(KINDS) if (kind == k).any()}
+
+
+def with_errors(text, model, command):
+    """The profile YAML ``text`` with ``model`` as its ``errors`` block
+    (one it had, and the comment just above it, replaced), under a
+    comment giving ``command``; its other lines as they were."""
+    out, skipping = [], False
+    for line in text.splitlines(keepends=True):
+        if line.startswith('errors:'):
+            while out and out[-1].startswith('#'):
+                out.pop()
+            skipping = True
+        elif skipping and line[:1] not in (' ', '-', '\n'):
+            skipping = False
+        if not skipping:
+            out.append(line)
+    return ''.join(out).rstrip('\n') + '\n' + (
+        '# The learned error model (hri_sync.fusion.errors: a view\'s joint\n'
+        '# error from where it lies), fitted with\n#   %s\n' % command) + \
+        yaml.safe_dump({'errors': model.to_dict()}, default_flow_style=None,
+                       sort_keys=False, width=100)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap.add_argument('--motion', required=True, help='.bvh, .npz or .track')
+    ap.add_argument('--views', type=int, nargs='+', default=[3, 4],
+                    choices=(2, 3, 4))
+    ap.add_argument('--seeds', type=int, default=5,
+                    help='noise seeds 1..N (default %(default)s)')
+    ap.add_argument('--profile', default=fa.PROFILE,
+                    help='the tracker profile (YAML; default %(default)s)')
+    ap.add_argument('--cache', default='/tmp/hri_sync_fusion')
+    ap.add_argument('--out', help='write the profile with the model here')
+    args = ap.parse_args()
+    with open(args.profile) as f:
+        text = f.read()
+    base = dataclasses.replace(Profile.from_dict(yaml.safe_load(text)),
+                               errors=None)
+    rows = np.concatenate([record(args.motion, v, s, base, args.cache)
+                           for v in args.views
+                           for s in range(1, args.seeds + 1)])
+    model, fitted = fit(rows)
+    check = model.predict(rows[:, :-1])
+    if not np.allclose(check, fitted.predict(rows[:, :-1]), rtol=1e-6):
+        sys.exit('fit_error_model: the exported trees do not reproduce '
+                 'the fitted model')
+    if args.out:
+        command = ' '.join(['bench/fit_error_model.py'] + sys.argv[1:])
+        with open(args.out, 'w') as f:
+            f.write(with_errors(text, model, command))
+    print(json.dumps({'motion': os.path.basename(args.motion),
+                      'views': args.views, 'seeds': args.seeds,
+                      'rows': len(rows), 'trees': len(model.trees),
+                      'kinds': summary(model, rows),
+                      'written': args.out}, indent=1))
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,203 @@
+"""A view's joint error from where the joint lies: learned on views with
+their truth.
+
+The profile takes a view's error from its confidence and where its sensor
+stands; the depth tracker's arms are also wrong where they say they are
+seen: a hand the tracker lays on the trunk's depth points (the true hand
+hidden behind the body) is as far off as a guess. Where the joint lies
+tells it apart. For each of a view's joints, seven inputs:
+
+- ``log_confidence``: log of its confidence (floored at 0.05);
+- ``kind``: 0 head, neck, torso, hips; 1 shoulders; 2 elbows; 3 hands;
+  4 knees; 5 feet;
+- ``log_sigma``: log of the error (m, one axis) the profile gives it;
+- ``toward``: how far it lies from the fused torso towards the view's
+  sensor, along the floor (m; negative: behind the body);
+- ``across``: how far it lies from the line through the fused torso to
+  the sensor (m);
+- ``across_floor``: the same along the floor (m);
+- ``bone``: the length of the bone that ends in it (from its parent
+  joint, in the view) less the person's own (the median of the fused
+  body's over the last seconds; NaN before there is one).
+
+An ``ErrorModel`` (a Poisson-loss boosted tree ensemble, log link, fitted
+by ``bench/fit_error_model.py`` on views of a motion with its truth)
+gives the expected squared error (m^2) from them; a third of it is the
+view's variance on each axis. Evaluated here in NumPy: the fit needs
+scikit-learn, the fusion does not.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+from typing import Any, Deque, Dict, List, Optional
+
+import numpy as np
+
+from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
+from hri_sync.fusion.fuse import LEAST_CONFIDENCE
+
+INPUTS = ('log_confidence', 'kind', 'log_sigma', 'toward', 'across',
+          'across_floor', 'bone')
+KIND = np.array([0, 0, 0, 1, 1, 2, 2, 3, 3, 0, 0, 4, 4, 5, 5], float)
+# each joint's parent (the bone that ends in it); the torso has none
+PARENT = {INDEX[child]: INDEX[parent] for child, parent in (
+    ('head', 'neck'), ('left_shoulder', 'neck'), ('right_shoulder', 'neck'),
+    ('left_elbow', 'left_shoulder'), ('right_elbow', 'right_shoulder'),
+    ('left_hand', 'left_elbow'), ('right_hand', 'right_elbow'),
+    ('left_hip', 'torso'), ('right_hip', 'torso'),
+    ('left_knee', 'left_hip'), ('right_knee', 'right_hip'),
+    ('left_foot', 'left_knee'), ('right_foot', 'right_knee'))}
+_CHILD = np.array(sorted(PARENT))
+_PARENT = np.array([PARENT[j] for j in _CHILD])
+
+
+def bone_lengths(positions: np.ndarray) -> np.ndarray:
+    """(15,) each joint's bone length (m; NaN for the torso and where a
+    joint is missing) in a body (15, 3)."""
+    out = np.full(NUM_JOINTS, np.nan)
+    out[_CHILD] = np.linalg.norm(positions[_CHILD] - positions[_PARENT],
+                                 axis=1)
+    return out
+
+
+class Bones:
+    """A person's bone lengths: the median of its fused body's over the
+    last ``keep`` instants."""
+
+    def __init__(self, keep: int = 150) -> None:
+        self.past: Deque[np.ndarray] = deque(maxlen=keep)
+
+    def add(self, positions: np.ndarray) -> None:
+        """One fused body (15, 3)."""
+        self.past.append(bone_lengths(positions))
+
+    def lengths(self) -> np.ndarray:
+        """(15,) the median bone lengths; NaN where none is known."""
+        if not self.past:
+            return np.full(NUM_JOINTS, np.nan)
+        past = np.array(self.past)
+        known = np.isfinite(past).any(axis=0)
+        out = np.full(NUM_JOINTS, np.nan)
+        out[known] = np.nanmedian(past[:, known], axis=0)
+        return out
+
+
+def inputs(positions: np.ndarray, confidence: np.ndarray,
+           sigma: np.ndarray, body: np.ndarray, sensor: np.ndarray,
+           bones: np.ndarray) -> np.ndarray:
+    """(15, 7) the model's inputs (``INPUTS``) for one view's joints
+    (``positions`` (15, 3) world, ``confidence``, ``sigma``: the profile's
+    error, m) given the person's fused ``body`` (15, 3), the view's
+    ``sensor`` (3,) and the person's ``bones`` (Bones.lengths)."""
+    torso = body[INDEX['torso']]
+    to = np.asarray(sensor, float)[:2] - torso[:2]
+    to = np.r_[to / max(float(np.linalg.norm(to)), 1e-9), 0.0]
+    rel = positions - torso
+    toward = rel @ to
+    side = rel - toward[:, None] * to
+    return np.column_stack([
+        np.log(np.maximum(confidence, LEAST_CONFIDENCE)), KIND,
+        np.log(sigma), toward, np.linalg.norm(side, axis=1),
+        np.linalg.norm(side[:, :2], axis=1),
+        bone_lengths(positions) - bones])
+
+
+@dataclass
+class Tree:
+    """One tree: node arrays; a leaf's ``feature`` is -1."""
+
+    feature: np.ndarray         # (nodes,) int
+    threshold: np.ndarray       # (nodes,) go left when x <= threshold
+    left: np.ndarray            # (nodes,) int
+    right: np.ndarray           # (nodes,) int
+    value: np.ndarray           # (nodes,) a leaf's raw value
+    missing_left: np.ndarray    # (nodes,) bool: NaN goes left
+
+
+class ErrorModel:
+    """The expected squared error (m^2) of a view's joint from its
+    ``inputs``: ``exp(baseline + sum of the trees' leaves)``."""
+
+    FIELDS = ('feature', 'threshold', 'left', 'right', 'value',
+              'missing_left')
+
+    def __init__(self, baseline: float, trees: List[Tree]) -> None:
+        self.baseline = float(baseline)
+        self.trees = trees
+        size = max(len(t.feature) for t in trees)
+        # every tree's nodes side by side (trees, size): all walked at once
+        self._nodes = {f: np.array([np.resize(getattr(t, f), size)
+                                    for t in trees])
+                       for f in self.FIELDS}
+        self._nodes['feature'] = np.array([np.r_[t.feature, np.full(
+            size - len(t.feature), -1)] for t in trees])
+
+    def predict(self, x: np.ndarray) -> np.ndarray:
+        """(n,) expected squared errors (m^2) of rows ``x`` (n, 7)."""
+        n = self._nodes
+        trees = np.arange(len(self.trees))[:, None]
+        rows = np.arange(len(x))[None, :]
+        node = np.zeros((len(self.trees), len(x)), int)
+        while True:
+            feature = n['feature'][trees, node]
+            split = feature >= 0
+            if not split.any():
+                break
+            v = x[rows, np.maximum(feature, 0)]
+            left = np.where(np.isnan(v), n['missing_left'][trees, node],
+                            v <= n['threshold'][trees, node])
+            node = np.where(split, np.where(left, n['left'][trees, node],
+                                            n['right'][trees, node]), node)
+        raw = self.baseline + n['value'][trees, node].sum(axis=0)
+        return np.exp(np.clip(raw, -30.0, 5.0))
+
+    def to_dict(self) -> Dict[str, Any]:
+        """Plain values (a YAML param)."""
+        return {'inputs': list(INPUTS),
+                'baseline': round(self.baseline, 6),
+                'trees': [{'feature': t.feature.tolist(),
+                           'threshold': [float(v) for v in t.threshold],
+                           'left': t.left.tolist(),
+                           'right': t.right.tolist(),
+                           'value': [round(float(v), 6) for v in t.value],
+                           'missing_left': [int(v) for v in t.missing_left]}
+                          for t in self.trees]}
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> 'ErrorModel':
+        """An ErrorModel from ``to_dict``'s values; ValueError when they
+        do not make one (other inputs, nodes out of range, a loop)."""
+        if list(d.get('inputs', ())) != list(INPUTS):
+            raise ValueError('an error model takes the inputs %s, not %r'
+                             % (list(INPUTS), d.get('inputs')))
+        trees = []
+        for k, t in enumerate(d.get('trees') or ()):
+            try:
+                a = {f: np.asarray(t[f]) for f in cls.FIELDS}
+            except (KeyError, TypeError):
+                raise ValueError('error model tree %d lacks one of %s'
+                                 % (k, cls.FIELDS))
+            n = len(a['feature'])
+            tree = Tree(a['feature'].astype(int),
+                        a['threshold'].astype(float),
+                        a['left'].astype(int), a['right'].astype(int),
+                        a['value'].astype(float),
+                        a['missing_left'].astype(bool))
+            split = tree.feature >= 0
+            if n == 0 or any(len(a[f]) != n for f in cls.FIELDS) \
+                    or (tree.feature >= len(INPUTS)).any() \
+                    or not np.isfinite(tree.value).all() \
+                    or ((tree.left <= np.arange(n))
+                        | (tree.left >= n)
+                        | (tree.right <= np.arange(n))
+                        | (tree.right >= n))[split].any():
+                raise ValueError('error model tree %d is not a tree of '
+                                 'the %d inputs' % (k, len(INPUTS)))
+            trees.append(tree)
+        baseline = float(d.get('baseline', np.nan))
+        if not trees or not np.isfinite(baseline):
+            raise ValueError('an error model has a finite baseline and '
+                             'one tree or more')
+        return cls(baseline, trees)

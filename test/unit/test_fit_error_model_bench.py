@@ -1,0 +1,46 @@
+"""bench/fit_error_model.py: the fitted trees, exported for the fusion,
+give what scikit-learn's model gives."""
+import importlib.util
+import os
+
+import numpy as np
+import yaml
+
+from hri_sync.fusion.errors import INPUTS, ErrorModel
+
+SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..',
+                      '..', 'bench', 'fit_error_model.py')
+spec = importlib.util.spec_from_file_location('fit_error_model', SCRIPT)
+bench = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(bench)
+
+
+def test_the_exported_trees_give_the_fitted_models_errors():
+    rng = np.random.default_rng(7)
+    x = rng.uniform(-1, 1, (4000, len(INPUTS)))
+    x[rng.random(x.shape) < 0.05] = np.nan      # bones not yet known
+    rms = 0.05 * np.exp(np.nan_to_num(x[:, 4]) + (x[:, 1] > 0))
+    err2 = (rms * rng.standard_normal(len(x))) ** 2
+    model, fitted = bench.fit(np.column_stack([x, err2]))
+    assert len(model.trees) == bench.TREES
+    assert np.allclose(model.predict(x), fitted.predict(x), rtol=1e-9)
+    again = ErrorModel.from_dict(model.to_dict())     # leaves to 1e-6
+    assert np.allclose(again.predict(x), fitted.predict(x), rtol=1e-4)
+    # what it learned: the error grows with the fifth input
+    low, high = np.zeros((1, len(INPUTS))), np.zeros((1, len(INPUTS)))
+    high[0, 4] = 0.9
+    assert model.predict(high)[0] > 2 * model.predict(low)[0]
+
+
+def test_the_model_goes_into_the_profile_once_its_other_lines_kept():
+    from test_fusion_errors import hands_on_the_trunk
+    text = '# the profile\nsigma: 0.05\n# why\noffsets:\n- [0, 0, 0]\n'
+    once = bench.with_errors(text, hands_on_the_trunk(), 'fit A')
+    twice = bench.with_errors(once + 'delay: 0.1\n', hands_on_the_trunk(),
+                              'fit B')
+    assert twice.startswith(text)
+    assert twice.count('\nerrors:') == 1 and 'fit A' not in twice
+    assert 'fit B' in twice and 'delay: 0.1' in twice
+    loaded = yaml.safe_load(twice)
+    assert ErrorModel.from_dict(loaded['errors']).predict(
+        np.zeros((1, len(INPUTS))))[0] > 0
