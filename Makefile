@@ -6,7 +6,7 @@ VENV := $(ROOT)/.venv
 ROS_PY := /usr/bin/python3
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 APT_PACKAGES := $(shell grep -v '^\#' $(ROOT)/scripts/apt-packages.txt)
-PIP_PACKAGES := rosbags pylsl mcap scikit-learn
+PIP_PACKAGES := rosbags pylsl mcap
 SOURCE := source $(WS)/devel/setup.bash
 
 .PHONY: setup apt venv build test unit check test-install test-site rostest tracker-accuracy \
