@@ -23,8 +23,9 @@ tells it apart. For each of a view's joints, seven inputs:
 An ``ErrorModel`` (a Poisson-loss boosted tree ensemble, log link, fitted
 by ``bench/fit_error_model.py`` on views of a motion with its truth)
 gives the expected squared error (m^2) from them; a third of it is the
-view's variance on each axis. Evaluated here in NumPy: the fit needs
-scikit-learn, the fusion does not.
+view's variance on each axis. The fusion takes from it how the views'
+errors on a joint compare (hri_sync.fusion.pipeline). Evaluated here in
+NumPy: the fit needs scikit-learn, the fusion does not.
 """
 
 from __future__ import annotations

@@ -26,8 +26,8 @@ shows the body ``delay`` s before the capture.
 ``fit_profile`` measures them from views of a motion with its truth
 (bench/fusion_accuracy.py --fit-profile). A profile may also carry an
 ``errors`` model (hri_sync.fusion.errors: each joint's error from where it
-lies, learned; bench/fit_error_model.py), which the fusion then weighs
-the views' joints by in place of the error model above.
+lies, learned; bench/fit_error_model.py): the fusion then weighs the
+views' joints against each other by it, at the error model's level above.
 """
 
 from __future__ import annotations
