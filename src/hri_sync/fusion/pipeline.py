@@ -541,17 +541,18 @@ class Fusion:
         geometric mean) stays the profiles' (the model, fitted on a
         dancer, would tighten a walker's bounds) and the range's growth
         (``far_sigma``) stays on top; whether any view has a model."""
-        modelled = [o for o in views
-                    if self.profiles[o.view].errors is not None]
-        if not modelled:
+        models = [(o, self.profiles[o.view].sigma, model) for o in views
+                  for model in [self.profiles[o.view].errors]
+                  if model is not None]
+        if not models:
             return False
+        modelled = [o for o, _, _ in models]
         was, now = [], []
-        for o in modelled:
-            profile = self.profiles[o.view]
-            base = own_sigma(profile.sigma, o.confidence, o.power,
+        for o, sigma, model in models:
+            base = own_sigma(sigma, o.confidence, o.power,
                              self.params.fuse.min_confidence)
             was.append(np.ones(NUM_JOINTS) if o.scale is None else o.scale)
-            now.append(np.sqrt(profile.errors.predict(inputs(
+            now.append(np.sqrt(model.predict(inputs(
                 o.positions, o.confidence, base * was[-1], positions,
                 self.poses[o.view].translation(), bones)) / 3.0) / base)
         finite = np.array([np.isfinite(o.positions).all(axis=1)
