@@ -36,8 +36,8 @@ from hri_sync.fusion.fuse import LEAST_CONFIDENCE, own_sigma  # noqa: E402
 from hri_sync.fusion.profile import Profile  # noqa: E402
 
 KINDS = ('trunk', 'shoulders', 'elbows', 'hands', 'knees', 'feet')
-TREES = 60          # boosting steps
-DEPTH = 4           # each tree's depth
+TREES = 200         # boosting steps
+LEAVES = 31         # each tree's leaves at most
 LEAST = 200         # rows a leaf holds at least
 
 
@@ -96,7 +96,7 @@ def fit(rows, seed=0):
     scikit-learn model."""
     from sklearn.ensemble import HistGradientBoostingRegressor
     model = HistGradientBoostingRegressor(
-        loss='poisson', max_iter=TREES, max_depth=DEPTH,
+        loss='poisson', max_iter=TREES, max_leaf_nodes=LEAVES,
         min_samples_leaf=LEAST, early_stopping=False, random_state=seed)
     model.fit(rows[:, :-1], rows[:, -1])
     return exported(model), model

@@ -127,31 +127,33 @@ class ErrorModel:
     def __init__(self, baseline: float, trees: List[Tree]) -> None:
         self.baseline = float(baseline)
         self.trees = trees
-        size = max(len(t.feature) for t in trees)
-        # every tree's nodes side by side (trees, size): all walked at once
-        self._nodes = {f: np.array([np.resize(getattr(t, f), size)
-                                    for t in trees])
+        # every tree's nodes in one array, children by their place in it
+        start = np.cumsum([0] + [len(t.feature) for t in trees])
+        self._start = start[:-1]
+        self._nodes = {f: np.concatenate([getattr(t, f) for t in trees])
                        for f in self.FIELDS}
-        self._nodes['feature'] = np.array([np.r_[t.feature, np.full(
-            size - len(t.feature), -1)] for t in trees])
+        for f in ('left', 'right'):
+            self._nodes[f] = self._nodes[f] + np.repeat(
+                self._start, np.diff(start))
 
     def predict(self, x: np.ndarray) -> np.ndarray:
         """(n,) expected squared errors (m^2) of rows ``x`` (n, 7)."""
-        n = self._nodes
-        trees = np.arange(len(self.trees))[:, None]
-        rows = np.arange(len(x))[None, :]
-        node = np.zeros((len(self.trees), len(x)), int)
-        while True:
-            feature = n['feature'][trees, node]
+        n, nodes = len(x), self._nodes
+        column = np.ascontiguousarray(x.T).ravel()      # input-major
+        node = np.repeat(self._start, n)                # (trees * n,)
+        row = np.tile(np.arange(n), len(self.trees))
+        live = np.arange(node.size)
+        while live.size:
+            at = node[live]
+            feature = nodes['feature'][at]
             split = feature >= 0
-            if not split.any():
-                break
-            v = x[rows, np.maximum(feature, 0)]
-            left = np.where(np.isnan(v), n['missing_left'][trees, node],
-                            v <= n['threshold'][trees, node])
-            node = np.where(split, np.where(left, n['left'][trees, node],
-                                            n['right'][trees, node]), node)
-        raw = self.baseline + n['value'][trees, node].sum(axis=0)
+            live, at, feature = live[split], at[split], feature[split]
+            v = column[feature * n + row[live]]
+            left = np.where(np.isnan(v), nodes['missing_left'][at],
+                            v <= nodes['threshold'][at])
+            node[live] = np.where(left, nodes['left'][at],
+                                  nodes['right'][at])
+        raw = self.baseline + nodes['value'][node].reshape(-1, n).sum(axis=0)
         return np.exp(np.clip(raw, -30.0, 5.0))
 
     def to_dict(self) -> Dict[str, Any]:

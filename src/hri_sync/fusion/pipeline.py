@@ -547,14 +547,20 @@ class Fusion:
         if not models:
             return False
         modelled = [o for o, _, _ in models]
-        was, now = [], []
-        for o, sigma, model in models:
-            base = own_sigma(sigma, o.confidence, o.power,
-                             self.params.fuse.min_confidence)
-            was.append(np.ones(NUM_JOINTS) if o.scale is None else o.scale)
-            now.append(np.sqrt(model.predict(inputs(
-                o.positions, o.confidence, base * was[-1], positions,
-                self.poses[o.view].translation(), bones)) / 3.0) / base)
+        base = np.array([own_sigma(sigma, o.confidence, o.power,
+                                   self.params.fuse.min_confidence)
+                         for o, sigma, _ in models])
+        was = np.array([np.ones(NUM_JOINTS) if o.scale is None else o.scale
+                        for o in modelled])
+        rows = [inputs(o.positions, o.confidence, b * w, positions,
+                       self.poses[o.view].translation(), bones)
+                for o, b, w in zip(modelled, base, was)]
+        now = np.empty_like(base)
+        for model in {id(m): m for _, _, m in models}.values():
+            mine = [k for k, (_, _, m) in enumerate(models) if m is model]
+            now[mine] = model.predict(np.concatenate(
+                [rows[k] for k in mine])).reshape(len(mine), NUM_JOINTS)
+        now = np.sqrt(now / 3.0) / base
         finite = np.array([np.isfinite(o.positions).all(axis=1)
                            for o in modelled])
         gives = finite & (np.array([o.confidence for o in modelled])
