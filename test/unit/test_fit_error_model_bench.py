@@ -1,5 +1,6 @@
-"""bench/fit_error_model.py: the fitted trees, exported for the fusion,
-give what scikit-learn's model gives."""
+"""bench/fit_error_model.py: what it records of the fusion, the fitted
+trees exported for the fusion (they give what scikit-learn's model gives)
+and written into the profile."""
 import importlib.util
 import os
 
@@ -7,6 +8,11 @@ import numpy as np
 import yaml
 
 from hri_sync.fusion.errors import INPUTS, ErrorModel
+from hri_sync.fusion.frames import SensorPose
+from hri_sync.fusion.fuse import FuseParams, Observation, fuse
+from hri_sync.fusion.profile import Profile
+from test_fusion_core import body
+from test_fusion_errors import hands_on_the_trunk
 
 SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..',
                       '..', 'bench', 'fit_error_model.py')
@@ -33,7 +39,6 @@ def test_the_exported_trees_give_the_fitted_models_errors():
 
 
 def test_the_model_goes_into_the_profile_once_its_other_lines_kept():
-    from test_fusion_errors import hands_on_the_trunk
     text = '# the profile\nsigma: 0.05\n# why\noffsets:\n- [0, 0, 0]\n'
     once = bench.with_errors(text, hands_on_the_trunk(), 'fit A')
     twice = bench.with_errors(once + 'delay: 0.1\n', hands_on_the_trunk(),
@@ -44,3 +49,22 @@ def test_the_model_goes_into_the_profile_once_its_other_lines_kept():
     loaded = yaml.safe_load(twice)
     assert ErrorModel.from_dict(loaded['errors']).predict(
         np.zeros((1, len(INPUTS))))[0] > 0
+
+
+def test_the_recorder_keeps_the_joints_a_view_gives_with_their_error():
+    truth = body()
+    seen = truth + [0.0, 0.0, 0.1]
+    seen[3] = np.nan                            # a joint it does not give
+    confidence = np.full(15, 0.9)
+    confidence[4] = 0.01                        # nor one below 0.05
+    o = Observation('front', seen, confidence, np.zeros(15), 0.0,
+                    sigma=0.05, power=0.5)
+    rows = []
+    inspect = bench.recorder(rows, {'front': SensorPose(3.0, 0.0, 1.0, 0.0)},
+                             lambda t: truth[None], Profile(sigma=0.05))
+    inspect(0.0, 1, [o], fuse([o], FuseParams()), np.full(15, np.nan))
+    (kept,) = rows
+    assert kept.shape == (13, len(INPUTS) + 1)
+    assert np.allclose(kept[:, -1], 0.01)       # (0.1 m) ** 2
+    assert np.allclose(kept[:, INPUTS.index('log_sigma')],
+                       np.log(0.05 * 0.9 ** -0.5))
