@@ -18,7 +18,6 @@ measured and the model's rms error.
 Needs the built workspace sourced and scikit-learn (make setup).
 """
 import argparse
-import dataclasses
 import json
 import os
 import sys
@@ -31,7 +30,7 @@ sys.path.insert(0, HERE)
 
 import fusion_accuracy as fa  # noqa: E402
 from hri_sync.fusion.errors import (  # noqa: E402
-    INPUTS, ErrorModel, Tree, inputs)
+    INPUTS, ErrorModel, Tree, distance, inputs)
 from hri_sync.fusion.fuse import LEAST_CONFIDENCE, own_sigma  # noqa: E402
 from hri_sync.fusion.profile import Profile  # noqa: E402
 
@@ -39,28 +38,33 @@ KINDS = ('trunk', 'shoulders', 'elbows', 'hands', 'knees', 'feet')
 TREES = 200         # boosting steps
 LEAVES = 31         # each tree's leaves at most
 LEAST = 200         # rows a leaf holds at least
+KNOWN = (0.5, 99.5)  # percentiles of the distances the model knows
 
 
 def recorder(rows, poses, truth, profile):
-    """A Fusion.inspect that appends each view's inputs and squared error
-    (the joints it can give) to ``rows``, as the fusion takes them with
-    ``profile`` (its sigma before the range's growth)."""
+    """A Fusion.inspect that appends each view's inputs, its distance from
+    the person and its squared errors (the joints it can give) to
+    ``rows``, as the fusion takes them with ``profile`` (its sigma before
+    the range's growth)."""
     def inspect(t, person, views, body, bones):
         true = truth(np.array([t]))[0]
         for o in views:
             sigma = own_sigma(profile.sigma, o.confidence, o.power)
             if o.scale is not None:
                 sigma = sigma * o.scale
+            sensor = poses[o.view].translation()
             x = inputs(o.positions, o.confidence, sigma, body.positions,
-                       poses[o.view].translation(), bones)
+                       sensor, bones)
             err2 = ((o.positions - true) ** 2).sum(axis=1)
             ok = np.isfinite(err2) & (o.confidence >= LEAST_CONFIDENCE)
-            rows.append(np.column_stack([x[ok], err2[ok]]))
+            far = np.full(ok.sum(), distance(body.positions, sensor))
+            rows.append(np.column_stack([x[ok], far, err2[ok]]))
     return inspect
 
 
 def record(motion, views, seed, profile, cache):
-    """(rows, inputs + 1) of one run: ``views`` views, noise ``seed``."""
+    """(rows, inputs + 2) of one run (recorder's): ``views`` views, noise
+    ``seed``."""
     scene = 'noise=kinect1' if seed == 1 else 'noise=kinect1&seed=%d' % seed
     args = fa.arguments(['--motion', motion, '--views', str(views),
                          '--scene', scene, '--cache', cache, '--jobs', '1'])
@@ -77,8 +81,9 @@ def record(motion, views, seed, profile, cache):
     return np.concatenate(rows)
 
 
-def exported(model):
-    """An ErrorModel of a fitted HistGradientBoostingRegressor."""
+def exported(model, distances):
+    """An ErrorModel of a fitted HistGradientBoostingRegressor that knows
+    views ``distances`` (near, far) m from the person."""
     trees = []
     for (predictor,) in model._predictors:
         n = predictor.nodes
@@ -88,23 +93,25 @@ def exported(model):
                           n['left'].astype(int), n['right'].astype(int),
                           n['value'].astype(float),
                           n['missing_go_to_left'].astype(bool)))
-    return ErrorModel(float(np.ravel(model._baseline_prediction)[0]), trees)
+    return ErrorModel(float(np.ravel(model._baseline_prediction)[0]), trees,
+                      distances)
 
 
 def fit(rows, seed=0):
-    """An ErrorModel of rows (inputs, squared error), and the fitted
-    scikit-learn model."""
+    """An ErrorModel of rows (inputs, distance, squared error), and the
+    fitted scikit-learn model."""
     from sklearn.ensemble import HistGradientBoostingRegressor
     model = HistGradientBoostingRegressor(
         loss='poisson', max_iter=TREES, max_leaf_nodes=LEAVES,
         min_samples_leaf=LEAST, early_stopping=False, random_state=seed)
-    model.fit(rows[:, :-1], rows[:, -1])
-    return exported(model), model
+    model.fit(rows[:, :-2], rows[:, -1])
+    far = rows[np.isfinite(rows[:, -2]), -2]
+    return exported(model, tuple(np.percentile(far, KNOWN))), model
 
 
 def summary(model, rows):
     """Per joint kind: rows, measured and modelled rms error (m)."""
-    predicted = model.predict(rows[:, :-1])
+    predicted = model.predict(rows[:, :-2])
     kind = rows[:, INPUTS.index('kind')]
     return {name: {'rows': int((kind == k).sum()),
                    'rms_m': round(float(np.sqrt(rows[kind == k, -1].mean())),
@@ -149,14 +156,15 @@ def main():
     args = ap.parse_args()
     with open(args.profile) as f:
         text = f.read()
-    base = dataclasses.replace(Profile.from_dict(yaml.safe_load(text)),
-                               errors=None)
+    values = yaml.safe_load(text)
+    values.pop('errors', None)      # fitted again
+    base = Profile.from_dict(values)
     rows = np.concatenate([record(args.motion, v, s, base, args.cache)
                            for v in args.views
                            for s in range(1, args.seeds + 1)])
     model, fitted = fit(rows)
-    check = model.predict(rows[:, :-1])
-    if not np.allclose(check, fitted.predict(rows[:, :-1]), rtol=1e-6):
+    check = model.predict(rows[:, :-2])
+    if not np.allclose(check, fitted.predict(rows[:, :-2]), rtol=1e-6):
         sys.exit('fit_error_model: the exported trees do not reproduce '
                  'the fitted model')
     if args.out:
@@ -166,6 +174,7 @@ def main():
     print(json.dumps({'motion': os.path.basename(args.motion),
                       'views': args.views, 'seeds': args.seeds,
                       'rows': len(rows), 'trees': len(model.trees),
+                      'distances_m': model.distances,
                       'kinds': summary(model, rows),
                       'written': args.out}, indent=1))
 

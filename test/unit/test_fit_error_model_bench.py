@@ -27,8 +27,10 @@ def test_the_exported_trees_give_the_fitted_models_errors():
     x[rng.random(x.shape) < 0.05] = np.nan      # bones not yet known
     rms = 0.05 * np.exp(np.nan_to_num(x[:, 4]) + (x[:, 1] > 0))
     err2 = (rms * rng.standard_normal(len(x))) ** 2
-    model, fitted = bench.fit(np.column_stack([x, err2]))
+    far = rng.uniform(2.0, 4.0, len(x))
+    model, fitted = bench.fit(np.column_stack([x, far, err2]))
     assert len(model.trees) == bench.TREES
+    assert np.allclose(model.distances, (2.01, 3.99), atol=0.01)
     assert np.allclose(model.predict(x), fitted.predict(x), rtol=1e-9)
     again = ErrorModel.from_dict(model.to_dict())     # leaves to 1e-6
     assert np.allclose(again.predict(x), fitted.predict(x), rtol=1e-4)
@@ -64,7 +66,8 @@ def test_the_recorder_keeps_the_joints_a_view_gives_with_their_error():
                              lambda t: truth[None], Profile(sigma=0.05))
     inspect(0.0, 1, [o], fuse([o], FuseParams()), np.full(15, np.nan))
     (kept,) = rows
-    assert kept.shape == (13, len(INPUTS) + 1)
+    assert kept.shape == (13, len(INPUTS) + 2)
+    assert np.allclose(kept[:, -2], 3.0, atol=0.05)   # along the floor
     assert np.allclose(kept[:, -1], 0.01)       # (0.1 m) ** 2
     assert np.allclose(kept[:, INPUTS.index('log_sigma')],
                        np.log(0.05 * 0.9 ** -0.5))

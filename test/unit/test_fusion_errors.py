@@ -87,6 +87,9 @@ def test_a_model_round_trips_and_a_broken_one_is_refused():
                              if k != 'missing_left'}]}
     with pytest.raises(ValueError, match='lacks'):
         ErrorModel.from_dict(short)
+    for distances in (None, [3.0, 2.0], [-1.0, 2.0]):
+        with pytest.raises(ValueError, match='distances'):
+            ErrorModel.from_dict({**d, 'distances': distances})
 
 
 def test_a_profile_carries_its_error_model():
@@ -131,6 +134,10 @@ def fused_hand(errors, seconds=1.0, rate=30.0):
 def test_the_fusion_weighs_a_hand_on_the_trunk_by_the_error_model():
     assert fused_hand(None) > 0.12         # half way between the views
     assert fused_hand(hands_on_the_trunk()) < 0.03
+    # views 3 m from the person, a model that knows views up to 2.5 m
+    near = hands_on_the_trunk()
+    near.distances = (0.5, 2.5)
+    assert fused_hand(near) > 0.12
 
 
 def test_the_model_weighs_the_views_the_profile_keeps_their_level():

@@ -23,21 +23,26 @@ tells it apart. For each of a view's joints, seven inputs:
 An ``ErrorModel`` (a Poisson-loss boosted tree ensemble, log link, fitted
 by ``bench/fit_error_model.py`` on views of a motion with its truth)
 gives the expected squared error (m^2) from them; a third of it is the
-view's variance on each axis. The fusion takes from it how the views'
-errors on a joint compare (hri_sync.fusion.pipeline). Evaluated here in
-NumPy: the fit needs scikit-learn, the fusion does not.
+view's variance on each axis. It knows the views as far from the
+person as those it was fitted on (``distances``, m along the floor:
+their 0.5 and 99.5 percentiles) and says nothing of the others. The
+fusion takes from it how the views' errors on a joint compare
+(hri_sync.fusion.pipeline). Evaluated here in NumPy: the fit needs
+scikit-learn, the fusion does not.
 """
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass
-from typing import Any, Deque, Dict, List, Optional
+from typing import Any, Deque, Dict, List, Tuple
 
 import numpy as np
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
 from hri_sync.fusion.fuse import LEAST_CONFIDENCE
+from hri_sync.fusion.sightlines import place
 
 INPUTS = ('log_confidence', 'kind', 'log_sigma', 'toward', 'across',
           'across_floor', 'bone')
@@ -105,6 +110,14 @@ def inputs(positions: np.ndarray, confidence: np.ndarray,
         bone_lengths(positions) - bones])
 
 
+def distance(body: np.ndarray, sensor: np.ndarray) -> float:
+    """How far (m, along the floor) a body (15, 3) stands from a sensor
+    (3,); NaN when it has no finite joint."""
+    xy = place(body)
+    return math.nan if xy is None else math.hypot(
+        *(xy - np.asarray(sensor, float)[:2]))
+
+
 @dataclass
 class Tree:
     """One tree: node arrays; a leaf's ``feature`` is -1."""
@@ -124,9 +137,11 @@ class ErrorModel:
     FIELDS = ('feature', 'threshold', 'left', 'right', 'value',
               'missing_left')
 
-    def __init__(self, baseline: float, trees: List[Tree]) -> None:
+    def __init__(self, baseline: float, trees: List[Tree],
+                 distances: Tuple[float, float] = (0.0, math.inf)) -> None:
         self.baseline = float(baseline)
         self.trees = trees
+        self.distances = distances
         # every tree's nodes in one array, children by their place in it
         start = np.cumsum([0] + [len(t.feature) for t in trees])
         self._start = start[:-1]
@@ -156,9 +171,15 @@ class ErrorModel:
         raw = self.baseline + nodes['value'][node].reshape(-1, n).sum(axis=0)
         return np.exp(np.clip(raw, -30.0, 5.0))
 
+    def knows(self, distance: float) -> bool:
+        """Whether a view ``distance`` m from the person is among those the
+        model was fitted on."""
+        return self.distances[0] <= distance <= self.distances[1]
+
     def to_dict(self) -> Dict[str, Any]:
         """Plain values (a YAML param)."""
         return {'inputs': list(INPUTS),
+                'distances': [round(float(d), 3) for d in self.distances],
                 'baseline': round(self.baseline, 6),
                 'trees': [{'feature': t.feature.tolist(),
                            'threshold': [float(v) for v in t.threshold],
@@ -203,4 +224,12 @@ class ErrorModel:
         if not trees or not np.isfinite(baseline):
             raise ValueError('an error model has a finite baseline and '
                              'one tree or more')
-        return cls(baseline, trees)
+        try:
+            near, far = (float(v) for v in d['distances'])
+        except (KeyError, TypeError, ValueError):
+            raise ValueError('an error model has the distances it knows, '
+                             '[near, far] m, not %r' % d.get('distances'))
+        if not 0 <= near < far:
+            raise ValueError('an error model knows distances 0 <= near < '
+                             'far, not %r' % [near, far])
+        return cls(baseline, trees, (near, far))

@@ -67,7 +67,7 @@ from hri_sync.fusion.arms import (ArmParams, arms_to_exchange,
                                   bodies_to_turn, exchanged, turned)
 from hri_sync.fusion.associate import Associator, Key, body_distance, views_of
 from hri_sync.fusion.calibration import Fit, PoseFit, Residuals
-from hri_sync.fusion.errors import Bones, inputs
+from hri_sync.fusion.errors import Bones, distance, inputs
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import (FuseParams, Fused, Observation, fuse,
                                   own_sigma)
@@ -540,10 +540,13 @@ class Fusion:
         joint compare, their level (over the views that give the joint,
         geometric mean) stays the profiles' (the model, fitted on a
         dancer, would tighten a walker's bounds) and the range's growth
-        (``far_sigma``) stays on top; whether any view has a model."""
+        (``far_sigma``) stays on top; a view farther from the person or
+        nearer than the model knows keeps its profile's. Whether any view
+        was weighed by a model."""
         models = [(o, self.profiles[o.view].sigma, model) for o in views
                   for model in [self.profiles[o.view].errors]
-                  if model is not None]
+                  if model is not None and model.knows(distance(
+                      positions, self.poses[o.view].translation()))]
         if not models:
             return False
         modelled = [o for o, _, _ in models]
