@@ -5,7 +5,7 @@ Runs bench/fusion_accuracy.py's fusion (its renders and its tracker
 profile, without an error model) on MOTION with 3 and 4 views and the
 renderer's noise seeds 1..N, records at every fused instant each view's
 joints as the model takes them (hri_sync.fusion.errors.inputs: where the
-joint lies on the fused body, its confidence, its bone) and their squared
+joint lies on the fused body and its confidence) and their squared
 error against the rendered truth, and fits a Poisson-loss boosted tree
 ensemble on them (scikit-learn's HistGradientBoostingRegressor, seeded).
 Writes the profile with the model as its ``errors`` (--out; the profile's
@@ -46,7 +46,7 @@ def recorder(rows, poses, truth, profile):
     the person and its squared errors (the joints it can give) to
     ``rows``, as the fusion takes them with ``profile`` (its sigma before
     the range's growth)."""
-    def inspect(t, person, views, body, bones):
+    def inspect(t, person, views, body):
         true = truth(np.array([t]))[0]
         for o in views:
             sigma = own_sigma(profile.sigma, o.confidence, o.power)
@@ -54,7 +54,7 @@ def recorder(rows, poses, truth, profile):
                 sigma = sigma * o.scale
             sensor = poses[o.view].translation()
             x = inputs(o.positions, o.confidence, sigma, body.positions,
-                       sensor, bones)
+                       sensor)
             err2 = ((o.positions - true) ** 2).sum(axis=1)
             ok = np.isfinite(err2) & (o.confidence >= LEAST_CONFIDENCE)
             far = np.full(ok.sum(), distance(body.positions, sensor))

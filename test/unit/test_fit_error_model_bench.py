@@ -24,7 +24,7 @@ spec.loader.exec_module(bench)
 def test_the_exported_trees_give_the_fitted_models_errors():
     rng = np.random.default_rng(7)
     x = rng.uniform(-1, 1, (4000, len(INPUTS)))
-    x[rng.random(x.shape) < 0.05] = np.nan      # bones not yet known
+    x[rng.random(x.shape) < 0.05] = np.nan      # a torso missing
     rms = 0.05 * np.exp(np.nan_to_num(x[:, 4]) + (x[:, 1] > 0))
     err2 = (rms * rng.standard_normal(len(x))) ** 2
     far = rng.uniform(2.0, 4.0, len(x))
@@ -36,8 +36,8 @@ def test_the_exported_trees_give_the_fitted_models_errors():
     assert np.allclose(again.predict(x), fitted.predict(x), rtol=1e-4)
     # what it learned: the error grows with the fifth input
     low, high = np.zeros((1, len(INPUTS))), np.zeros((1, len(INPUTS)))
-    high[0, 4] = 0.9
-    assert model.predict(high)[0] > 2 * model.predict(low)[0]
+    low[0, 4], high[0, 4] = -0.9, 0.9           # rms 6 times: 36 in m^2
+    assert model.predict(high)[0] > 4 * model.predict(low)[0]
 
 
 def test_the_model_goes_into_the_profile_once_its_other_lines_kept():
@@ -64,7 +64,7 @@ def test_the_recorder_keeps_the_joints_a_view_gives_with_their_error():
     rows = []
     inspect = bench.recorder(rows, {'front': SensorPose(3.0, 0.0, 1.0, 0.0)},
                              lambda t: truth[None], Profile(sigma=0.05))
-    inspect(0.0, 1, [o], fuse([o], FuseParams()), np.full(15, np.nan))
+    inspect(0.0, 1, [o], fuse([o], FuseParams()))
     (kept,) = rows
     assert kept.shape == (13, len(INPUTS) + 2)
     assert np.allclose(kept[:, -2], 3.0, atol=0.05)   # along the floor

@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 
 from hri_sync.dance_off.joints import INDEX
-from hri_sync.fusion.errors import (INPUTS, Bones, ErrorModel, Tree,
-                                    bone_lengths, inputs)
+from hri_sync.fusion.errors import INPUTS, ErrorModel, Tree, inputs
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.pipeline import Fusion, FusionParams
 from hri_sync.fusion.profile import Profile
@@ -33,9 +32,8 @@ def hands_on_the_trunk():
 def test_the_inputs_say_where_a_joint_lies_towards_and_across_the_sensor():
     truth = body()
     truth[HAND] = [0.5, -0.2, 1.5]              # torso at (0, 0, 1.2)
-    bones = bone_lengths(body())
     x = inputs(truth, np.full(15, 0.02), np.full(15, 0.05), truth,
-               np.array([3.0, 0.0, 1.0]), bones)
+               np.array([3.0, 0.0, 1.0]))
     row = dict(zip(INPUTS, x[HAND]))
     assert row['toward'] == pytest.approx(0.5)
     assert row['across'] == pytest.approx(math.hypot(0.2, 0.3))
@@ -43,20 +41,7 @@ def test_the_inputs_say_where_a_joint_lies_towards_and_across_the_sensor():
     assert row['kind'] == 3 and x[INDEX['left_elbow'], KIND] == 2
     assert row['log_confidence'] == pytest.approx(math.log(0.05))
     assert row['log_sigma'] == pytest.approx(math.log(0.05))
-    forearm = np.linalg.norm(truth[HAND] - truth[INDEX['right_elbow']])
-    assert row['bone'] == pytest.approx(forearm - bones[HAND])
-    assert x[INDEX['left_hand'], INPUTS.index('bone')] == pytest.approx(0)
-    assert np.isnan(x[INDEX['torso'], INPUTS.index('bone')])
-
-
-def test_a_persons_bones_are_the_median_of_the_last_instants():
-    bones = Bones(keep=3)
-    assert np.isnan(bones.lengths()).all()
-    for stretch in (1.0, 1.0, 2.0, 2.0, 2.0):
-        bones.add(body() * stretch)
-    assert bones.lengths()[HAND] == pytest.approx(
-        2 * bone_lengths(body())[HAND])
-    assert np.isnan(bones.lengths()[INDEX['torso']])
+    assert x.shape == (15, len(INPUTS))
 
 
 def test_trees_route_rows_and_missing_values_and_sum_in_the_log():

@@ -15,10 +15,12 @@ tells it apart. For each of a view's joints, seven inputs:
   sensor, along the floor (m; negative: behind the body);
 - ``across``: how far it lies from the line through the fused torso to
   the sensor (m);
-- ``across_floor``: the same along the floor (m);
-- ``bone``: the length of the bone that ends in it (from its parent
-  joint, in the view) less the person's own (the median of the fused
-  body's over the last seconds; NaN before there is one).
+- ``across_floor``: the same along the floor (m).
+
+Each depends on the instant alone: a fusion of a recording weighs the
+views as the live one did (a person's bone lengths over the last seconds
+gave 0.4 point more, but an instant one fusion waited for a view at and
+the other did not moved them, and the weights after it).
 
 An ``ErrorModel`` (a Poisson-loss boosted tree ensemble, log link, fitted
 by ``bench/fit_error_model.py`` on views of a motion with its truth)
@@ -34,69 +36,25 @@ scikit-learn, the fusion does not.
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass
-from typing import Any, Deque, Dict, List, Tuple
+from typing import Any, Dict, List, Tuple
 
 import numpy as np
 
-from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
+from hri_sync.dance_off.joints import INDEX
 from hri_sync.fusion.fuse import LEAST_CONFIDENCE
 from hri_sync.fusion.sightlines import place
 
 INPUTS = ('log_confidence', 'kind', 'log_sigma', 'toward', 'across',
-          'across_floor', 'bone')
+          'across_floor')
 KIND = np.array([0, 0, 0, 1, 1, 2, 2, 3, 3, 0, 0, 4, 4, 5, 5], float)
-# each joint's parent (the bone that ends in it); the torso has none
-PARENT = {INDEX[child]: INDEX[parent] for child, parent in (
-    ('head', 'neck'), ('left_shoulder', 'neck'), ('right_shoulder', 'neck'),
-    ('left_elbow', 'left_shoulder'), ('right_elbow', 'right_shoulder'),
-    ('left_hand', 'left_elbow'), ('right_hand', 'right_elbow'),
-    ('left_hip', 'torso'), ('right_hip', 'torso'),
-    ('left_knee', 'left_hip'), ('right_knee', 'right_hip'),
-    ('left_foot', 'left_knee'), ('right_foot', 'right_knee'))}
-_CHILD = np.array(sorted(PARENT))
-_PARENT = np.array([PARENT[j] for j in _CHILD])
-
-
-def bone_lengths(positions: np.ndarray) -> np.ndarray:
-    """(15,) each joint's bone length (m; NaN for the torso and where a
-    joint is missing) in a body (15, 3)."""
-    out = np.full(NUM_JOINTS, np.nan)
-    out[_CHILD] = np.linalg.norm(positions[_CHILD] - positions[_PARENT],
-                                 axis=1)
-    return out
-
-
-class Bones:
-    """A person's bone lengths: the median of its fused body's over the
-    last ``keep`` instants."""
-
-    def __init__(self, keep: int = 150) -> None:
-        self.past: Deque[np.ndarray] = deque(maxlen=keep)
-
-    def add(self, positions: np.ndarray) -> None:
-        """One fused body (15, 3)."""
-        self.past.append(bone_lengths(positions))
-
-    def lengths(self) -> np.ndarray:
-        """(15,) the median bone lengths; NaN where none is known."""
-        if not self.past:
-            return np.full(NUM_JOINTS, np.nan)
-        past = np.array(self.past)
-        known = np.isfinite(past).any(axis=0)
-        out = np.full(NUM_JOINTS, np.nan)
-        out[known] = np.nanmedian(past[:, known], axis=0)
-        return out
-
-
 def inputs(positions: np.ndarray, confidence: np.ndarray,
-           sigma: np.ndarray, body: np.ndarray, sensor: np.ndarray,
-           bones: np.ndarray) -> np.ndarray:
-    """(15, 7) the model's inputs (``INPUTS``) for one view's joints
+           sigma: np.ndarray, body: np.ndarray,
+           sensor: np.ndarray) -> np.ndarray:
+    """(15, 6) the model's inputs (``INPUTS``) for one view's joints
     (``positions`` (15, 3) world, ``confidence``, ``sigma``: the profile's
-    error, m) given the person's fused ``body`` (15, 3), the view's
-    ``sensor`` (3,) and the person's ``bones`` (Bones.lengths)."""
+    error, m) given the person's fused ``body`` (15, 3) and the view's
+    ``sensor`` (3,)."""
     torso = body[INDEX['torso']]
     to = np.asarray(sensor, float)[:2] - torso[:2]
     to = np.r_[to / max(float(np.linalg.norm(to)), 1e-9), 0.0]
@@ -106,8 +64,7 @@ def inputs(positions: np.ndarray, confidence: np.ndarray,
     return np.column_stack([
         np.log(np.maximum(confidence, LEAST_CONFIDENCE)), KIND,
         np.log(sigma), toward, np.linalg.norm(side, axis=1),
-        np.linalg.norm(side[:, :2], axis=1),
-        bone_lengths(positions) - bones])
+        np.linalg.norm(side[:, :2], axis=1)])
 
 
 def distance(body: np.ndarray, sensor: np.ndarray) -> float:
@@ -152,7 +109,7 @@ class ErrorModel:
                 self._start, np.diff(start))
 
     def predict(self, x: np.ndarray) -> np.ndarray:
-        """(n,) expected squared errors (m^2) of rows ``x`` (n, 7)."""
+        """(n,) expected squared errors (m^2) of rows ``x`` (n, 6)."""
         n, nodes = len(x), self._nodes
         column = np.ascontiguousarray(x.T).ravel()      # input-major
         node = np.repeat(self._start, n)                # (trees * n,)

@@ -67,7 +67,7 @@ from hri_sync.fusion.arms import (ArmParams, arms_to_exchange,
                                   bodies_to_turn, exchanged, turned)
 from hri_sync.fusion.associate import Associator, Key, body_distance, views_of
 from hri_sync.fusion.calibration import Fit, PoseFit, Residuals
-from hri_sync.fusion.errors import Bones, distance, inputs
+from hri_sync.fusion.errors import distance, inputs
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import (FuseParams, Fused, Observation, fuse,
                                   own_sigma)
@@ -136,14 +136,12 @@ class ViewUser:
 @dataclass
 class PersonState:
     """What the fusion keeps of one person between instants: its joints'
-    filter, its last two fused instants (t, positions), within
-    ``scatter_hold``, the views' scatter of each joint (t, scatter), and
-    its bone lengths."""
+    filter, its last two fused instants (t, positions) and, within
+    ``scatter_hold``, the views' scatter of each joint (t, scatter)."""
 
     smoother: Smoother
     past: List[Tuple[float, np.ndarray]] = field(default_factory=list)
     scatter: List[Tuple[float, np.ndarray]] = field(default_factory=list)
-    bones: Bones = field(default_factory=Bones)
 
 
 @dataclass
@@ -179,10 +177,9 @@ class Fusion:
         self.tried: Dict[str, float] = {}   # view: when its pose was fitted
         self.sightlines = Sightlines(self.params.sight)
         # Called with each person's views and fused body at every instant
-        # (t, person, observations as fused, Fused, the person's bone
-        # lengths as the error model took them): a bench's recorder.
+        # (t, person, observations as fused, Fused): a bench's recorder.
         self.inspect: Optional[Callable[[float, int, List[Observation],
-                                         Fused, np.ndarray], None]] = None
+                                         Fused], None]] = None
         self.next_k: Optional[int] = None
         # Each fused body's output time less the newest capture it used.
         self.latencies: Deque[float] = deque(maxlen=300)
@@ -389,18 +386,16 @@ class Fusion:
                              if s >= t - self.params.scatter_hold - 1e-9]
             inflate = np.max([x for _, x in state.scatter], axis=0) \
                 if state.scatter else None
-            bones = state.bones.lengths()
             body = fuse(views, self.params.fuse, inflate)
             if len(views) > 1:
                 scaled = self._by_vantage(body.positions, views)
                 left = self._leave_out_of_reach(body.positions, views)
                 if scaled or left:
                     body = fuse(views, self.params.fuse, inflate)
-                if self._by_error_model(body.positions, views, bones):
+                if self._by_error_model(body.positions, views):
                     body = fuse(views, self.params.fuse, inflate)
             if self.inspect is not None:
-                self.inspect(t, pid, views, body, bones)
-            state.bones.add(body.positions)
+                self.inspect(t, pid, views, body)
             state.scatter.append((t, body.scatter))
             state.past = (state.past + [(t, body.positions)])[-2:]
             bodies[pid] = body
@@ -533,10 +528,10 @@ class Fusion:
         return changed
 
     def _by_error_model(self, positions: np.ndarray,
-                        views: List[Observation], bones: np.ndarray) -> bool:
+                        views: List[Observation]) -> bool:
         """Weigh the views' joints by their profiles' learned error model
-        (hri_sync.fusion.errors) at the body fused at ``positions`` and the
-        person's ``bones``: the model says how the views' errors on each
+        (hri_sync.fusion.errors) at the body fused at ``positions``: the
+        model says how the views' errors on each
         joint compare, their level (over the views that give the joint,
         geometric mean) stays the profiles' (the model, fitted on a
         dancer, would tighten a walker's bounds) and the range's growth
@@ -556,7 +551,7 @@ class Fusion:
         was = np.array([np.ones(NUM_JOINTS) if o.scale is None else o.scale
                         for o in modelled])
         rows = [inputs(o.positions, o.confidence, b * w, positions,
-                       self.poses[o.view].translation(), bones)
+                       self.poses[o.view].translation())
                 for o, b, w in zip(modelled, base, was)]
         now = np.empty_like(base)
         for model in {id(m): m for _, _, m in models}.values():
