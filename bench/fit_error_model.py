@@ -30,9 +30,10 @@ sys.path.insert(0, HERE)
 
 import fusion_accuracy as fa  # noqa: E402
 from hri_sync.fusion.errors import (  # noqa: E402
-    INPUTS, ErrorModel, Tree, distance, inputs)
+    INPUTS, ErrorModel, Tree, inputs)
 from hri_sync.fusion.fuse import LEAST_CONFIDENCE, own_sigma  # noqa: E402
 from hri_sync.fusion.profile import Profile  # noqa: E402
+from hri_sync.fusion.sightlines import distance  # noqa: E402
 
 KINDS = ('trunk', 'shoulders', 'elbows', 'hands', 'knees', 'feet')
 TREES = 200         # boosting steps

@@ -5,7 +5,7 @@ The profile takes a view's error from its confidence and where its sensor
 stands; the depth tracker's arms are also wrong where they say they are
 seen: a hand the tracker lays on the trunk's depth points (the true hand
 hidden behind the body) is as far off as a guess. Where the joint lies
-tells it apart. For each of a view's joints, seven inputs:
+tells it apart. For each of a view's joints, six inputs:
 
 - ``log_confidence``: log of its confidence (floored at 0.05);
 - ``kind``: 0 head, neck, torso, hips; 1 shoulders; 2 elbows; 3 hands;
@@ -43,11 +43,12 @@ import numpy as np
 
 from hri_sync.dance_off.joints import INDEX
 from hri_sync.fusion.fuse import LEAST_CONFIDENCE
-from hri_sync.fusion.sightlines import place
 
 INPUTS = ('log_confidence', 'kind', 'log_sigma', 'toward', 'across',
           'across_floor')
 KIND = np.array([0, 0, 0, 1, 1, 2, 2, 3, 3, 0, 0, 4, 4, 5, 5], float)
+
+
 def inputs(positions: np.ndarray, confidence: np.ndarray,
            sigma: np.ndarray, body: np.ndarray,
            sensor: np.ndarray) -> np.ndarray:
@@ -65,14 +66,6 @@ def inputs(positions: np.ndarray, confidence: np.ndarray,
         np.log(np.maximum(confidence, LEAST_CONFIDENCE)), KIND,
         np.log(sigma), toward, np.linalg.norm(side, axis=1),
         np.linalg.norm(side[:, :2], axis=1)])
-
-
-def distance(body: np.ndarray, sensor: np.ndarray) -> float:
-    """How far (m, along the floor) a body (15, 3) stands from a sensor
-    (3,); NaN when it has no finite joint."""
-    xy = place(body)
-    return math.nan if xy is None else math.hypot(
-        *(xy - np.asarray(sensor, float)[:2]))
 
 
 @dataclass

@@ -67,7 +67,7 @@ from hri_sync.fusion.arms import (ArmParams, arms_to_exchange,
                                   bodies_to_turn, exchanged, turned)
 from hri_sync.fusion.associate import Associator, Key, body_distance, views_of
 from hri_sync.fusion.calibration import Fit, PoseFit, Residuals
-from hri_sync.fusion.errors import distance, inputs
+from hri_sync.fusion.errors import inputs
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import (FuseParams, Fused, Observation, fuse,
                                   own_sigma)
@@ -75,8 +75,8 @@ from hri_sync.fusion.lag import FilterLag
 from hri_sync.fusion.profile import Profile
 from hri_sync.fusion.reach import ReachParams, out_of_reach
 from hri_sync.fusion.smooth import SmoothParams, Smoother
-from hri_sync.fusion.sightlines import (SightParams, Sightlines, outside_image,
-                                        place)
+from hri_sync.fusion.sightlines import (SightParams, Sightlines, distance,
+                                        outside_image)
 from hri_sync.fusion.views import NOTED, HealthParams, ViewHealth
 from hri_sync.wire.vocabulary import NUM_JOINTS
 
@@ -431,13 +431,9 @@ class Fusion:
         depth range (``sight.range``: the body at its edge is cut), and
         ``far_sigma`` beyond; its confidence unchanged. A body beyond
         ``sight.far`` is counted."""
-        xy = place(positions)
-        pose = self.poses[view]
-        if xy is None:
-            return 1.0
         far, edge = self.params.sight.far, self.params.sight.range
-        d = math.hypot(xy[0] - pose.x, xy[1] - pose.y)
-        if d <= far:
+        d = distance(positions, self.poses[view].translation())
+        if math.isnan(d) or d <= far:
             return 1.0
         self.health[view].beyond_range += 1
         share = min(1.0, (d - far) / (edge - far)) if edge > far else 1.0
@@ -531,34 +527,28 @@ class Fusion:
                         views: List[Observation]) -> bool:
         """Weigh the views' joints by their profiles' learned error model
         (hri_sync.fusion.errors) at the body fused at ``positions``: the
-        model says how the views' errors on each
-        joint compare, their level (over the views that give the joint,
-        geometric mean) stays the profiles' (the model, fitted on a
-        dancer, would tighten a walker's bounds) and the range's growth
-        (``far_sigma``) stays on top; a view farther from the person or
-        nearer than the model knows keeps its profile's. Whether any view
-        was weighed by a model."""
-        models = [(o, self.profiles[o.view].sigma, model) for o in views
-                  for model in [self.profiles[o.view].errors]
-                  if model is not None and model.knows(distance(
-                      positions, self.poses[o.view].translation()))]
-        if not models:
+        model says how the views' errors on each joint compare, their
+        level (over the views that give the joint, geometric mean) stays
+        the profiles' (the model, fitted on a dancer, would tighten a
+        walker's bounds) and the range's growth (``far_sigma``) stays on
+        top; a view farther from the person or nearer than the model knows
+        keeps its profile's. Whether any view was weighed by a model."""
+        modelled, was, now = [], [], []
+        for o in views:
+            profile = self.profiles[o.view]
+            sensor = self.poses[o.view].translation()
+            if profile.errors is None or \
+                    not profile.errors.knows(distance(positions, sensor)):
+                continue
+            base = own_sigma(profile.sigma, o.confidence, o.power,
+                             self.params.fuse.min_confidence)
+            modelled.append(o)
+            was.append(np.ones(NUM_JOINTS) if o.scale is None else o.scale)
+            now.append(np.sqrt(profile.errors.predict(inputs(
+                o.positions, o.confidence, base * was[-1], positions,
+                sensor)) / 3.0) / base)
+        if not modelled:
             return False
-        modelled = [o for o, _, _ in models]
-        base = np.array([own_sigma(sigma, o.confidence, o.power,
-                                   self.params.fuse.min_confidence)
-                         for o, sigma, _ in models])
-        was = np.array([np.ones(NUM_JOINTS) if o.scale is None else o.scale
-                        for o in modelled])
-        rows = [inputs(o.positions, o.confidence, b * w, positions,
-                       self.poses[o.view].translation())
-                for o, b, w in zip(modelled, base, was)]
-        now = np.empty_like(base)
-        for model in {id(m): m for _, _, m in models}.values():
-            mine = [k for k, (_, _, m) in enumerate(models) if m is model]
-            now[mine] = model.predict(np.concatenate(
-                [rows[k] for k in mine])).reshape(len(mine), NUM_JOINTS)
-        now = np.sqrt(now / 3.0) / base
         finite = np.array([np.isfinite(o.positions).all(axis=1)
                            for o in modelled])
         gives = finite & (np.array([o.confidence for o in modelled])

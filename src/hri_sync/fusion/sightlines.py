@@ -57,6 +57,14 @@ def place(body: np.ndarray) -> Optional[np.ndarray]:
     return None
 
 
+def distance(body: np.ndarray, sensor: np.ndarray) -> float:
+    """How far (m, along the floor) a body (15, 3) stands (``place``) from
+    a sensor (3,); NaN when it has no finite joint."""
+    xy = place(body)
+    return math.nan if xy is None else math.hypot(
+        *(xy - np.asarray(sensor, float)[:2]))
+
+
 def in_sight(pose: SensorPose, point: np.ndarray,
              others: Iterable[np.ndarray], params: SightParams) -> bool:
     """Whether ``point`` (world x, y) is in ``pose``'s field and no point
