@@ -3,17 +3,20 @@
 
 Runs bench/fusion_accuracy.py's fusion (its renders and its tracker
 profile, without an error model) on MOTION with 3 and 4 views and the
-renderer's noise seeds 1..N, records at every fused instant each view's
-joints as the model takes them (hri_sync.fusion.errors.inputs: where the
-joint lies on the fused body and its confidence) and their squared
-error against the rendered truth, and fits a Poisson-loss boosted tree
-ensemble on them (scikit-learn's HistGradientBoostingRegressor, seeded).
-Writes the profile with the model as its ``errors`` (--out; the profile's
-other lines unchanged) and prints JSON: the rows, and per joint kind the
-measured and the model's rms error.
+renderer's noise seeds 1..N, the motion turned about the vertical by
+each of --turns (the same sensors see it from other sides) and, with
+--mirrored, mirrored left to right too; records at every fused instant
+each view's joints as the model takes them
+(hri_sync.fusion.errors.inputs: where the joint lies on the fused body
+and its confidence) and their squared error against the rendered truth,
+and fits a Poisson-loss boosted tree ensemble on them (scikit-learn's
+HistGradientBoostingRegressor, seeded). Writes the profile with the
+model as its ``errors`` (--out; the profile's other lines unchanged) and
+prints JSON: the rows, and per joint kind the measured and the model's
+rms error.
 
     bench/fit_error_model.py --motion data/motion/cmu_60_01_salsa.npz \\
-        --out config/fusion_depth_tracker.yaml
+        --turns 0 90 180 270 --out config/fusion_depth_tracker.yaml
 
 Needs the built workspace sourced and scikit-learn (make setup).
 """
@@ -29,6 +32,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
 import fusion_accuracy as fa  # noqa: E402
+from hri_sync.dance_off.joints import JOINTS  # noqa: E402
 from hri_sync.fusion.errors import (  # noqa: E402
     INPUTS, ErrorModel, Tree, inputs)
 from hri_sync.fusion.fuse import LEAST_CONFIDENCE, own_sigma  # noqa: E402
@@ -40,6 +44,9 @@ TREES = 200         # boosting steps
 LEAVES = 31         # each tree's leaves at most
 LEAST = 200         # rows a leaf holds at least
 KNOWN = (0.5, 99.5)  # percentiles of the distances the model knows
+SLICE = 50000       # rows an ErrorModel predicts at once here
+MIRROR = [JOINTS.index(n.replace('left', 'x').replace('right', 'left')
+                       .replace('x', 'right')) for n in JOINTS]
 
 
 def recorder(rows, poses, truth, profile):
@@ -63,15 +70,35 @@ def recorder(rows, poses, truth, profile):
     return inspect
 
 
-def record(motion, views, seed, profile, cache):
+def turned(motion, degrees, mirrored=False):
+    """A world Motion turned ``degrees`` about the vertical through the
+    origin (the dancer's mean torso), after mirroring it left to right
+    (world y negated, each left joint swapped with its right one) when
+    ``mirrored``; named for both."""
+    p = motion.positions
+    name = motion.name
+    if mirrored:
+        p = p[:, MIRROR] * np.array([1.0, -1.0, 1.0])
+        name += '_mirrored'
+    if degrees % 360:
+        a = np.radians(degrees)
+        c, s = np.cos(a), np.sin(a)
+        p = np.stack([c * p[..., 0] - s * p[..., 1],
+                      s * p[..., 0] + c * p[..., 1], p[..., 2]], axis=-1)
+        name += '_turn%g' % degrees
+    return fa.Motion(motion.times, p, name=name) if name != motion.name \
+        else motion
+
+
+def record(motion, views, seed, profile, cache, turn=0.0, mirrored=False):
     """(rows, inputs + 2) of one run (recorder's): ``views`` views, noise
-    ``seed``."""
+    ``seed``, the motion turned ``turn`` degrees (``turned``)."""
     scene = 'noise=kinect1' if seed == 1 else 'noise=kinect1&seed=%d' % seed
     args = fa.arguments(['--motion', motion, '--views', str(views),
                          '--scene', scene, '--cache', cache, '--jobs', '1'])
     names = [v[0] for v in fa.VIEWS[:views]]
     dumps, poses = fa.rendered_views(
-        args, [fa.world_motion(fa.load_motion(motion))])
+        args, [turned(fa.world_motion(fa.load_motion(motion)), turn, mirrored)])
     rendered = [fa.read_dump(d) for d in dumps]
     msgs = fa.messages(rendered, np.random.default_rng(args.seed))
     rows = []
@@ -110,15 +137,22 @@ def fit(rows, seed=0):
     return exported(model, tuple(np.percentile(far, KNOWN))), model
 
 
+def predicted(model, rows):
+    """An ErrorModel's squared errors of ``rows``, a slice at a time (it
+    walks every tree at once)."""
+    return np.concatenate([model.predict(rows[k:k + SLICE, :-2])
+                           for k in range(0, len(rows), SLICE)])
+
+
 def summary(model, rows):
     """Per joint kind: rows, measured and modelled rms error (m)."""
-    predicted = model.predict(rows[:, :-2])
+    guess = predicted(model, rows)
     kind = rows[:, INPUTS.index('kind')]
     return {name: {'rows': int((kind == k).sum()),
                    'rms_m': round(float(np.sqrt(rows[kind == k, -1].mean())),
                                   4),
                    'model_rms_m': round(float(np.sqrt(
-                       predicted[kind == k].mean())), 4)}
+                       guess[kind == k].mean())), 4)}
             for k, name in enumerate(KINDS) if (kind == k).any()}
 
 
@@ -150,6 +184,11 @@ def main():
                     choices=(2, 3, 4))
     ap.add_argument('--seeds', type=int, default=5,
                     help='noise seeds 1..N (default %(default)s)')
+    ap.add_argument('--turns', type=float, nargs='+', default=[0.0],
+                    metavar='DEG', help='the motion also turned by these '
+                    'degrees about the vertical (default: as it is)')
+    ap.add_argument('--mirrored', action='store_true',
+                    help='the motion also mirrored left to right (each turn)')
     ap.add_argument('--profile', default=fa.PROFILE,
                     help='the tracker profile (YAML; default %(default)s)')
     ap.add_argument('--cache', default='/tmp/hri_sync_fusion')
@@ -160,11 +199,13 @@ def main():
     values = yaml.safe_load(text)
     values.pop('errors', None)      # fitted again
     base = Profile.from_dict(values)
-    rows = np.concatenate([record(args.motion, v, s, base, args.cache)
-                           for v in args.views
-                           for s in range(1, args.seeds + 1)])
+    rows = np.concatenate([
+        record(args.motion, v, s, base, args.cache, turn, mirrored)
+        for mirrored in [False] + [True] * args.mirrored
+        for turn in args.turns for v in args.views
+        for s in range(1, args.seeds + 1)])
     model, fitted = fit(rows)
-    check = model.predict(rows[:, :-2])
+    check = predicted(model, rows)
     if not np.allclose(check, fitted.predict(rows[:, :-2]), rtol=1e-6):
         sys.exit('fit_error_model: the exported trees do not reproduce '
                  'the fitted model')
@@ -174,6 +215,7 @@ def main():
             f.write(with_errors(text, model, command))
     print(json.dumps({'motion': os.path.basename(args.motion),
                       'views': args.views, 'seeds': args.seeds,
+                      'turns_deg': args.turns, 'mirrored': args.mirrored,
                       'rows': len(rows), 'trees': len(model.trees),
                       'distances_m': model.distances,
                       'kinds': summary(model, rows),

@@ -71,3 +71,35 @@ def test_the_recorder_keeps_the_joints_a_view_gives_with_their_error():
     assert np.allclose(kept[:, -1], 0.01)       # (0.1 m) ** 2
     assert np.allclose(kept[:, INPUTS.index('log_sigma')],
                        np.log(0.05 * 0.9 ** -0.5))
+
+
+def test_a_turned_motion_is_seen_from_another_side():
+    from hri_sync.dance_off.joints import INDEX
+    from hri_sync.dance_off.motion import Motion
+    p = np.stack([body(), body() + [0.1, 0.0, 0.0]])
+    motion = Motion([0.0, 0.1], p, name='dance')
+    assert bench.turned(motion, 0.0) is motion
+    quarter = bench.turned(motion, 90.0)
+    assert quarter.name == 'dance_turn90'
+    assert np.allclose(quarter.positions[..., 0], -p[..., 1])
+    assert np.allclose(quarter.positions[..., 1], p[..., 0])
+    assert np.allclose(quarter.positions[..., 2], p[..., 2])
+    mirrored = bench.turned(motion, 0.0, mirrored=True)
+    assert mirrored.name == 'dance_mirrored'
+    left, right = INDEX['left_hand'], INDEX['right_hand']
+    assert np.allclose(mirrored.positions[:, left],
+                       p[:, right] * [1.0, -1.0, 1.0])
+    assert np.allclose(mirrored.positions[:, INDEX['head']],
+                       p[:, INDEX['head']] * [1.0, -1.0, 1.0])
+    both = bench.turned(motion, 180.0, mirrored=True)
+    assert both.name == 'dance_mirrored_turn180'
+    assert np.allclose(both.positions[:, right],
+                       p[:, left] * [-1.0, 1.0, 1.0])
+
+
+def test_the_model_predicts_many_rows_a_slice_at_a_time(monkeypatch):
+    rng = np.random.default_rng(3)
+    x = rng.uniform(-1, 1, (2500, len(INPUTS) + 2))
+    model = hands_on_the_trunk()
+    monkeypatch.setattr(bench, 'SLICE', 1000)
+    assert np.allclose(bench.predicted(model, x), model.predict(x[:, :-2]))
