@@ -272,7 +272,8 @@ class Fault(unittest.TestCase):
         self.assertIsNotNone(status, 'round 2: no aborted status')
         self.assertIn('no ACK from left', status.reason)
         self.assertEqual(list(status.missing), ['left'])
-        self.later_rounds_recover(3, 'no ACK from left')
+        self.later_rounds_recover(3, 'no ACK from left',
+                                  'left refused (dpm not listening')
         self.assertTrue(wait(lambda: node_pid('/left/cpm') not in (
             None, frozen), 10.0), 'left/cpm was not respawned')
 

@@ -36,6 +36,21 @@ def test_fresh_heartbeat_and_fresh_sample_is_alive():
     assert live.verdict(100.5) == Verdict(True)
 
 
+def test_a_dpm_not_yet_taking_the_cpms_orders_is_not_listening():
+    connected = [False]
+    live = Liveness(dpm_timeout=2.0, sensor_timeout=1.0, started=0.0,
+                    listening=lambda: connected[0])
+    live.on_beat(beat(100.0))
+    v = live.verdict(100.5)
+    assert not v.ok
+    assert v.reason.startswith('dpm not listening')
+    assert 'capture_command' in v.reason
+    connected[0] = True
+    assert live.verdict(100.5) == Verdict(True)
+    # a dead DPM is named as such, connected or not
+    assert live.verdict(103.0).reason.startswith('dpm not alive')
+
+
 def test_a_sensor_whose_samples_the_dpm_refuses_is_not_called_silent():
     live = rule()
     live.on_beat(Beat(100.0, '/c/input', 0, math.nan, math.nan, 41,

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass
+from typing import Callable
 
 from hri_sync.wire.health import ERROR, LEVEL_NAMES, OK, Health, text
 
@@ -55,11 +56,16 @@ class Liveness:
     ``sensor_timeout`` s old (the age the heartbeat reports plus the
     time since the heartbeat).  ``sensor_timeout`` None: the DPM has no
     sensor to watch.  ``started`` is the CPM's local start, for the
-    reason given before any heartbeat.
+    reason given before any heartbeat.  ``listening`` (None: not
+    checked) says whether the DPM takes this CPM's capture orders: a
+    DPM's heartbeat reaches a CPM that has just started (respawned)
+    before the DPM has connected to its orders, and an order sent then
+    is lost.
     """
 
     def __init__(self, dpm_timeout: float, sensor_timeout: float | None,
-                 started: float) -> None:
+                 started: float,
+                 listening: Callable[[], bool] | None = None) -> None:
         if not (isinstance(dpm_timeout, (int, float))
                 and math.isfinite(dpm_timeout) and dpm_timeout > 0):
             raise ValueError('~dpm_timeout must be > 0 s, got %r'
@@ -72,6 +78,7 @@ class Liveness:
         self.dpm_timeout = float(dpm_timeout)
         self.sensor_timeout = sensor_timeout
         self.started = started
+        self.listening = listening
         self.last: Beat | None = None
         self.driver: tuple[float, int, str] | None = None
         self.driver_rejected = 0
@@ -120,6 +127,10 @@ class Liveness:
             return Verdict(False, 'dpm not alive: no dpm_state for %.1f s '
                            '(~dpm_timeout %.1f s)'
                            % (silence, self.dpm_timeout))
+        if self.listening is not None and not self.listening():
+            return Verdict(False, 'dpm not listening: it sends dpm_state '
+                           'but takes no capture orders from this CPM yet '
+                           '(its capture_command not connected)')
         if self.sensor_timeout is None:
             return Verdict(True)
         if beat.samples == 0 and beat.refused:

@@ -38,7 +38,8 @@ class ClientProcess:
 
     With ``liveness`` (a CPM with a DPM behind it) it ACKs only while
     that DPM's heartbeat (``dpm_state`` in its namespace) is at most
-    ``~dpm_timeout`` s old and its sensor's last sample at most
+    ``~dpm_timeout`` s old, ``listening()`` (when given) says the DPM
+    takes its orders, and its sensor's last sample at most
     ``~sensor_timeout`` s (<= 0: no sensor to watch); a failing check
     may turn within ``~liveness_wait`` s (a DPM starting) before the
     CPM NACKs with its reason.  With ``~sensor_driver`` (the sensor
@@ -52,7 +53,7 @@ class ClientProcess:
     """
 
     def __init__(self, client_id, on_capture, on_late=None, inbox=None,
-                 liveness=False):
+                 liveness=False, listening=None):
         self.client_id = client_id
         self.on_capture = on_capture
         self.on_late = on_late
@@ -65,7 +66,7 @@ class ClientProcess:
                                   queue_size=10)
         self.inbox = inbox if inbox is not None else Inbox()
         self._capture_topic = protocol_topic('capture_data')
-        self.liveness = self._liveness() if liveness else None
+        self.liveness = self._liveness(listening) if liveness else None
         self.tally = client_tally()
         self.diagnostics = round_diagnostics(
             client_id, self.tally, self.synced_clock,
@@ -93,13 +94,14 @@ class ClientProcess:
                                  self.schedule.acked_round),
                              queue_size=10)
 
-    def _liveness(self):
-        """The liveness rule from ~params, fed by the DPM's heartbeat."""
+    def _liveness(self, listening):
+        """The liveness rule from ~params, fed by the DPM's heartbeat
+        (``listening``: Liveness's)."""
         sensor_timeout = param('sensor_timeout', 2.0, float)
         try:
             live = Liveness(param('dpm_timeout', 2.0, float),
                             sensor_timeout if sensor_timeout > 0 else None,
-                            time.time())
+                            time.time(), listening)
         except ValueError as e:
             raise ParamError(str(e))
         self.liveness_wait = param('liveness_wait', 1.5, float,
