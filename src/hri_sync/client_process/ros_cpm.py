@@ -38,8 +38,9 @@ class ClientProcess:
 
     With ``liveness`` (a CPM with a DPM behind it) it ACKs only while
     that DPM's heartbeat (``dpm_state`` in its namespace) is at most
-    ``~dpm_timeout`` s old, ``listening()`` (when given) says the DPM
-    takes its orders, and its sensor's last sample at most
+    ``~dpm_timeout`` s old, the DPM's node is connected to ``orders``
+    (when given: the Publisher of its capture orders; a recorder's
+    connection does not count), and its sensor's last sample at most
     ``~sensor_timeout`` s (<= 0: no sensor to watch); a failing check
     may turn within ``~liveness_wait`` s (a DPM starting) before the
     CPM NACKs with its reason.  With ``~sensor_driver`` (the sensor
@@ -53,7 +54,7 @@ class ClientProcess:
     """
 
     def __init__(self, client_id, on_capture, on_late=None, inbox=None,
-                 liveness=False, listening=None):
+                 liveness=False, orders=None):
         self.client_id = client_id
         self.on_capture = on_capture
         self.on_late = on_late
@@ -66,7 +67,7 @@ class ClientProcess:
                                   queue_size=10)
         self.inbox = inbox if inbox is not None else Inbox()
         self._capture_topic = protocol_topic('capture_data')
-        self.liveness = self._liveness(listening) if liveness else None
+        self.liveness = self._liveness(orders) if liveness else None
         self.tally = client_tally()
         self.diagnostics = round_diagnostics(
             client_id, self.tally, self.synced_clock,
@@ -94,9 +95,13 @@ class ClientProcess:
                                  self.schedule.acked_round),
                              queue_size=10)
 
-    def _liveness(self, listening):
-        """The liveness rule from ~params, fed by the DPM's heartbeat
-        (``listening``: Liveness's)."""
+    def _liveness(self, orders):
+        """The liveness rule from ~params, fed by the DPM's heartbeat;
+        with ``orders`` (the Publisher of the DPM's capture orders), the
+        DPM listens once its node is connected to it."""
+        dpm = self.inbox.senders.names('dpm', self.client_id)
+        listening = None if orders is None else (
+            lambda: any(orders.impl.has_connection(n) for n in dpm))
         sensor_timeout = param('sensor_timeout', 2.0, float)
         try:
             live = Liveness(param('dpm_timeout', 2.0, float),
