@@ -45,8 +45,9 @@ LEAVES = 31         # each tree's leaves at most
 LEAST = 200         # rows a leaf holds at least
 KNOWN = (0.5, 99.5)  # percentiles of the distances the model knows
 SLICE = 50000       # rows an ErrorModel predicts at once here
-MIRROR = [JOINTS.index(n.replace('left', 'x').replace('right', 'left')
-                       .replace('x', 'right')) for n in JOINTS]
+SIDES = {'left': 'right', 'right': 'left'}
+MIRROR = [JOINTS.index('_'.join(SIDES.get(w, w) for w in n.split('_')))
+          for n in JOINTS]    # each joint's index on the other side
 
 
 def recorder(rows, poses, truth, profile):
@@ -92,13 +93,14 @@ def turned(motion, degrees, mirrored=False):
 
 def record(motion, views, seed, profile, cache, turn=0.0, mirrored=False):
     """(rows, inputs + 2) of one run (recorder's): ``views`` views, noise
-    ``seed``, the motion turned ``turn`` degrees (``turned``)."""
+    ``seed``, the motion turned ``turn`` degrees and ``mirrored``
+    (``turned``)."""
     scene = 'noise=kinect1' if seed == 1 else 'noise=kinect1&seed=%d' % seed
     args = fa.arguments(['--motion', motion, '--views', str(views),
                          '--scene', scene, '--cache', cache, '--jobs', '1'])
     names = [v[0] for v in fa.VIEWS[:views]]
-    dumps, poses = fa.rendered_views(
-        args, [turned(fa.world_motion(fa.load_motion(motion)), turn, mirrored)])
+    world = fa.world_motion(fa.load_motion(motion))
+    dumps, poses = fa.rendered_views(args, [turned(world, turn, mirrored)])
     rendered = [fa.read_dump(d) for d in dumps]
     msgs = fa.messages(rendered, np.random.default_rng(args.seed))
     rows = []
