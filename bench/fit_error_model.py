@@ -186,6 +186,9 @@ def main():
                     choices=(2, 3, 4))
     ap.add_argument('--seeds', type=int, default=5,
                     help='noise seeds 1..N (default %(default)s)')
+    ap.add_argument('--fps', type=int, default=fa.FPS,
+                    help="each view's frame rate (default %(default)s; "
+                    'the profile is to be measured at it)')
     ap.add_argument('--turns', type=float, nargs='+', default=[0.0],
                     metavar='DEG', help='the motion also turned by these '
                     'degrees about the vertical (default: as it is)')
@@ -196,6 +199,7 @@ def main():
     ap.add_argument('--cache', default='/tmp/hri_sync_fusion')
     ap.add_argument('--out', help='write the profile with the model here')
     args = ap.parse_args()
+    fa.FPS = args.fps   # every view's frame times follow it
     with open(args.profile) as f:
         text = f.read()
     values = yaml.safe_load(text)
@@ -217,6 +221,7 @@ def main():
             f.write(with_errors(text, model, command))
     print(json.dumps({'motion': os.path.basename(args.motion),
                       'views': args.views, 'seeds': args.seeds,
+                      'fps': args.fps,
                       'turns_deg': args.turns, 'mirrored': args.mirrored,
                       'rows': len(rows), 'trees': len(model.trees),
                       'distances_m': model.distances,
