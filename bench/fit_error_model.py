@@ -32,7 +32,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
 import fusion_accuracy as fa  # noqa: E402
-from hri_sync.dance_off.joints import JOINTS  # noqa: E402
+from hri_sync.dance_off.frames import rotation  # noqa: E402
+from hri_sync.fusion.arms import turned as sides_exchanged  # noqa: E402
 from hri_sync.fusion.errors import (  # noqa: E402
     INPUTS, ErrorModel, Tree, inputs)
 from hri_sync.fusion.fuse import LEAST_CONFIDENCE, own_sigma  # noqa: E402
@@ -44,10 +45,6 @@ TREES = 200         # boosting steps
 LEAVES = 31         # each tree's leaves at most
 LEAST = 200         # rows a leaf holds at least
 KNOWN = (0.5, 99.5)  # percentiles of the distances the model knows
-SLICE = 50000       # rows an ErrorModel predicts at once here
-SIDES = {'left': 'right', 'right': 'left'}
-MIRROR = [JOINTS.index('_'.join(SIDES.get(w, w) for w in n.split('_')))
-          for n in JOINTS]    # each joint's index on the other side
 
 
 def recorder(rows, poses, truth, profile):
@@ -79,13 +76,11 @@ def turned(motion, degrees, mirrored=False):
     p = motion.positions
     name = motion.name
     if mirrored:
-        p = p[:, MIRROR] * np.array([1.0, -1.0, 1.0])
+        p = np.moveaxis(sides_exchanged(np.moveaxis(p, 1, 0)), 0, 1) \
+            * np.array([1.0, -1.0, 1.0])
         name += '_mirrored'
     if degrees % 360:
-        a = np.radians(degrees)
-        c, s = np.cos(a), np.sin(a)
-        p = np.stack([c * p[..., 0] - s * p[..., 1],
-                      s * p[..., 0] + c * p[..., 1], p[..., 2]], axis=-1)
+        p = p @ rotation(np.radians(degrees)).T
         name += '_turn%g' % degrees
     return fa.Motion(motion.times, p, name=name) if name != motion.name \
         else motion
@@ -139,22 +134,15 @@ def fit(rows, seed=0):
     return exported(model, tuple(np.percentile(far, KNOWN))), model
 
 
-def predicted(model, rows):
-    """An ErrorModel's squared errors of ``rows``, a slice at a time (it
-    walks every tree at once)."""
-    return np.concatenate([model.predict(rows[k:k + SLICE, :-2])
-                           for k in range(0, len(rows), SLICE)])
-
-
 def summary(model, rows):
     """Per joint kind: rows, measured and modelled rms error (m)."""
-    guess = predicted(model, rows)
+    predicted = model.predict(rows[:, :-2])
     kind = rows[:, INPUTS.index('kind')]
     return {name: {'rows': int((kind == k).sum()),
                    'rms_m': round(float(np.sqrt(rows[kind == k, -1].mean())),
                                   4),
                    'model_rms_m': round(float(np.sqrt(
-                       guess[kind == k].mean())), 4)}
+                       predicted[kind == k].mean())), 4)}
             for k, name in enumerate(KINDS) if (kind == k).any()}
 
 
@@ -211,7 +199,7 @@ def main():
         for turn in args.turns for v in args.views
         for s in range(1, args.seeds + 1)])
     model, fitted = fit(rows)
-    check = predicted(model, rows)
+    check = model.predict(rows[:, :-2])
     if not np.allclose(check, fitted.predict(rows[:, :-2]), rtol=1e-6):
         sys.exit('fit_error_model: the exported trees do not reproduce '
                  'the fitted model')

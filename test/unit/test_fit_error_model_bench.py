@@ -95,11 +95,3 @@ def test_a_turned_motion_is_seen_from_another_side():
     assert both.name == 'dance_mirrored_turn180'
     assert np.allclose(both.positions[:, right],
                        p[:, left] * [-1.0, 1.0, 1.0])
-
-
-def test_the_model_predicts_many_rows_a_slice_at_a_time(monkeypatch):
-    rng = np.random.default_rng(3)
-    x = rng.uniform(-1, 1, (2500, len(INPUTS) + 2))
-    model = hands_on_the_trunk()
-    monkeypatch.setattr(bench, 'SLICE', 1000)
-    assert np.allclose(bench.predicted(model, x), model.predict(x[:, :-2]))

@@ -54,6 +54,17 @@ def test_trees_route_rows_and_missing_values_and_sum_in_the_log():
     assert twice.predict(x) == pytest.approx(math.e * model.predict(x) ** 2)
 
 
+def test_many_rows_are_walked_a_slice_at_a_time(monkeypatch):
+    from hri_sync.fusion import errors
+    rng = np.random.default_rng(3)
+    x = rng.uniform(-1, 1, (2500, len(INPUTS)))
+    x[rng.random(x.shape) < 0.05] = np.nan
+    model = hands_on_the_trunk()
+    whole = model.predict(x)
+    monkeypatch.setattr(errors, 'ROWS', 1000)
+    assert np.array_equal(model.predict(x), whole)
+
+
 def test_a_model_round_trips_and_a_broken_one_is_refused():
     model = hands_on_the_trunk()
     again = ErrorModel.from_dict(model.to_dict())

@@ -46,6 +46,7 @@ from hri_sync.fusion.fuse import LEAST_CONFIDENCE
 
 INPUTS = ('log_confidence', 'kind', 'log_sigma', 'toward', 'across',
           'across_floor')
+ROWS = 50000    # rows ErrorModel.predict walks the trees with at once
 KIND = np.array([0, 0, 0, 1, 1, 2, 2, 3, 3, 0, 0, 4, 4, 5, 5], float)
 
 
@@ -102,7 +103,14 @@ class ErrorModel:
                 self._start, np.diff(start))
 
     def predict(self, x: np.ndarray) -> np.ndarray:
-        """(n,) expected squared errors (m^2) of rows ``x`` (n, 6)."""
+        """(n,) expected squared errors (m^2) of rows ``x`` (n, 6), up to
+        ``ROWS`` at a time (every tree is walked at once: its arrays hold
+        trees x rows)."""
+        return np.concatenate([self._walk(x[k:k + ROWS])
+                               for k in range(0, max(len(x), 1), ROWS)])
+
+    def _walk(self, x: np.ndarray) -> np.ndarray:
+        """``predict`` of rows ``x`` all at once."""
         n, nodes = len(x), self._nodes
         column = np.ascontiguousarray(x.T).ravel()      # input-major
         node = np.repeat(self._start, n)                # (trees * n,)
