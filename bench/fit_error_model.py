@@ -146,13 +146,13 @@ def summary(model, rows):
             for k, name in enumerate(KINDS) if (kind == k).any()}
 
 
-def with_errors(text, model, command):
-    """The profile YAML ``text`` with ``model`` as its ``errors`` block
-    (one it had, and the comment just above it, replaced), under a
-    comment giving ``command``; its other lines as they were."""
+def with_block(text, key, values, comment):
+    """The profile YAML ``text`` with ``values`` as its ``key`` block (one
+    it had, and the comment just above it, replaced) under ``comment``
+    (lines, each put after '# '); its other lines as they were."""
     out, skipping = [], False
     for line in text.splitlines(keepends=True):
-        if line.startswith('errors:'):
+        if line.startswith(key + ':'):
             while out and out[-1].startswith('#'):
                 out.pop()
             skipping = True
@@ -160,10 +160,9 @@ def with_errors(text, model, command):
             skipping = False
         if not skipping:
             out.append(line)
-    return ''.join(out).rstrip('\n') + '\n' + (
-        '# The learned error model (hri_sync.fusion.errors: a view\'s joint\n'
-        '# error from where it lies), fitted with\n#   %s\n' % command) + \
-        yaml.safe_dump({'errors': model.to_dict()}, default_flow_style=None,
+    return ''.join(out).rstrip('\n') + '\n' + ''.join(
+        '# %s\n' % line for line in comment) + \
+        yaml.safe_dump({key: values}, default_flow_style=None,
                        sort_keys=False, width=100)
 
 
@@ -206,7 +205,10 @@ def main():
     if args.out:
         command = ' '.join(['bench/fit_error_model.py'] + sys.argv[1:])
         with open(args.out, 'w') as f:
-            f.write(with_errors(text, model, command))
+            f.write(with_block(text, 'errors', model.to_dict(), [
+                "The learned error model (hri_sync.fusion.errors: a view's",
+                'joint error from where it lies), fitted with',
+                '  ' + command]))
     print(json.dumps({'motion': os.path.basename(args.motion),
                       'views': args.views, 'seeds': args.seeds,
                       'fps': args.fps,

@@ -32,6 +32,10 @@ rendered truth. Prints one JSON object:
   other views see them (``0``, ``1``, ``2+``: at confidence >= 0.5): each
   group's share, the best view's and the fused error (``1``: and the
   error of the view that sees it);
+- ``best_view_alone``: the best view alone through the same fusion (its
+  profile, joint filter and posture, no other view): ``mean_m`` and
+  ``hidden_mean_m`` (its instants, the joints the best view hides): what
+  the fusion's steps give one view, the other views apart;
 - ``best_view_instants``: the best view and the fused body on the same
   instants and joints (the fused instants the best view has a skeleton
   at: ``share``): ``single_view_mean_m`` covers a view's tracked frames
@@ -437,6 +441,16 @@ def figures(frames, captured, truth, best_track):
     }
 
 
+def alone_figures(msgs, view, pose, profile, truth, track):
+    """``view`` alone through the fusion (its ``track`` telling the hidden
+    joints): its mean error and on its hidden joints (m)."""
+    frames, captured, _ = run_fusion([m for m in msgs if m['view'] == view],
+                                     {view: pose}, True, profile)
+    alone = figures(frames, captured, truth, track)
+    return {'mean_m': alone['fused_mean_m'],
+            'hidden_mean_m': alone['fused_hidden_mean_m']}
+
+
 def declared_poses(error, names, poses):
     """The poses the fusion is given: the views' own, but for ``error``
     (VIEW:DX,DY,DEG)."""
@@ -777,6 +791,8 @@ def main():
         result['unmatched_instants'] = dict(fusion.sightlines.instants)
         if aligned:
             out.update(result)
+            out['best_view_alone'] = alone_figures(
+                msgs, best, declared[best], profile, truth, tracks[best])
             instants = views_at(frames, truth, tracks)
             out.update(oracle(instants, best))
             out['best_view_instants'] = paired_with_best(instants, best)

@@ -18,7 +18,10 @@ object:
   ``best_view_instants``: the best view's own mean covers its tracked
   frames only, the fused body's every instant), with
   ``best_view_instant_share``, the share of the fused instants the best
-  view has a skeleton at;
+  view has a skeleton at; and ``below_best_alone_pct`` /
+  ``hidden_below_best_alone_pct``, the fused body below the best view
+  alone through the same fusion (``best_view_alone``: its profile, filter
+  and posture);
 - ``summary``: each figure's median, least and greatest over the seeds;
 - ``targets_met``: per target, in how many of the seeds it is met.
 
@@ -53,6 +56,7 @@ def figures(out):
     best = min(out['single_view_mean_m'].values())
     hidden = out['best_view_hidden_mean_m']
     paired = out['best_view_instants']
+    alone = out['best_view_alone']
     return {
         'best_view_m': best,
         'fused_m': out['fused_mean_m'],
@@ -68,6 +72,11 @@ def figures(out):
         'below_best_same_instants_pct': round(
             100 * (1 - paired['fused_m'] / paired['best_view_m']), 1),
         'best_view_instant_share': paired['share'],
+        'below_best_alone_pct': round(
+            100 * (1 - out['fused_mean_m'] / alone['mean_m']), 1),
+        'hidden_below_best_alone_pct': round(
+            100 * (1 - out['fused_hidden_mean_m'] / alone['hidden_mean_m']),
+            1),
     }
 
 

@@ -42,9 +42,10 @@ def test_the_exported_trees_give_the_fitted_models_errors():
 
 def test_the_model_goes_into_the_profile_once_its_other_lines_kept():
     text = '# the profile\nsigma: 0.05\n# why\noffsets:\n- [0, 0, 0]\n'
-    once = bench.with_errors(text, hands_on_the_trunk(), 'fit A')
-    twice = bench.with_errors(once + 'delay: 0.1\n', hands_on_the_trunk(),
-                              'fit B')
+    model = hands_on_the_trunk().to_dict()
+    once = bench.with_block(text, 'errors', model, ['fit A'])
+    twice = bench.with_block(once + 'delay: 0.1\n', 'errors', model,
+                             ['fit B'])
     assert twice.startswith(text)
     assert twice.count('\nerrors:') == 1 and 'fit A' not in twice
     assert 'fit B' in twice and 'delay: 0.1' in twice

@@ -13,12 +13,17 @@ spec.loader.exec_module(bench)
 
 
 def result(best, fused, best_hidden, fused_hidden, coverage=0.99,
-           duplicates=0, latency=99.0, slowest=96.0, paired=None):
+           duplicates=0, latency=99.0, slowest=96.0, paired=None,
+           alone=None):
     """A fusion_accuracy.py JSON result's keys the bench reads
     (``paired``: the best view and the fused body on the same instants,
-    and its share of them; the run's own figures by default)."""
+    and its share of them; ``alone``: the best view alone through the
+    fusion, whole and hidden; the run's own figures by default)."""
     best_m, fused_m, share = paired or (best, fused, 1.0)
+    alone_m, alone_hidden = alone or (best, best_hidden)
     return {'single_view_mean_m': {'front': best, 'right': best + 0.01},
+            'best_view_alone': {'mean_m': alone_m,
+                                'hidden_mean_m': alone_hidden},
             'best_view_instants': {'share': share, 'best_view_m': best_m,
                                    'fused_m': fused_m},
             'fused_mean_m': fused,
@@ -47,6 +52,11 @@ def test_figures_are_below_the_best_view_in_percent():
     assert f['below_best_pct'] == -10.0
     assert f['below_best_same_instants_pct'] == 20.0
     assert f['best_view_instant_share'] == 0.7
+    # Alone through the fusion the best view is 0.05 m, 0.125 on the hidden
+    f = bench.figures(result(0.060, 0.045, 0.160, 0.100,
+                             alone=(0.050, 0.125)))
+    assert f['below_best_alone_pct'] == 10.0
+    assert f['hidden_below_best_alone_pct'] == 20.0
 
 
 def test_targets_are_counted_per_seed_and_spread_summarized():

@@ -35,8 +35,10 @@ skeleton of someone farther than its sensor tracks (``sight.far``) is
 taken to err more than its profile says: its sigma grows linearly to
 ``far_sigma`` times at the sensor's depth range (``sight.range``), and
 stays there beyond. Each person's fused joints then
-go through a constant-velocity Kalman filter (hri_sync.fusion.smooth),
-each joint's bound the fused one plus the distance the filter moved it.
+go through a constant-velocity Kalman filter (hri_sync.fusion.smooth)
+and, with a profile's posture, each elbow is taken with where the
+shoulder and hand put it (hri_sync.fusion.posture); each joint's bound
+is the fused one plus the distance the two moved it.
 
 A view is suspect while its residuals blame it (calibration.Residuals), or
 while none of its users joins a person other views agree on and one is
@@ -165,6 +167,8 @@ class Fusion:
         self.poses = dict(poses)
         self.profiles = {v: (profiles or {}).get(v) or Profile()
                          for v in poses}
+        self.posture = next((p.posture for p in self.profiles.values()
+                             if p.posture is not None), None)
         self.health = {v: ViewHealth(self.params.health) for v in poses}
         self.users: Dict[Key, ViewUser] = {}
         self.persons: Dict[int, PersonState] = {}
@@ -407,6 +411,8 @@ class Fusion:
             newest = max((obs[k][1] for k in groups[pid]
                           if k[0] in body.views), default=t)
             smoothed = state.smoother.update(t, body.positions, body.sigma)
+            if self.posture is not None:
+                smoothed = self.posture.place(smoothed, body.sigma)
             moved = np.linalg.norm(smoothed - body.positions, axis=1)
             people.append(Person(pid, replace(
                 body, positions=smoothed,

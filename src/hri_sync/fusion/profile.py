@@ -27,7 +27,12 @@ shows the body ``delay`` s before the capture.
 (bench/fusion_accuracy.py --fit-profile). A profile may also carry an
 ``errors`` model (hri_sync.fusion.errors: each joint's error from where it
 lies, learned; bench/fit_error_model.py): the fusion then weighs the
-views' joints against each other by it, at the error model's level above.
+views' joints against each other by it, at the error model's level above,
+and a ``posture`` (hri_sync.fusion.posture: where people's elbows lie given
+their shoulders and hands, from motion capture; bench/fit_posture.py): the
+fusion then takes each fused elbow with its prior (the posture describes
+people, not trackers: with a profile per view, the first view's that has
+one).
 """
 
 from __future__ import annotations
@@ -42,6 +47,7 @@ from hri_sync.fusion.errors import ErrorModel
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import own_sigma
 from hri_sync.fusion.lag import FilterLag, FilterParams
+from hri_sync.fusion.posture import Posture
 from hri_sync.people.rep155 import body_axes
 
 ARMS = [INDEX[n] for n in ('left_elbow', 'right_elbow', 'left_hand',
@@ -83,6 +89,7 @@ class Profile:
     depth: np.ndarray = field(default_factory=lambda: np.zeros(NUM_JOINTS))
     filter: Optional[FilterParams] = None
     errors: Optional[ErrorModel] = None
+    posture: Optional[Posture] = None
 
     def filter_lag(self) -> Optional[FilterLag]:
         """A new track's re-dating by the tracker's filter (None: the
@@ -140,6 +147,8 @@ class Profile:
             out['filter'] = self.filter.to_dict()
         if self.errors is not None:
             out['errors'] = self.errors.to_dict()
+        if self.posture is not None:
+            out['posture'] = self.posture.to_dict()
         return out
 
     @classmethod
@@ -156,6 +165,7 @@ class Profile:
             raise ValueError('a profile has 15 finite depth offsets')
         filtered = d.pop('filter', None)
         errors = d.pop('errors', None)
+        posture = d.pop('posture', None)
         unknown = set(d) - set(KEYS)
         if unknown:
             raise ValueError('unknown profile keys: %s' % sorted(unknown))
@@ -165,7 +175,9 @@ class Profile:
         return cls(offsets=offsets, depth=depth, filter=None if filtered
                    is None else FilterParams.from_dict(filtered),
                    errors=None if errors is None
-                   else ErrorModel.from_dict(errors), **values)
+                   else ErrorModel.from_dict(errors),
+                   posture=None if posture is None
+                   else Posture.from_dict(posture), **values)
 
 
 def rays(positions: np.ndarray, sensor: np.ndarray) -> np.ndarray:
