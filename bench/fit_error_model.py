@@ -32,6 +32,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
 import fusion_accuracy as fa  # noqa: E402
+from profile_block import with_block  # noqa: E402
 from hri_sync.dance_off.frames import rotation  # noqa: E402
 from hri_sync.fusion.arms import turned as sides_exchanged  # noqa: E402
 from hri_sync.fusion.errors import (  # noqa: E402
@@ -144,26 +145,6 @@ def summary(model, rows):
                    'model_rms_m': round(float(np.sqrt(
                        predicted[kind == k].mean())), 4)}
             for k, name in enumerate(KINDS) if (kind == k).any()}
-
-
-def with_block(text, key, values, comment):
-    """The profile YAML ``text`` with ``values`` as its ``key`` block (one
-    it had, and the comment just above it, replaced) under ``comment``
-    (lines, each put after '# '); its other lines as they were."""
-    out, skipping = [], False
-    for line in text.splitlines(keepends=True):
-        if line.startswith(key + ':'):
-            while out and out[-1].startswith('#'):
-                out.pop()
-            skipping = True
-        elif skipping and line[:1] not in (' ', '-', '\n'):
-            skipping = False
-        if not skipping:
-            out.append(line)
-    return ''.join(out).rstrip('\n') + '\n' + ''.join(
-        '# %s\n' % line for line in comment) + \
-        yaml.safe_dump({key: values}, default_flow_style=None,
-                       sort_keys=False, width=100)
 
 
 def main():

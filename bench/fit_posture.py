@@ -25,11 +25,11 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 
-from fit_error_model import with_block  # noqa: E402
 from hri_sync.dance_off.motion import load_motion  # noqa: E402
 from hri_sync.fusion.posture import (  # noqa: E402
     Posture, arms_in_axes, fit_posture)
 from hri_sync.fusion.truth import world_motion  # noqa: E402
+from profile_block import with_block  # noqa: E402
 
 
 def held_out(positions: np.ndarray, sigma: float):
