@@ -1,0 +1,64 @@
+#!/usr/bin/env python3
+"""A real Kinect skeleton recording as a motion the virtual Kinect renders.
+
+Checks the tracker and the fusion on motion that is not in the repo:
+reads a Kinect v1 PRECOG CSV or a Kinect v2 LabanotationSuite CSV
+(hri_sync.people.kinect_csv), sets the feet on the floor (their median
+at ``FEET_Y`` in the motion's frame, where the development clip has
+its feet) and writes a motion ``.npz`` (the joints as the
+Kinect tracked them, at its times: v1 at its nominal 30 Hz) for
+``bench/fusion_accuracy.py --motion`` or ``bench/fusion_noise.py``:
+
+    scripts/real_skeleton_motion.py Seq2_8.csv --out /tmp/precog_2_8.npz
+    bench/fusion_noise.py --motion /tmp/precog_2_8.npz --views 4
+
+Prints the frames, the seconds and the joints' share the Kinect tracked.
+"""
+import argparse
+import os
+import sys
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, 'src'))
+
+from hri_sync.dance_off.joints import INDEX  # noqa: E402
+from hri_sync.dance_off.motion import Motion  # noqa: E402
+from hri_sync.people.kinect_csv import (read_kinect_v1,  # noqa: E402
+                                        read_kinect_v2)
+
+FEET_Y = -0.949     # m: the feet's median height in the development clip
+FEET = [INDEX['left_foot'], INDEX['right_foot']]
+
+
+def motion_of(path, kinect):
+    """The recording at ``path`` (``kinect`` 1 or 2) as a Motion and the
+    share of its joints the sensor tracked."""
+    rec = (read_kinect_v1 if kinect == 1 else read_kinect_v2)(path)
+    positions = rec.positions.copy()
+    positions[..., 1] += FEET_Y - np.median(positions[:, FEET, 1])
+    name = os.path.splitext(os.path.basename(path))[0]
+    return (Motion(rec.stamps, positions, name=name),
+            float(np.mean(rec.confidence >= 1.0)))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap.add_argument('csv', help='a Kinect skeleton CSV')
+    ap.add_argument('--kinect', type=int, choices=(1, 2), default=1,
+                    help='1: PRECOG (default), 2: LabanotationSuite')
+    ap.add_argument('--out', required=True, help='the motion .npz')
+    args = ap.parse_args()
+    try:
+        motion, tracked = motion_of(args.csv, args.kinect)
+    except (OSError, ValueError) as e:
+        sys.exit('real_skeleton_motion: %s' % e)
+    motion.save_npz(args.out)
+    print('%s: %d frames, %.1f s, %.0f %% of the joints tracked -> %s' % (
+        args.csv, len(motion.times), motion.times[-1], 100 * tracked,
+        args.out))
+
+
+if __name__ == '__main__':
+    main()

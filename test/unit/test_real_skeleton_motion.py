@@ -1,0 +1,55 @@
+"""scripts/real_skeleton_motion.py: a real Kinect recording as a motion
+the virtual Kinect renders, its feet on the floor."""
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+from hri_sync.dance_off.joints import INDEX
+from hri_sync.dance_off.motion import load_motion
+from hri_sync.people.joint_maps import KINECT_V1
+
+SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..',
+                      '..', 'scripts', 'real_skeleton_motion.py')
+
+
+def precog_csv(path, frames=4, camera_height=0.8):
+    """A PRECOG-style CSV of a person 3 m in front of a Kinect
+    ``camera_height`` m up, stepping 1 cm to the side each frame."""
+    rows = ['; '.join(KINECT_V1)]
+    for k in range(frames):
+        joints = []
+        for n, name in enumerate(KINECT_V1):
+            y = -camera_height if ('Foot' in name or 'Ankle' in name) \
+                else 0.5 - 0.05 * n
+            joints.append('%f %f %f' % (0.01 * k + 0.01 * n, y, 3.0))
+        rows.append(';'.join(joints) + ';punch')
+    path.write_text('\n'.join(rows) + '\n')
+
+
+def test_a_recording_becomes_a_motion_with_its_feet_on_the_floor(tmp_path):
+    csv, out = tmp_path / 'Seq9_9.csv', tmp_path / 'seq.npz'
+    precog_csv(csv)
+    run = subprocess.run([sys.executable, SCRIPT, str(csv), '--out',
+                          str(out)], capture_output=True, text=True,
+                         check=True)
+    assert '4 frames' in run.stdout and '100 % of the joints' in run.stdout
+    motion = load_motion(str(out))
+    assert np.allclose(motion.times, np.arange(4) / 30.0)
+    feet = motion.positions[:, [INDEX['left_foot'], INDEX['right_foot']], 1]
+    assert np.isclose(np.median(feet), -0.949, atol=1e-3)
+    # the sidestep survives, 1 cm a frame
+    torso = motion.positions[:, INDEX['torso']]
+    assert np.allclose(np.abs(np.diff(torso[:, 0])), 0.01, atol=1e-3)
+
+
+def test_a_file_that_is_not_a_kinect_recording_is_refused(tmp_path):
+    bad = tmp_path / 'bad.csv'
+    bad.write_text('a;b;c\n1 2 3;4 5 6;7 8 9\n')
+    run = subprocess.run([sys.executable, SCRIPT, str(bad), '--out',
+                          str(tmp_path / 'x.npz')], capture_output=True,
+                         text=True)
+    assert run.returncode != 0
+    assert 'not a Kinect v1 joint file' in run.stderr
+    assert not (tmp_path / 'x.npz').exists()
