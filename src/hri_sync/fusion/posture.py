@@ -62,6 +62,14 @@ def shoulder_axes(positions: np.ndarray) -> Optional[np.ndarray]:
     return np.stack([x, y, np.cross(x, y)])
 
 
+def _in_axes(joints: np.ndarray, axes: np.ndarray) -> np.ndarray:
+    """(2, 2, 3) each arm's (hand, elbow) from its shoulder in ``axes``,
+    the left mirrored, from world joints (15, 3)."""
+    return np.array([[axes @ (joints[INDEX[joint]] - joints[INDEX[shoulder]])
+                      * (mirror, 1.0, 1.0) for joint in (hand, elbow)]
+                     for shoulder, elbow, hand, mirror in ARMS])
+
+
 def arms_in_axes(positions: np.ndarray) -> np.ndarray:
     """(frames, 2, 2, 3) each arm's (hand, elbow) from its shoulder in the
     shoulders' axes, the left mirrored; NaN where a joint is missing.
@@ -69,12 +77,8 @@ def arms_in_axes(positions: np.ndarray) -> np.ndarray:
     out = np.full((len(positions), 2, 2, 3), np.nan)
     for f, joints in enumerate(positions):
         axes = shoulder_axes(joints)
-        if axes is None:
-            continue
-        for a, (shoulder, elbow, hand, mirror) in enumerate(ARMS):
-            for k, joint in enumerate((hand, elbow)):
-                v = axes @ (joints[INDEX[joint]] - joints[INDEX[shoulder]])
-                out[f, a, k] = v * (mirror, 1.0, 1.0)
+        if axes is not None:
+            out[f] = _in_axes(joints, axes)
     return out
 
 
@@ -128,15 +132,14 @@ class Posture:
         if axes is None:
             return positions
         out = positions.copy()
-        for shoulder, elbow, hand, mirror in ARMS:
-            s, e, h = (INDEX[shoulder], INDEX[elbow], INDEX[hand])
-            if not (np.isfinite(positions[[s, e, h]]).all()
+        for (shoulder, elbow, hand, mirror), (seen, _) in zip(
+                ARMS, _in_axes(positions, axes)):
+            s, e = INDEX[shoulder], INDEX[elbow]
+            if not (np.isfinite(positions[[s, e, INDEX[hand]]]).all()
                     and np.isfinite(sigma[e]) and sigma[e] > 0):
                 continue
-            flip = np.array([mirror, 1.0, 1.0])
-            mean, var = self.prior(axes @ (positions[h] - positions[s])
-                                   * flip)
-            guess = positions[s] + axes.T @ (mean * flip)
+            mean, var = self.prior(seen)
+            guess = positions[s] + axes.T @ (mean * (mirror, 1.0, 1.0))
             own = sigma[e] ** 2
             apart = float(np.linalg.norm(guess - positions[e])) \
                 / math.sqrt(3.0 * (var + own))
@@ -167,7 +170,8 @@ class Posture:
         return cls(arms[:, :3], arms[:, 3:], sigma, neighbours, gate)
 
 
-def fit_posture(positions: np.ndarray, sigma: float = 0.03) -> Posture:
+def fit_posture(positions: np.ndarray, sigma: float = Posture.sigma
+                ) -> Posture:
     """A Posture from motion capture: world joints (frames, 15, 3), both
     arms of every frame whose shoulders, neck, torso, hands and elbows are
     all there."""
