@@ -24,8 +24,10 @@ body faces, then with each view's arms weighted by its vantage on that
 body; where the profile has a learned error model
 (hri_sync.fusion.errors), once more with the views' joints weighed
 against each other by it, given where they lie on the body fused so
-far. Before that, a view whose tracker took the body's back for its
-front is turned back, and one whose tracker exchanged the left and right
+far. Before that, where the views disagree on which way the person
+faces, those facing away from where the hands reach are turned
+(hri_sync.fusion.facing); a view whose tracker took the body's back for
+its front is turned back, and one whose tracker exchanged the left and right
 arms has them put back (hri_sync.fusion.arms), against the person's body
 predicted from its last two fused instants, and each view's joints that
 body has outside the view's image are left out (its tracker did not see
@@ -70,6 +72,7 @@ from hri_sync.fusion.arms import (ArmParams, arms_to_exchange,
 from hri_sync.fusion.associate import Associator, Key, body_distance, views_of
 from hri_sync.fusion.calibration import Fit, PoseFit, Residuals
 from hri_sync.fusion.errors import inputs
+from hri_sync.fusion.facing import FacingParams, HeldFront
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import (FuseParams, Fused, Observation, fuse,
                                   own_sigma)
@@ -103,6 +106,7 @@ class FusionParams:
     fuse: FuseParams = field(default_factory=FuseParams)
     smooth: SmoothParams = field(default_factory=SmoothParams)
     arms: ArmParams = field(default_factory=ArmParams)
+    facing: FacingParams = field(default_factory=FacingParams)
     reach: ReachParams = field(default_factory=ReachParams)
     health: HealthParams = field(default_factory=HealthParams)
     gate: float = 0.5                   # m, association (associate.py)
@@ -138,10 +142,12 @@ class ViewUser:
 @dataclass
 class PersonState:
     """What the fusion keeps of one person between instants: its joints'
-    filter, its last two fused instants (t, positions) and, within
-    ``scatter_hold``, the views' scatter of each joint (t, scatter)."""
+    filter, its last two fused instants (t, positions), within
+    ``scatter_hold`` the views' scatter of each joint (t, scatter), and
+    the front its hands last decided (hri_sync.fusion.facing)."""
 
     smoother: Smoother
+    facing: HeldFront
     past: List[Tuple[float, np.ndarray]] = field(default_factory=list)
     scatter: List[Tuple[float, np.ndarray]] = field(default_factory=list)
 
@@ -381,10 +387,10 @@ class Fusion:
         for pid in sorted(groups):
             views = [obs[k][0] for k in groups[pid]]
             state = self.persons.get(pid) or PersonState(
-                Smoother(self.params.smooth))
+                Smoother(self.params.smooth), HeldFront(self.params.facing))
             self.persons[pid] = state
             before = self._just_before(state.past, t)
-            self._put_sides_right(before, views)
+            self._put_sides_right(t, state.facing, before, views)
             self._leave_out_of_image(before, views)
             state.scatter = [(s, x) for s, x in state.scatter
                              if s >= t - self.params.scatter_hold - 1e-9]
@@ -402,6 +408,7 @@ class Fusion:
                 self.inspect(t, pid, views, body)
             state.scatter.append((t, body.scatter))
             state.past = (state.past + [(t, body.positions)])[-2:]
+            state.facing.turn_with(body.positions)
             bodies[pid] = body
             self.associator.update(pid, body.positions, t)
             if self.associator.held(pid, t):
@@ -459,13 +466,18 @@ class Fusion:
             t = stamp
         return run
 
-    def _put_sides_right(self, before: List[np.ndarray],
-                        views: List[Observation]) -> None:
-        """Turn back the views whose tracker took the body's back for its
-        front, then exchange the arms of those whose tracker exchanged
+    def _put_sides_right(self, t: float, facing: HeldFront,
+                         before: List[np.ndarray],
+                         views: List[Observation]) -> None:
+        """Where the views disagree on the person's front, turn those
+        facing away from the hands (``facing``, hri_sync.fusion.facing);
+        then turn back the views whose tracker took the body's back for
+        its front, and exchange the arms of those whose tracker exchanged
         them (hri_sync.fusion.arms), against the person's body predicted
         from its last two fused instants (``before``, constant velocity);
         counted per view."""
+        self._swap(views, facing.views_to_turn(t, views), turned,
+                   'turned_to_hands')
         if len(before) < 2:
             return
         predicted = 2 * before[1] - before[0]
@@ -474,14 +486,19 @@ class Fusion:
             (bodies_to_turn, turned, 'turned_back'),
             (arms_to_exchange, exchanged, 'arms_exchanged'))
         for decide, swap, counter in steps:
-            for o, yes in zip(views, decide(views, predicted,
-                                            self.params.arms,
-                                            self.params.fuse)):
-                if yes:
-                    o.positions = swap(o.positions)
-                    o.confidence = swap(o.confidence)
-                    health = self.health[o.view]
-                    setattr(health, counter, getattr(health, counter) + 1)
+            self._swap(views, decide(views, predicted, self.params.arms,
+                                     self.params.fuse), swap, counter)
+
+    def _swap(self, views: List[Observation], which: List[bool],
+              swap: Callable[[np.ndarray], np.ndarray], counter: str) -> None:
+        """Apply ``swap`` to the positions and confidences of the views
+        ``which`` says; counted in each one's health as ``counter``."""
+        for o, yes in zip(views, which):
+            if yes:
+                o.positions = swap(o.positions)
+                o.confidence = swap(o.confidence)
+                health = self.health[o.view]
+                setattr(health, counter, getattr(health, counter) + 1)
 
     def _leave_out_of_image(self, before: List[np.ndarray],
                             views: List[Observation]) -> None:

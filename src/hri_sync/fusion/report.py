@@ -42,6 +42,7 @@ def view_status(fusion: Fusion, view: str) -> Status:
                '%.3f' % (health.last_uncertainty * 1e3)),
               ('arms exchanged back', str(health.arms_exchanged)),
               ('turned back', str(health.turned_back)),
+              ('turned to the hands', str(health.turned_to_hands)),
               ('beyond range', str(health.beyond_range)),
               ('joints out of image', str(health.out_of_image)),
               ('hands out of reach', str(health.out_of_reach))]

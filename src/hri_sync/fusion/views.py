@@ -14,17 +14,17 @@ last ``window`` s for a stamp ahead of the fusion's clock or too old;
 ``nan_joints``, ``zero_joints`` and ``far_joints`` count skeletons with
 NaN joints, joints at the sensor's origin (a Kinect SDK's "not tracked")
 or farther than a sensor sees, in the last ``window`` s (those joints are
-left out); ``wrong_pose`` is set by the
-calibration check (the view is down-weighted), and ``arms_exchanged``
-counts the instants its tracker's left and right arms were exchanged
-back (hri_sync.fusion.arms), ``turned_back`` those its tracker took the
-body's back for its front, ``beyond_range`` its skeletons of someone
-farther than the sensor tracks (down-weighted), ``out_of_image`` its
-joints left out where the fused body stands outside its image,
+left out); ``wrong_pose`` is set by the calibration check (the view is
+down-weighted), and ``arms_exchanged`` counts the instants its tracker's
+left and right arms were exchanged back (hri_sync.fusion.arms),
+``turned_back`` those its tracker took the body's back for its front,
+``turned_to_hands`` those its body was turned to face where the hands
+reach (hri_sync.fusion.facing), ``beyond_range`` its skeletons of
+someone farther than the sensor tracks (down-weighted), ``out_of_image``
+its joints left out where the fused body stands outside its image,
 ``out_of_reach`` its hands left out that no fused arm reaches
-(hri_sync.fusion.reach). The view's
-pipeline latency (arrival minus capture) is kept to know how long to wait
-for it.
+(hri_sync.fusion.reach). The view's pipeline latency (arrival minus
+capture) is kept to know how long to wait for it.
 """
 
 from __future__ import annotations
@@ -79,6 +79,7 @@ class ViewHealth:
     wrong_pose: bool = False
     arms_exchanged: int = 0         # instants its arms were put right
     turned_back: int = 0            # instants its body was turned back
+    turned_to_hands: int = 0        # instants it was turned to the hands
     beyond_range: int = 0           # its skeletons of someone too far
     out_of_image: int = 0           # its joints outside its image
     out_of_reach: int = 0           # its hands no fused arm reaches

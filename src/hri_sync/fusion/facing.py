@@ -1,0 +1,146 @@
+"""Which way a person faces, where the views disagree: the side the
+hands reach to.
+
+A depth tracker with no cue to the body's front (the project's reads it
+from bent knees) fits a body facing its sensor: every view behind a
+person who faces another sensor takes the back for the front. Where such
+views outnumber the ones in front, the turn rule of
+hri_sync.fusion.arms, which puts right a minority against the others,
+cannot. People reach in front of their trunk (a shoulder flexes to
+about 180 degrees and extends to about 50), and the hands' places do not
+depend on which arm a view calls left: where the views' fronts point
+opposite ways (some more than ``split`` along the views' common axis,
+some less than -``split``), the hands the views see (confidence
+``confidence`` or more), from each view's trunk centre, are averaged
+along that axis, weighted by confidence, where ``views`` views or more
+see one (a far view's lone hand can be 0.7 m off at full confidence).
+When they lie ``margin`` m or more to one side, that side is the front,
+and every view whose front points the other way is turned (every left
+and right joint exchanged).
+Nearer the trunk (arms hanging, hands on the hips) the hands say
+nothing, and the front they last decided (``HeldFront``), where they
+decided it at ``confirm`` instants or more within the last ``hold`` s,
+decides in their stead, turned since with the fused body (a dancer
+spins within a second); otherwise the views stand.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import List, Optional, Tuple
+
+import numpy as np
+
+from hri_sync.dance_off.joints import INDEX
+from hri_sync.fusion.fuse import Observation
+from hri_sync.people.rep155 import body_axes
+
+HANDS = [INDEX['left_hand'], INDEX['right_hand']]
+TRUNK = [INDEX[j] for j in ('left_shoulder', 'right_shoulder', 'left_hip',
+                            'right_hip')]
+
+
+@dataclass
+class FacingParams:
+    """When the hands decide which way a person faces."""
+
+    margin: float = 0.1         # m the hands lie in front of the trunk
+    confidence: float = 0.5     # a view's hand it sees
+    views: int = 2              # views that see a hand
+    split: float = 0.3          # cosine of a front from the views' axis
+    hold: float = 1.0           # s the hands' last front decides for them
+    confirm: int = 2            # instants they decided it within ``hold``
+
+
+def front(positions: np.ndarray) -> Optional[np.ndarray]:
+    """The horizontal unit vector a body at ``positions`` (world, z up)
+    faces as its labels say (from its hips and neck); None when those
+    are not given or the body lies flat."""
+    axes = body_axes(positions)
+    if axes is None:
+        return None
+    forward = np.array([axes[0, 0], axes[1, 0], 0.0])
+    norm = np.linalg.norm(forward)
+    return forward / norm if norm > 1e-6 else None
+
+
+def views_to_turn(views: List[Observation], params: FacingParams,
+                  held: Optional[np.ndarray] = None
+                  ) -> Tuple[List[bool], Optional[np.ndarray]]:
+    """For each of one person's ``views``, whether its front points away
+    from the side the person's hands reach to, where the views disagree
+    on the front; and that front (horizontal unit vector), None where the
+    hands do not decide. There, ``held`` (the front the hands last
+    decided, within ``params.hold``) decides in their stead."""
+    fronts = [front(o.positions) for o in views]
+    known = [f for f in fronts if f is not None]
+    nothing: Tuple[List[bool], Optional[np.ndarray]] = \
+        ([False] * len(views), None)
+    if len(known) < 2:
+        return nothing
+    # The line the fronts lie along, whichever way each points.
+    _, vectors = np.linalg.eigh(sum(np.outer(f, f) for f in known))
+    axis = vectors[:, -1]
+    along = np.array([f @ axis if f is not None else 0.0 for f in fronts])
+    if not (along.max() > params.split and along.min() < -params.split):
+        return nothing
+    reach = _reach(views, axis, params)
+    if reach is not None and abs(reach) >= params.margin:
+        side = float(np.sign(reach))
+        decided: Optional[np.ndarray] = side * axis
+    elif held is not None and abs(held @ axis) > params.split:
+        side, decided = float(np.sign(held @ axis)), None
+    else:
+        return nothing
+    return [bool(a * side < -params.split) for a in along], decided
+
+
+def _reach(views: List[Observation], axis: np.ndarray,
+           params: FacingParams) -> Optional[float]:
+    """How far (m) the hands the ``views`` see (confidence
+    ``params.confidence`` or more) lie along ``axis`` from each view's
+    trunk centre, weighted by confidence; None unless ``params.views`` or
+    more views see a hand."""
+    reach, weight, seeing = 0.0, 0.0, 0
+    for o in views:
+        centre = o.positions[TRUNK].mean(axis=0)
+        seen = [j for j in HANDS if o.confidence[j] >= params.confidence
+                and np.isfinite(o.positions[j]).all()]
+        if not seen or not np.isfinite(centre).all():
+            continue
+        seeing += 1
+        for j in seen:
+            reach += o.confidence[j] * float((o.positions[j] - centre) @ axis)
+            weight += o.confidence[j]
+    return reach / weight if seeing >= params.views else None
+
+
+class HeldFront:
+    """One person's front as the hands last decided it, held where they
+    say nothing."""
+
+    def __init__(self, params: FacingParams):
+        self.params = params
+        self.times: List[float] = []    # the hands' decisions within hold
+        self.front: Optional[np.ndarray] = None
+
+    def views_to_turn(self, t: float,
+                      views: List[Observation]) -> List[bool]:
+        """views_to_turn at instant ``t``, the front held where the hands
+        decided it at ``confirm`` instants or more in the last ``hold``
+        s."""
+        self.times = [s for s in self.times if t - s <= self.params.hold]
+        held = self.front if len(self.times) >= self.params.confirm \
+            else None
+        which, decided = views_to_turn(views, self.params, held)
+        if decided is not None:
+            self.times.append(t)
+            self.front = decided
+        return which
+
+    def turn_with(self, positions: np.ndarray) -> None:
+        """The held front turns with the body fused at ``positions``."""
+        if self.front is not None:
+            now = front(positions)
+            if now is not None:
+                self.front = now

@@ -1,0 +1,192 @@
+"""hri_sync.fusion.facing: where the views disagree on which way a person
+faces, those facing away from where the hands reach are turned; hands at
+the trunk, views that agree, or hands no view sees well decide nothing."""
+import math
+
+import numpy as np
+import pytest
+
+from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
+from hri_sync.fusion.arms import ArmParams, turned
+from hri_sync.fusion.facing import (TRUNK, FacingParams, HeldFront, front,
+                                    views_to_turn)
+from hri_sync.fusion.fuse import Observation
+from hri_sync.fusion.pipeline import FusionParams
+from hri_sync.fusion.report import view_status
+from test_fusion_arms import POSES, hand_error, run
+from test_fusion_wrong_pose import ORIGINAL, dancer, run as feed
+from test_fusion_core import body
+
+RNG = np.random.default_rng(65)
+HANDS = ('left_hand', 'right_hand')
+
+
+def reaching(forward=0.3):
+    """The standing body (facing +x) with its hands ``forward`` m in
+    front of its trunk."""
+    p = body()
+    for hand in HANDS:
+        p[INDEX[hand]] += (forward, 0.0, 0.3)
+    return p
+
+
+def views(names, turned_views=(), forward=0.3, confidence=0.8):
+    truth = reaching(forward)
+    out = []
+    for v in names:
+        p = truth + RNG.normal(0, 0.01, truth.shape)
+        c = np.full(NUM_JOINTS, 0.8)
+        c[[INDEX[h] for h in HANDS]] = confidence
+        out.append(Observation(v, turned(p) if v in turned_views else p, c,
+                               np.zeros(NUM_JOINTS), 0.001))
+    return out
+
+
+def decide(obs, params=FacingParams(), held=None):
+    which, _ = views_to_turn(obs, params, held)
+    return [o.view for o, yes in zip(obs, which) if yes]
+
+
+def test_front_is_the_way_the_labels_face():
+    assert np.allclose(front(body()), (1, 0, 0))
+    assert np.allclose(front(turned(body())), (-1, 0, 0))
+    nan = body()
+    nan[INDEX['left_hip']] = np.nan
+    assert front(nan) is None
+
+
+def test_the_views_facing_away_from_the_hands_are_turned_however_many():
+    assert decide(views('abcd', turned_views='bcd')) == ['b', 'c', 'd']
+    assert decide(views('abc', turned_views='a')) == ['a']
+    assert decide(views('ab', turned_views='b')) == ['b']
+
+
+def test_hands_behind_decide_the_other_way():
+    # The hands are what decides, not the count: reaching back, the
+    # three views that face the other way are right.
+    assert decide(views('abcd', turned_views='a', forward=-0.3)) \
+        == ['b', 'c', 'd']
+
+
+def test_the_front_the_hands_decide_is_given_and_held_where_they_do_not():
+    _, decided = views_to_turn(views('abc', turned_views='bc'),
+                               FacingParams())
+    assert np.allclose(decided, (1, 0, 0), atol=0.05)
+    hanging = views('abc', turned_views='bc', forward=0.0)
+    assert decide(hanging) == []
+    assert decide(hanging, held=decided) == ['b', 'c']
+    assert decide(hanging, held=-decided) == ['a']
+    # A held front across the views' axis says neither way.
+    assert decide(hanging, held=np.array([0.0, 1.0, 0.0])) == []
+    _, none = views_to_turn(hanging, FacingParams(), decided)
+    assert none is None
+
+
+def test_a_front_is_held_once_the_hands_said_it_twice_within_the_hold():
+    deciding = views('abc', turned_views='bc')
+    hanging_hands = views('abc', turned_views='bc', forward=0.0)
+    held = HeldFront(FacingParams())
+    assert held.views_to_turn(0.0, deciding) == [False, True, True]
+    # Said once: not held (one instant can be a tracker's lone glitch).
+    assert held.views_to_turn(0.1, hanging_hands) == [False] * 3
+    held.views_to_turn(0.2, deciding)
+    assert held.views_to_turn(0.9, hanging_hands) == [False, True, True]
+    # The first of the two is older than the hold: said once within it.
+    assert held.views_to_turn(1.15, hanging_hands) == [False] * 3
+    assert held.views_to_turn(1.3, hanging_hands) == [False] * 3
+
+
+def test_the_held_front_turns_with_the_fused_body():
+    held = HeldFront(FacingParams())
+    for t in (0.0, 0.1):
+        held.views_to_turn(t, views('abc', turned_views='bc'))
+    # The person has turned about: the views still disagree, and the
+    # held front, turned with the fused body, now sides with b and c.
+    held.turn_with(turned(body()))
+    assert np.allclose(held.front, (-1, 0, 0))
+    assert held.views_to_turn(0.2, views('abc', turned_views='bc',
+                                         forward=0.0)) == [True, False, False]
+    # A fused body without hips leaves it as it was.
+    flat = body()
+    flat[INDEX['left_hip']] = np.nan
+    held.turn_with(flat)
+    assert np.allclose(held.front, (-1, 0, 0))
+
+
+@pytest.mark.parametrize('kwargs', [
+    dict(turned_views='bc', forward=0.05),      # hands at the trunk
+    dict(turned_views=''),                      # the views agree
+    dict(turned_views='abcd'),                  # agree, though wrong
+    dict(turned_views='bc', confidence=0.3)])   # hands not seen well
+def test_nothing_is_decided(kwargs):
+    assert decide(views('abcd', **kwargs)) == []
+
+
+def test_one_view_alone_seeing_the_hands_decides_nothing():
+    obs = views('abc', turned_views='bc')
+    for o in obs[1:]:
+        o.confidence[[INDEX[h] for h in HANDS]] = 0.2
+    assert decide(obs) == []
+    assert decide(obs, FacingParams(views=1)) == ['b', 'c']
+
+
+def test_a_side_view_is_not_taken_for_either_way():
+    obs = views('abc', turned_views='b')
+    side = obs[2].positions
+    centre = side[INDEX['torso']].copy()
+    # The third view's body faces +y: its labels say neither way.
+    rotated = (side - centre) @ np.array([[0, 1, 0], [-1, 0, 0], [0, 0, 1]])
+    obs[2].positions = rotated + centre
+    assert decide(obs) == ['b']
+
+
+def test_nan_hands_and_a_view_without_hips_are_left_out():
+    obs = views('abcd', turned_views='bc')
+    obs[0].positions[INDEX['left_hand']] = np.nan
+    obs[3].positions[INDEX['left_hip']] = np.nan
+    assert decide(obs) == ['b', 'c']
+
+
+def test_two_views_turned_of_four_are_counted_and_fused_nearer():
+    # The salsa dancer's back and left views take the back for the front
+    # from 2 to 4 s: half the views, which the turn rule of
+    # hri_sync.fusion.arms leaves alone; the hands put them right.
+    arms = ArmParams(turn_margin=math.inf)
+    fusion, frames, truth = run(arms, swap=turned, swapped=('back', 'left'))
+    kept, kept_frames, _ = run(arms, swap=turned, swapped=('back', 'left'),
+                               facing=FacingParams(margin=math.inf))
+    during = sum(1 for f in frames if 2.0 <= f.stamp < 4.0)
+    for view in ('back', 'left'):
+        assert 0.5 * during <= fusion.health[view].turned_to_hands <= during
+        assert kept.health[view].turned_to_hands == 0
+    assert fusion.health['front'].turned_to_hands == 0
+    joints = [INDEX[side + '_' + j] for side in ('left', 'right')
+              for j in ('shoulder', 'elbow', 'hand', 'hip', 'knee', 'foot')]
+    assert hand_error(frames, truth, 2.0, 4.0, joints) \
+        < 0.5 * hand_error(kept_frames, truth, 2.0, 4.0, joints)
+    _, _, _, values = view_status(fusion, 'back')
+    assert ('turned to the hands',
+            str(fusion.health['back'].turned_to_hands)) in values
+
+
+def hanging(hold):
+    """The fusion of the test above, with every view's hands at the trunk
+    from 3 to 3.5 s (they say nothing of the front there), the front the
+    hands last decided held ``hold`` s."""
+    motion = dancer()
+    hands = [INDEX[h] for h in HANDS]
+
+    def seen(view, t):
+        p = ORIGINAL.to_world(motion.positions_at([t])[0])
+        if 3.0 <= t < 3.5:
+            p[hands] = p[TRUNK].mean(axis=0)
+        return turned(p) if view in ('back', 'left') and 2.0 <= t < 4.0 \
+            else p
+    fusion, _ = feed(6.0, {}, [seen], poses=POSES, params=FusionParams(
+        arms=ArmParams(turn_margin=math.inf), facing=FacingParams(hold=hold)))
+    return fusion.health['back'].turned_to_hands
+
+
+def test_the_front_the_hands_last_decided_is_held_where_they_say_nothing():
+    during = 15     # instants in 3-3.5 s
+    assert hanging(1.0) - hanging(0.0) >= 0.8 * during
