@@ -8,8 +8,8 @@ import pytest
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
 from hri_sync.fusion.arms import ArmParams, turned
-from hri_sync.fusion.facing import (TRUNK, FacingParams, HeldFront, front,
-                                    views_to_turn)
+from hri_sync.fusion.facing import (TRUNK, FacingParams, HeldFront,
+                                    either_side, front, views_to_turn)
 from hri_sync.fusion.fuse import Observation
 from hri_sync.fusion.pipeline import FusionParams
 from hri_sync.fusion.report import view_status
@@ -43,8 +43,8 @@ def views(names, turned_views=(), forward=0.3, confidence=0.8):
 
 
 def decide(obs, params=FacingParams(), held=None):
-    which, _ = views_to_turn(obs, params, held)
-    return [o.view for o, yes in zip(obs, which) if yes]
+    decision = views_to_turn(obs, params, held)
+    return [o.view for o, yes in zip(obs, decision.turn) if yes]
 
 
 def test_front_is_the_way_the_labels_face():
@@ -69,31 +69,34 @@ def test_hands_behind_decide_the_other_way():
 
 
 def test_the_front_the_hands_decide_is_given_and_held_where_they_do_not():
-    _, decided = views_to_turn(views('abc', turned_views='bc'),
-                               FacingParams())
+    decision = views_to_turn(views('abc', turned_views='bc'),
+                             FacingParams())
+    decided = decision.front
     assert np.allclose(decided, (1, 0, 0), atol=0.05)
+    assert not decision.unsure
     hanging = views('abc', turned_views='bc', forward=0.0)
     assert decide(hanging) == []
+    assert views_to_turn(hanging, FacingParams()).unsure
     assert decide(hanging, held=decided) == ['b', 'c']
     assert decide(hanging, held=-decided) == ['a']
     # A held front across the views' axis says neither way.
     assert decide(hanging, held=np.array([0.0, 1.0, 0.0])) == []
-    _, none = views_to_turn(hanging, FacingParams(), decided)
-    assert none is None
+    held = views_to_turn(hanging, FacingParams(), decided)
+    assert held.front is None and not held.unsure
 
 
 def test_a_front_is_held_once_the_hands_said_it_twice_within_the_hold():
     deciding = views('abc', turned_views='bc')
     hanging_hands = views('abc', turned_views='bc', forward=0.0)
     held = HeldFront(FacingParams())
-    assert held.views_to_turn(0.0, deciding) == [False, True, True]
+    assert held.views_to_turn(0.0, deciding).turn == [False, True, True]
     # Said once: not held (one instant can be a tracker's lone glitch).
-    assert held.views_to_turn(0.1, hanging_hands) == [False] * 3
+    assert held.views_to_turn(0.1, hanging_hands).turn == [False] * 3
     held.views_to_turn(0.2, deciding)
-    assert held.views_to_turn(0.9, hanging_hands) == [False, True, True]
+    assert held.views_to_turn(0.9, hanging_hands).turn == [False, True, True]
     # The first of the two is older than the hold: said once within it.
-    assert held.views_to_turn(1.15, hanging_hands) == [False] * 3
-    assert held.views_to_turn(1.3, hanging_hands) == [False] * 3
+    assert held.views_to_turn(1.15, hanging_hands).turn == [False] * 3
+    assert held.views_to_turn(1.3, hanging_hands).turn == [False] * 3
 
 
 def test_the_held_front_turns_with_the_fused_body():
@@ -104,8 +107,8 @@ def test_the_held_front_turns_with_the_fused_body():
     # held front, turned with the fused body, now sides with b and c.
     held.turn_with(turned(body()))
     assert np.allclose(held.front, (-1, 0, 0))
-    assert held.views_to_turn(0.2, views('abc', turned_views='bc',
-                                         forward=0.0)) == [True, False, False]
+    assert held.views_to_turn(0.2, views(
+        'abc', turned_views='bc', forward=0.0)).turn == [True, False, False]
     # A fused body without hips leaves it as it was.
     flat = body()
     flat[INDEX['left_hip']] = np.nan
@@ -120,6 +123,23 @@ def test_the_held_front_turns_with_the_fused_body():
     dict(turned_views='bc', confidence=0.3)])   # hands not seen well
 def test_nothing_is_decided(kwargs):
     assert decide(views('abcd', **kwargs)) == []
+
+
+def test_a_bound_in_doubt_takes_in_the_other_side():
+    p = reaching()
+    bound = np.full(NUM_JOINTS, 0.05)
+    grown = either_side(p, bound)
+    left, right = INDEX['left_hand'], INDEX['right_hand']
+    width = np.linalg.norm(p[left] - p[right])
+    assert grown[left] == pytest.approx(width + 0.05)
+    assert grown[right] == pytest.approx(width + 0.05)
+    for j in ('head', 'neck', 'torso'):
+        assert grown[INDEX[j]] == 0.05
+    # A joint not fused keeps its bound (NaN).
+    p[left] = np.nan
+    bound[right] = np.nan
+    grown = either_side(p, bound)
+    assert np.isnan(grown[right]) and grown[left] == 0.05
 
 
 def test_one_view_alone_seeing_the_hands_decides_nothing():
@@ -170,9 +190,9 @@ def test_two_views_turned_of_four_are_counted_and_fused_nearer():
 
 
 def hanging(hold):
-    """The fusion of the test above, with every view's hands at the trunk
-    from 3 to 3.5 s (they say nothing of the front there), the front the
-    hands last decided held ``hold`` s."""
+    """The fusion (and its frames) of the test above, with every view's
+    hands at the trunk from 3 to 3.5 s (they say nothing of the front
+    there), the front the hands last decided held ``hold`` s."""
     motion = dancer()
     hands = [INDEX[h] for h in HANDS]
 
@@ -182,11 +202,29 @@ def hanging(hold):
             p[hands] = p[TRUNK].mean(axis=0)
         return turned(p) if view in ('back', 'left') and 2.0 <= t < 4.0 \
             else p
-    fusion, _ = feed(6.0, {}, [seen], poses=POSES, params=FusionParams(
+    return feed(6.0, {}, [seen], poses=POSES, params=FusionParams(
         arms=ArmParams(turn_margin=math.inf), facing=FacingParams(hold=hold)))
-    return fusion.health['back'].turned_to_hands
 
 
 def test_the_front_the_hands_last_decided_is_held_where_they_say_nothing():
     during = 15     # instants in 3-3.5 s
-    assert hanging(1.0) - hanging(0.0) >= 0.8 * during
+    held, held_frames = hanging(1.0)
+    unheld, frames = hanging(0.0)
+    assert held.health['back'].turned_to_hands \
+        - unheld.health['back'].turned_to_hands >= 0.8 * during
+    # Unheld, the views' labels are in doubt there: each shoulder's bound
+    # takes in the other shoulder.
+    left, right = INDEX['left_shoulder'], INDEX['right_shoulder']
+    def bodies(frames):
+        return [f.people[0].body for f in frames
+                if 3.1 <= f.stamp < 3.5 and f.people]
+
+    def apart(b):
+        return np.linalg.norm(b.positions[left] - b.positions[right])
+    doubt = bodies(frames)
+    assert len(doubt) >= 10
+    assert all(b.bound[left] >= apart(b) and b.bound[right] >= apart(b)
+               for b in doubt)
+    # Held, the same instants keep their bounds.
+    sure = bodies(held_frames)
+    assert sum(b.bound[left] < apart(b) for b in sure) >= 0.8 * len(sure)

@@ -21,17 +21,20 @@ Nearer the trunk (arms hanging, hands on the hips) the hands say
 nothing, and the front they last decided (``HeldFront``), where they
 decided it at ``confirm`` instants or more within the last ``hold`` s,
 decides in their stead, turned since with the fused body (a dancer
-spins within a second); otherwise the views stand.
+spins within a second); otherwise the views stand, their labels in
+doubt: each left and right joint's bound then takes in its partner on
+the other side (``either_side``).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import List, Optional, Tuple
+from typing import List, Optional
 
 import numpy as np
 
 from hri_sync.dance_off.joints import INDEX
+from hri_sync.fusion.arms import turned
 from hri_sync.fusion.fuse import Observation
 from hri_sync.people.rep155 import body_axes
 
@@ -64,26 +67,33 @@ def front(positions: np.ndarray) -> Optional[np.ndarray]:
     return forward / norm if norm > 1e-6 else None
 
 
+@dataclass
+class Decision:
+    """What the hands say of one person's views at an instant."""
+
+    turn: List[bool]                    # per view: turn it
+    front: Optional[np.ndarray] = None  # the front the hands decided
+    unsure: bool = False                # the views disagree, undecided
+
+
 def views_to_turn(views: List[Observation], params: FacingParams,
-                  held: Optional[np.ndarray] = None
-                  ) -> Tuple[List[bool], Optional[np.ndarray]]:
+                  held: Optional[np.ndarray] = None) -> Decision:
     """For each of one person's ``views``, whether its front points away
     from the side the person's hands reach to, where the views disagree
     on the front; and that front (horizontal unit vector), None where the
     hands do not decide. There, ``held`` (the front the hands last
-    decided, within ``params.hold``) decides in their stead."""
+    decided, within ``params.hold``) decides in their stead; without it
+    the views' labels are in doubt (``unsure``)."""
     fronts = [front(o.positions) for o in views]
     known = [f for f in fronts if f is not None]
-    nothing: Tuple[List[bool], Optional[np.ndarray]] = \
-        ([False] * len(views), None)
     if len(known) < 2:
-        return nothing
+        return Decision([False] * len(views))
     # The line the fronts lie along, whichever way each points.
     _, vectors = np.linalg.eigh(sum(np.outer(f, f) for f in known))
     axis = vectors[:, -1]
     along = np.array([f @ axis if f is not None else 0.0 for f in fronts])
     if not (along.max() > params.split and along.min() < -params.split):
-        return nothing
+        return Decision([False] * len(views))
     reach = _reach(views, axis, params)
     if reach is not None and abs(reach) >= params.margin:
         side = float(np.sign(reach))
@@ -91,8 +101,19 @@ def views_to_turn(views: List[Observation], params: FacingParams,
     elif held is not None and abs(held @ axis) > params.split:
         side, decided = float(np.sign(held @ axis)), None
     else:
-        return nothing
-    return [bool(a * side < -params.split) for a in along], decided
+        return Decision([False] * len(views), unsure=True)
+    return Decision([bool(a * side < -params.split) for a in along],
+                    decided)
+
+
+def either_side(positions: np.ndarray, bound: np.ndarray) -> np.ndarray:
+    """The 95 % ``bound`` (15,) of a body at ``positions`` grown, for each
+    left and right joint, to take in its partner on the other side and
+    that one's bound: where the views' labels are in doubt, the fused
+    left hand may be the right one."""
+    reach = np.linalg.norm(positions - turned(positions), axis=1) \
+        + turned(bound)
+    return np.fmax(bound, reach)
 
 
 def _reach(views: List[Observation], axis: np.ndarray,
@@ -124,19 +145,18 @@ class HeldFront:
         self.times: List[float] = []    # the hands' decisions within hold
         self.front: Optional[np.ndarray] = None
 
-    def views_to_turn(self, t: float,
-                      views: List[Observation]) -> List[bool]:
+    def views_to_turn(self, t: float, views: List[Observation]) -> Decision:
         """views_to_turn at instant ``t``, the front held where the hands
         decided it at ``confirm`` instants or more in the last ``hold``
         s."""
         self.times = [s for s in self.times if t - s <= self.params.hold]
         held = self.front if len(self.times) >= self.params.confirm \
             else None
-        which, decided = views_to_turn(views, self.params, held)
-        if decided is not None:
+        decision = views_to_turn(views, self.params, held)
+        if decision.front is not None:
             self.times.append(t)
-            self.front = decided
-        return which
+            self.front = decision.front
+        return decision
 
     def turn_with(self, positions: np.ndarray) -> None:
         """The held front turns with the body fused at ``positions``."""

@@ -26,13 +26,15 @@ body; where the profile has a learned error model
 against each other by it, given where they lie on the body fused so
 far. Before that, where the views disagree on which way the person
 faces, those facing away from where the hands reach are turned
-(hri_sync.fusion.facing); a view whose tracker took the body's back for
-its front is turned back, and one whose tracker exchanged the left and right
-arms has them put back (hri_sync.fusion.arms), against the person's body
-predicted from its last two fused instants, and each view's joints that
-body has outside the view's image are left out (its tracker did not see
-them); after the first fusion, so is each view's hand farther from the
-fused elbow than an arm reaches (hri_sync.fusion.reach). A view's
+(hri_sync.fusion.facing; where the hands do not tell, each left and
+right joint's bound takes in its partner on the other side); a view
+whose tracker took the body's back for its front is turned back, and
+one whose tracker exchanged the left and right arms has them put back
+(hri_sync.fusion.arms), against the person's body predicted from its
+last two fused instants, and each view's joints that body has outside
+the view's image are left out (its tracker did not see them); after
+the first fusion, so is each view's hand farther from the fused elbow
+than an arm reaches (hri_sync.fusion.reach). A view's
 skeleton of someone farther than its sensor tracks (``sight.far``) is
 taken to err more than its profile says: its sigma grows linearly to
 ``far_sigma`` times at the sensor's depth range (``sight.range``), and
@@ -72,7 +74,7 @@ from hri_sync.fusion.arms import (ArmParams, arms_to_exchange,
 from hri_sync.fusion.associate import Associator, Key, body_distance, views_of
 from hri_sync.fusion.calibration import Fit, PoseFit, Residuals
 from hri_sync.fusion.errors import inputs
-from hri_sync.fusion.facing import FacingParams, HeldFront
+from hri_sync.fusion.facing import FacingParams, HeldFront, either_side
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import (FuseParams, Fused, Observation, fuse,
                                   own_sigma)
@@ -390,7 +392,7 @@ class Fusion:
                 Smoother(self.params.smooth), HeldFront(self.params.facing))
             self.persons[pid] = state
             before = self._just_before(state.past, t)
-            self._put_sides_right(t, state.facing, before, views)
+            unsure = self._put_sides_right(t, state.facing, before, views)
             self._leave_out_of_image(before, views)
             state.scatter = [(s, x) for s, x in state.scatter
                              if s >= t - self.params.scatter_hold - 1e-9]
@@ -421,9 +423,11 @@ class Fusion:
             if self.posture is not None:
                 smoothed = self.posture.place(smoothed, body.sigma)
             moved = np.linalg.norm(smoothed - body.positions, axis=1)
+            bound = body.bound + np.nan_to_num(moved)
+            if unsure:
+                bound = either_side(smoothed, bound)
             people.append(Person(pid, replace(
-                body, positions=smoothed,
-                bound=body.bound + np.nan_to_num(moved)), newest))
+                body, positions=smoothed, bound=bound), newest))
         self.sightlines.update(t, {pid: (bodies[pid].positions,
                                          {k[0] for k in keys})
                                    for pid, keys in groups.items()},
@@ -468,18 +472,19 @@ class Fusion:
 
     def _put_sides_right(self, t: float, facing: HeldFront,
                          before: List[np.ndarray],
-                         views: List[Observation]) -> None:
+                         views: List[Observation]) -> bool:
         """Where the views disagree on the person's front, turn those
         facing away from the hands (``facing``, hri_sync.fusion.facing);
         then turn back the views whose tracker took the body's back for
         its front, and exchange the arms of those whose tracker exchanged
         them (hri_sync.fusion.arms), against the person's body predicted
         from its last two fused instants (``before``, constant velocity);
-        counted per view."""
-        self._swap(views, facing.views_to_turn(t, views), turned,
-                   'turned_to_hands')
+        counted per view. Whether the views disagreed on the front and
+        the hands did not decide."""
+        decision = facing.views_to_turn(t, views)
+        self._swap(views, decision.turn, turned, 'turned_to_hands')
         if len(before) < 2:
-            return
+            return decision.unsure
         predicted = 2 * before[1] - before[0]
         steps: Tuple[Tuple[Callable[..., List[bool]],
                            Callable[[np.ndarray], np.ndarray], str], ...] = (
@@ -488,6 +493,7 @@ class Fusion:
         for decide, swap, counter in steps:
             self._swap(views, decide(views, predicted, self.params.arms,
                                      self.params.fuse), swap, counter)
+        return decision.unsure
 
     def _swap(self, views: List[Observation], which: List[bool],
               swap: Callable[[np.ndarray], np.ndarray], counter: str) -> None:
