@@ -53,6 +53,10 @@ def test_front_is_the_way_the_labels_face():
     nan = body()
     nan[INDEX['left_hip']] = np.nan
     assert front(nan) is None
+    # Hips 5 cm apart (every joint at one point, and noise) tell no side.
+    narrow = body()
+    narrow[INDEX['left_hip'], 1] = narrow[INDEX['right_hip'], 1] + 0.05
+    assert front(narrow) is None
 
 
 def test_the_views_facing_away_from_the_hands_are_turned_however_many():

@@ -8,8 +8,9 @@ views outnumber the ones in front, the turn rule of
 hri_sync.fusion.arms, which puts right a minority against the others,
 cannot. People reach in front of their trunk (a shoulder flexes to
 about 180 degrees and extends to about 50), and the hands' places do not
-depend on which arm a view calls left: where the views' fronts point
-opposite ways (some more than ``split`` along the views' common axis,
+depend on which arm a view calls left: where the views' fronts (from
+their labelled hips and neck; none from hips under ``HIPS_APART``
+apart) point opposite ways (some more than ``split`` along the views' common axis,
 some less than -``split``), the hands the views see (confidence
 ``confidence`` or more), from each view's trunk centre, are averaged
 along that axis, weighted by confidence, where ``views`` views or more
@@ -41,6 +42,7 @@ from hri_sync.people.rep155 import body_axes
 HANDS = [INDEX['left_hand'], INDEX['right_hand']]
 TRUNK = [INDEX[j] for j in ('left_shoulder', 'right_shoulder', 'left_hip',
                             'right_hip')]
+HIPS_APART = 0.1    # m; people's hip joints lie 0.2-0.3 m apart
 
 
 @dataclass
@@ -58,7 +60,11 @@ class FacingParams:
 def front(positions: np.ndarray) -> Optional[np.ndarray]:
     """The horizontal unit vector a body at ``positions`` (world, z up)
     faces as its labels say (from its hips and neck); None when those
-    are not given or the body lies flat."""
+    are not given, the hips lie under ``HIPS_APART`` apart (no side to
+    tell) or the body lies flat."""
+    hips = positions[INDEX['left_hip']] - positions[INDEX['right_hip']]
+    if not np.linalg.norm(hips) >= HIPS_APART:
+        return None
     axes = body_axes(positions)
     if axes is None:
         return None
