@@ -59,8 +59,8 @@ class ClientProcess:
         self.on_capture = on_capture
         self.on_late = on_late
         self.schedule = ClientSchedule(
-            client_id, param('max_uncertainty', MAX_UNCERTAINTY, float, positive,
-                             '> 0 s'))
+            client_id, param('max_uncertainty', MAX_UNCERTAINTY, float,
+                             positive, '> 0 s'))
         self.synced_clock = SyncedClock(client_id)
         self.clock = self.synced_clock.clock
         self._ack_pub = Publisher(protocol_topic('sync_ack'), SyncAck,

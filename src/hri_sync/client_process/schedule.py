@@ -71,8 +71,9 @@ class ClientSchedule:
     (also in holdover, when the time server stopped answering and the
     bound grows with the time since the last good sync), else ACK (with
     the holdover's age and cause as the reason when the measurement
-    failed).  With a liveness ``Verdict`` (``hri_sync.client_process.liveness``:
-    is the DPM alive, its sensor delivering) that is not ok, it NACKs
+    failed).  With a liveness ``Verdict``
+    (``hri_sync.client_process.liveness``: is the DPM alive, its sensor
+    delivering) that is not ok, it NACKs
     with the verdict's reason (after the clock's, if both fail).
     ``on_capture`` turns the capture order of the round it ACKed into a
     Scheduled window or Late.

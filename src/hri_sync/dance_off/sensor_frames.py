@@ -1,4 +1,5 @@
-"""A depth tracker's frames over a capture window: expected, published, skipped.
+"""A depth tracker's frames over a capture window: expected, published,
+skipped.
 
 A tracker (``skeleton_tracker``) publishes a skeleton only for the frames it
 tracked, and a tracker that falls behind real time (starved of CPU) reads

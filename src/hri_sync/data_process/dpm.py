@@ -83,15 +83,15 @@ class DataProcess:
     stamp (a bridge that mapped it, e.g. ``nodes/lsl_inlet``) is mapped
     by the clock model alone; one not finite, not positive, or after its
     own arrival by more than ``jump`` s is rejected (``bad_device_stamp``);
-    the processor's ``stamp_error(msg)`` is added to its error bound.  Device stamps that are zero, not
-    finite, or break with the device clock map (going back, or mapping
-    after their own arrival by more than ``jump`` s) are held: if they and
-    the next samples continue them for ``settle`` samples (later on the
-    device clock, none delivered more than ``jump`` s quicker than the
-    quickest of them: a starved sensor's delivery may be slower by any
-    amount), the device clock was restarted and the map starts over;
-    otherwise they are rejected and counted (``bad_device_stamp``), and
-    the map keeps going.
+    the processor's ``stamp_error(msg)`` is added to its error bound.
+    Device stamps that are zero, not finite, or break with the device
+    clock map (going back, or mapping after their own arrival by more than
+    ``jump`` s) are held: if they and the next samples continue them for
+    ``settle`` samples (later on the device clock, none delivered more
+    than ``jump`` s quicker than the quickest of them: a starved sensor's
+    delivery may be slower by any amount), the device clock was restarted
+    and the map starts over; otherwise they are rejected and counted
+    (``bad_device_stamp``), and the map keeps going.
     The first samples of a map wait until it holds ``settle`` samples and
     are then stamped with it (``settling`` counts them).  The map is
     refitted with every sample up to 1 / ``refit`` Hz, then every

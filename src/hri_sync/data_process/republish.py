@@ -3,12 +3,12 @@ received bytes with the global stamp written in.
 
 No ROS.  A DPM republishes every sample of a window on ``captured`` with
 ``header.stamp`` = its global stamp, from a thread of its own, never in a
-result's path (``hri_sync.data_process.ros_republisher`` is that thread).  Each sample
-is serialized as it is captured and goes out ``delay`` s later, or as soon
-as its window's result is out: during the window at the sensor's own pace,
-so a recorder gets no burst but the window's last ``delay`` s, and memory
-holds ``delay`` s of samples whatever the window's length.  The clock is
-injected (``clock()``: local time, s).
+result's path (``hri_sync.data_process.ros_republisher`` is that thread).
+Each sample is serialized as it is captured and goes out ``delay`` s
+later, or as soon as its window's result is out: during the window at the
+sensor's own pace, so a recorder gets no burst but the window's last
+``delay`` s, and memory holds ``delay`` s of samples whatever the window's
+length.  The clock is injected (``clock()``: local time, s).
 """
 import struct
 import threading

@@ -1,5 +1,6 @@
 """The DPM's republishing thread: captured samples out on ``captured``,
-stamped in global time (the queue and its rule: hri_sync.data_process.republish).
+stamped in global time (the queue and its rule:
+hri_sync.data_process.republish).
 """
 import copy
 import io

@@ -21,12 +21,13 @@ that view has never shared a person with another view, within
 ``hold_near`` of a person two other views agree on, is held back
 (``held``) for ``hold`` s at most: the view's pose may be wrong
 (hri_sync.fusion.pipeline fits it; its users then join that person), or
-else (``release``, or a second view joins them) they are someone else. Two persons whose bodies overlap
-(``merge_gate``) for ``merge_after`` s while no view sees both are one: the
-younger id joins the older. A person seen by no view for ``forget_after``
-s is dropped; ids are never reused: not a person whose view gives it now
-and gave it without a break since it was last fused (a fusion that fell
-behind skips instants, while its views went on seeing the person).
+else (``release``, or a second view joins them) they are someone else.
+Two persons whose bodies overlap (``merge_gate``) for ``merge_after`` s
+while no view sees both are one: the younger id joins the older. A person
+seen by no view for ``forget_after`` s is dropped; ids are never reused:
+not a person whose view gives it now and gave it without a break since it
+was last fused (a fusion that fell behind skips instants, while its views
+went on seeing the person).
 """
 
 from __future__ import annotations

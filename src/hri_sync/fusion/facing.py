@@ -10,8 +10,8 @@ cannot. People reach in front of their trunk (a shoulder flexes to
 about 180 degrees and extends to about 50), and the hands' places do not
 depend on which arm a view calls left: where the views' fronts (from
 their labelled hips and neck; none from hips under ``HIPS_APART``
-apart) point opposite ways (some more than ``split`` along the views' common axis,
-some less than -``split``), the hands the views see (confidence
+apart) point opposite ways (some more than ``split`` along the views'
+common axis, some less than -``split``), the hands the views see (confidence
 ``confidence`` or more), from each view's trunk centre, are averaged
 along that axis, weighted by confidence, where ``views`` views or more
 see one (a far view's lone hand can be 0.7 m off at full confidence).

@@ -12,8 +12,8 @@ line of sight looks, to that view, like someone hidden behind.) With
 three or more views the pipeline fits a wrong pose to the people the
 others agree on; with two there is no third to say which pose is wrong,
 so the pair is reported (``unmatched``) with the distance between their
-people, and ``fusion_refine`` mends it. The check is along the floor: a sensor's
-pitch and vertical field are not used.
+people, and ``fusion_refine`` mends it. The check is along the floor: a
+sensor's pitch and vertical field are not used.
 
 ``outside_image`` is what a view cannot measure of a body: its joints
 farther than ``beyond_deg`` outside the sensor's image (``fov_deg`` wide,

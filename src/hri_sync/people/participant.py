@@ -47,7 +47,8 @@ class Zone:
     x_max: float
     z_min: float
     z_max: float
-    sensor_pose: Optional[tuple] = None   # (x, y, z, yaw, pitch) of the sensor in world
+    # (x, y, z, yaw, pitch) of the sensor in world
+    sensor_pose: Optional[tuple] = None
 
     def __post_init__(self):
         if self.sensor_pose is not None:

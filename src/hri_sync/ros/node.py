@@ -96,10 +96,11 @@ def run_node(name, main, master_restart='exit'):
 
     A ParamError (a config error) ends the node with one fatal message
     naming the param (exit status ``CONFIG_EXIT``); a copy its roslaunch
-    respawns with the same params stays down (``_stay_down``).  A restart of the ROS master (``master_watch``) is logged
-    and, with ``master_restart='exit'``, shuts the node down with exit
-    status ``master_watch.RESTART_EXIT`` (75) for roslaunch to respawn it;
-    with 'warn' the node keeps running unregistered.  The node shuts down
+    respawns with the same params stays down (``_stay_down``).  A restart
+    of the ROS master (``master_watch``) is logged and, with
+    ``master_restart='exit'``, shuts the node down with exit status
+    ``master_watch.RESTART_EXIT`` (75) for roslaunch to respawn it; with
+    'warn' the node keeps running unregistered.  The node shuts down
     (SIGTERM, handled in a thread) when its parent, e.g. roslaunch, dies:
     no orphan nodes.
     A live node of the same resolved name (a second system launched into

@@ -135,8 +135,8 @@ class AudioLevel(HeaderStamped):
                          'quietest_block_dbfs': (
                              self._quietest if self._blocks else math.nan),
                          'threshold_dbfs': self.threshold, 'gaps': self._gaps,
-                         'unit': 'voiced share (0-1)' if self.measure == 'voice'
-                         else 'dBFS'})
+                         'unit': ('voiced share (0-1)'
+                                  if self.measure == 'voice' else 'dBFS')})
 
 
 def read_wav(path):
