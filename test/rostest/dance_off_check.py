@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Checks one dance-off round (issue 3) run by test/rostest/dance_off_round.launch.
+"""Checks one dance-off round run by test/rostest/dance_off_round.launch.
 
 Listens to /client_result, /decision and both /<client_id>/captured
 streams and, after the round, checks:

@@ -28,8 +28,8 @@ decided round is won by participant 2), and its defined outcome.
   so it cannot ACK round 2, and SIGKILLed once round 2 aborted naming
   left ("no ACK from left"); it is respawned and a later round is
   decided with left.
-- ``flood``: test/rostest/flood_publisher.py floods /capture_data from a foreign
-  node during the session; every flood message any CPM saw is rejected
+- ``flood``: test/rostest/flood_publisher.py floods /capture_data from a
+  foreign node during the session; every flood message any CPM saw is rejected
   as from the wrong sender and counted on /diagnostics, none acted on,
   and every round is decided for participant 2.
 - ``sensor_killed``: left's replay sensor SIGKILLed in the middle of

@@ -19,8 +19,8 @@ bound on how fast this loaded machine is):
 - its onset is the fault's: for the clock, exactly the last good sync
   (the local_ref of the last ok clock_state received before the onset,
   on the same host clock) + clock_max_age, and that sync came before the
-  kill (+ one resync period); for the odometry, the robot's last odometry receipt +
-  odom_max_age, after the freeze began (and not later than the freeze
+  kill (+ one resync period); for the odometry, the robot's last odometry
+  receipt + odom_max_age, after the freeze began (and not later than the freeze
   plus the odometry period and delivery); for the decision, the window
   end + decision_timeout;
 - the last moving command was cleared by a check no later than the onset,

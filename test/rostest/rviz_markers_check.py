@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""Checks skeleton_markers and the site frames (test/rostest/rviz_markers.test)."""
+"""Checks skeleton_markers and the site frames
+(test/rostest/rviz_markers.test)."""
 import math
 import threading
 import time

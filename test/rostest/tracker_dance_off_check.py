@@ -5,9 +5,9 @@ One side's skeletons come from skeleton_tracker on a virtual Kinect, the
 other's from skeleton_sensor. Checks that the round is decided with the
 winner two skeleton-sensor clients give on the same motions (~expect; for the
 default salsa pair the follower, cmu_61_01, on the right: participant2, see
-test/rostest/dance_off_dancers.test; when the tracker was starved of CPU and its
-window is partial, that the decision says so and follows the scores), that
-the tracker client's result is ok with
+test/rostest/dance_off_dancers.test; when the tracker was starved of CPU
+and its window is partial, that the decision says so and follows the
+scores), that the tracker client's result is ok with
 its window covered and at most 30 Hz of frames over DUR (or, with
 ~expect_status_<client> partial, a coverage below 0.9 that shows the gap of
 an unplugged sensor), and that both values are finite.  A tracker starved

@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""Checks a round with a real depth clip as one client (tracker_real_clip_round.test).
+"""Checks a round with a real depth clip as one client
+(tracker_real_clip_round.test).
 
 The clip's client (~clip_client) runs skeleton_tracker on a real Kinect v1
 recording of a person too close and partly in view. After the round:
@@ -22,7 +23,8 @@ from hri_sync.msg import ClientResult, Decision, Skeleton
 from hri_sync.ros.node import init_checker
 
 PKG = 'hri_sync'
-LEGS = (9, 10, 11, 12, 13, 14)  # hips, knees, feet (hri_sync.dance_off.joints order)
+# hips, knees, feet (hri_sync.dance_off.joints order)
+LEGS = (9, 10, 11, 12, 13, 14)
 
 
 class TrackerRealClipTest(unittest.TestCase):
@@ -30,7 +32,8 @@ class TrackerRealClipTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.client = rospy.get_param('~clip_client')
-        cls.results, cls.decisions, cls.skeletons, cls.messages = {}, [], [], []
+        cls.results, cls.decisions = {}, []
+        cls.skeletons, cls.messages = [], []
         rospy.Subscriber('/client_result', ClientResult,
                          lambda m: cls.results.__setitem__(m.client_id, m))
         rospy.Subscriber('/decision', Decision, cls.decisions.append)
@@ -44,7 +47,8 @@ class TrackerRealClipTest(unittest.TestCase):
         while not cls.decisions and time.time() < deadline \
                 and not rospy.is_shutdown():
             time.sleep(0.2)
-        deadline = time.time() + 10.0   # results travel on their own connections
+        # results travel on their own connections
+        deadline = time.time() + 10.0
         while cls.client not in cls.results and time.time() < deadline \
                 and not rospy.is_shutdown():
             time.sleep(0.1)

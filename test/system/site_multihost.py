@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """make test-site: the site launch files on four "machines" (JSON summary).
 
-    source .ws/devel/setup.bash && sudo /usr/bin/python3 test/system/site_multihost.py
+    source .ws/devel/setup.bash
+    sudo /usr/bin/python3 test/system/site_multihost.py
 
 Each machine is a Linux network namespace (its own loopback and ports) with
 one veth link to a bridge in a switch namespace, on 10.78.0.0/24:

@@ -1,5 +1,5 @@
-"""hri_sync.data_process.capture: the sample buffer, window statistics, the time
-mappings and the capture window."""
+"""hri_sync.data_process.capture: the sample buffer, window statistics,
+the time mappings and the capture window."""
 
 import math
 import random
@@ -322,7 +322,7 @@ def test_a_producer_catching_up_is_not_read_as_drift():
     for k in range(300):
         device = k / 30
         m.observe(device, 1000.0 + device + catching_up(device))
-    assert m.drift == -MAX_DRIFT          # the slope is -0.13: delay, not drift
+    assert m.drift == -MAX_DRIFT    # the slope is -0.13: delay, not drift
     spacing = m.to_global(9.0) - m.to_global(8.0)
     assert abs(spacing - 1.0) <= MAX_DRIFT + 1e-12
 

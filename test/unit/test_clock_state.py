@@ -1,4 +1,5 @@
-"""hri_sync.clock.ros_clock_state: the one ClockState <-> ClockModel conversion.
+"""hri_sync.clock.ros_clock_state: the one ClockState <-> ClockModel
+conversion.
 
 Runs without ROS: where the generated hri_sync.msg cannot be imported
 (``make unit`` does not source the workspace) a stand-in ClockState with

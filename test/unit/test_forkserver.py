@@ -176,7 +176,8 @@ def test_sigint_to_the_proxy_interrupts_the_copy(tmp_path, served):
     assert r['rest'] == 'interrupted\n'
 
 
-def test_a_signal_ignored_by_the_proxy_is_ignored_by_the_copy(tmp_path, served):
+def test_a_signal_ignored_by_the_proxy_is_ignored_by_the_copy(tmp_path,
+                                                              served):
     r = run(tmp_path, 'ignore-int', served)
     assert r['first']['sigint_ignored']
     assert r['code'] == -signal.SIGTERM

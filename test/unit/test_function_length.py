@@ -17,7 +17,8 @@ def python_functions(path):
     lines = text.split('\n')
     for node in ast.walk(ast.parse(text)):
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
-            body = '\n'.join(lines[node.lineno - 1:node.body[0].end_lineno + 2])
+            first = node.body[0].end_lineno + 2
+            body = '\n'.join(lines[node.lineno - 1:first])
             yield (node.name, node.lineno, node.end_lineno - node.lineno + 1,
                    REASON in body)
 

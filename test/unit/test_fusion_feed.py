@@ -184,5 +184,6 @@ def test_settings_fill_fusion_params_and_name_a_bad_one():
         fusion_params(lambda n, d: -1 if n == 'max_age' else d)
     with pytest.raises(ValueError, match=r"rate='fast' is not a number"):
         fusion_params(lambda n, d: 'fast' if n == 'rate' else d)
-    with pytest.raises(ValueError, match=r'depth_range=4.0 .* below max_range'):
+    with pytest.raises(ValueError,
+                       match=r'depth_range=4.0 .* below max_range'):
         fusion_params(lambda n, d: 4.0 if n == 'depth_range' else d)

@@ -1,4 +1,5 @@
-"""hri_sync.data_process.processors: the CountMean processor and load_processor."""
+"""hri_sync.data_process.processors: the CountMean processor and
+load_processor."""
 
 import math
 import textwrap
@@ -121,7 +122,8 @@ def test_plugin_params_that_do_not_fit(plugin):
 
 
 def test_device_stamped_count_mean_reads_the_header_stamp():
-    p = load_processor('hri_sync.data_process.processors.DeviceStampedCountMean')
+    p = load_processor(
+        'hri_sync.data_process.processors.DeviceStampedCountMean')
     msg = NS(value=2.0, header=NS(stamp=NS(to_sec=lambda: 1234.5)))
     assert p.device_stamp(msg) == 1234.5
     assert p.process(frames(1.0, 3.0), 100.0, 101.0).value == 2.0

@@ -32,8 +32,9 @@ SCRIPT = textwrap.dedent('''
 def serve_and_stop(mode, wait):
     """'returned' or 'still serving' ``wait`` s after the shutdown."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
-    out = subprocess.run([sys.executable, '-c', SCRIPT, mode, str(wait)], env=env,
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run([sys.executable, '-c', SCRIPT, mode, str(wait)],
+                         env=env, capture_output=True, text=True,
+                         timeout=120)
     assert out.returncode == 0, out.stderr
     return out.stdout.strip()
 
