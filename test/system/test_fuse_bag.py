@@ -12,7 +12,7 @@ after the newest capture it used; the back view's diagnostics ERROR
 a missing bag each give a clear error and exit status.  Then the live
 fusion node (fuse_bag_live.launch: three views of a dancer, the views and
 the live fused body recorded by rosbag record) against fuse_bag on that
-recording: the same instants, most of them identical (98.5-99.4 % within
+recording: the same instants, most of them identical (98.5-100 % within
 1 mm, the others within 11 mm: docs/fusion.md); the median instant
 within 1 mm.  And that recording played
 into the live node under /use_sim_time (fuse_bag_replay.launch, then

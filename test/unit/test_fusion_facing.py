@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
-from hri_sync.fusion.arms import ArmParams, turned
-from hri_sync.fusion.facing import (TRUNK, FacingParams, HeldFront,
-                                    either_side, front, views_to_turn)
+from hri_sync.fusion.arms import TRUNK, ArmParams, turned
+from hri_sync.fusion.facing import (FacingParams, HeldFront, either_side,
+                                    front, views_to_turn)
 from hri_sync.fusion.fuse import Observation
 from hri_sync.fusion.pipeline import FusionParams
 from hri_sync.fusion.report import view_status

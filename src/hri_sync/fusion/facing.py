@@ -35,13 +35,11 @@ from typing import List, Optional
 import numpy as np
 
 from hri_sync.dance_off.joints import INDEX
-from hri_sync.fusion.arms import turned
+from hri_sync.fusion.arms import TRUNK, turned
 from hri_sync.fusion.fuse import Observation
 from hri_sync.people.rep155 import body_axes
 
 HANDS = [INDEX['left_hand'], INDEX['right_hand']]
-TRUNK = [INDEX[j] for j in ('left_shoulder', 'right_shoulder', 'left_hip',
-                            'right_hip')]
 HIPS_APART = 0.1    # m; people's hip joints lie 0.2-0.3 m apart
 
 
