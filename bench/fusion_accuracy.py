@@ -335,9 +335,14 @@ def best_view_track(msgs, view, poses, aligned, profile):
 
 def single_view_errors(views, poses, profile, truth):
     """Each view's mean joint error (m) on its tracked frames, through the
-    tracker profile (dated, corrected) and as published."""
+    tracker profile (dated, corrected) and as published; NaN for a view
+    that never tracked the person."""
     fixed, raw = [], []
     for i, (tracked, est, own_truth, _) in enumerate(views):
+        if not tracked.any():
+            fixed.append(math.nan)
+            raw.append(math.nan)
+            continue
         raw.append(np.linalg.norm(est[tracked] - own_truth[tracked],
                                   axis=-1).mean())
         caught = capture_times(i, len(tracked))[tracked]
@@ -771,16 +776,18 @@ def main():
         return
     msgs = faulty(messages(views, np.random.default_rng(args.seed)), args)
     fixed, raw = single_view_errors(views, poses, profile, truth)
-    best = names[int(np.argmin(fixed))]
+    if not np.isfinite(fixed).any():
+        sys.exit('fusion_accuracy: no view tracked the person')
+    best = names[int(np.nanargmin(fixed))]
     out = {'motion': os.path.basename(args.motion), 'views': args.views,
            'lost': args.lost,
-           'single_view_mean_m': dict(zip(names, np.round(fixed, 4))),
-           'single_view_published_mean_m': dict(zip(names,
-                                                    np.round(raw, 4))),
+           'single_view_mean_m': per_view(names, fixed),
+           'single_view_published_mean_m': per_view(names, raw),
            'best_view': best,
            'slowest_pipeline_p95_ms': round(max(np.percentile(
                [m['arrival'] - m['capture'] for m in msgs
-                if m['view'] == name], 95) for name in names) * 1e3, 1)}
+                if m['view'] == name], 95) for name in names
+               if np.isfinite(fixed[names.index(name)])) * 1e3, 1)}
     declared = declared_poses(args.pose_error, names, poses)
     for aligned in (True, False):
         frames, captured, fusion = run_fusion(msgs, declared, aligned,
@@ -814,12 +821,22 @@ def main():
         print(json.dumps(out, indent=1, default=float))
 
 
+def per_view(names, values):
+    """{view: value in m, 4 places}; None for a view that tracked no
+    one."""
+    return {n: round(float(v), 4) if np.isfinite(v) else None
+            for n, v in zip(names, values)}
+
+
 def print_table(out):
     """The demo's view of the figures."""
     plain = out['no_time_alignment']
     print('%-24s %10s %16s' % ('mean joint error (m)', 'all',
                                 'best view hides'))
     for view, err in out['single_view_mean_m'].items():
+        if err is None:
+            print('%-24s %10s' % (view, 'no one'))
+            continue
         print('%-24s %10.3f %16s' % (view, err, '%.3f' % out[
             'best_view_hidden_mean_m'] if view == out['best_view'] else ''))
     print('%-24s %10.3f %16.3f' % ('fused', out['fused_mean_m'],

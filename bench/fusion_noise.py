@@ -53,7 +53,8 @@ def scene_for(scene, seed):
 
 def figures(out):
     """The target figures of one fusion_accuracy.py JSON result."""
-    best = min(out['single_view_mean_m'].values())
+    best = min(v for v in out['single_view_mean_m'].values()
+               if v is not None)     # None: a view that tracked no one
     hidden = out['best_view_hidden_mean_m']
     paired = out['best_view_instants']
     alone = out['best_view_alone']

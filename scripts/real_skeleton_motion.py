@@ -33,14 +33,22 @@ FEET = [INDEX['left_foot'], INDEX['right_foot']]
 
 
 def motion_of(path, kinect):
-    """The recording at ``path`` (``kinect`` 1 or 2) as a Motion and the
-    share of its joints the sensor tracked."""
+    """The recording at ``path`` (``kinect`` 1 or 2) as a Motion of its
+    frames with every joint given (a Kinect SDK gives one it does not
+    track at 0 0 0), and the share of its joints the sensor tracked;
+    ValueError when no frame gives every joint."""
     rec = (read_kinect_v1 if kinect == 1 else read_kinect_v2)(path)
-    positions = rec.positions.copy()
+    given = np.isfinite(rec.positions).all(axis=-1) \
+        & (rec.positions != 0).any(axis=-1)
+    whole = given.all(axis=1)
+    if not whole.any():
+        raise ValueError('%s: no frame gives every joint (the sensor '
+                         'tracked no one)' % path)
+    positions = rec.positions[whole].copy()
     positions[..., 1] += FEET_Y - np.median(positions[:, FEET, 1])
     name = os.path.splitext(os.path.basename(path))[0]
-    return (Motion(rec.stamps, positions, name=name),
-            float(np.mean(rec.confidence >= 1.0)))
+    return (Motion(rec.stamps[whole], positions, name=name),
+            float(np.mean(given & (rec.confidence >= 1.0))))
 
 
 def main():

@@ -105,3 +105,19 @@ def test_a_clips_npz_and_track_are_rendered_apart():
     again = bench.world_motion(bench.load_motion(motion + '.npz'))
     assert bench.motion_id(npz) != bench.motion_id(track)
     assert bench.motion_id(npz) == bench.motion_id(again)
+
+
+def test_a_view_that_never_tracked_the_person_has_no_error():
+    from hri_sync.fusion.frames import SensorPose
+    from hri_sync.fusion.profile import Profile
+    n = 6
+    truth = np.zeros((n, J, 3))
+    seen = (np.ones(n, bool), np.full((n, J, 3), 0.1), truth, None)
+    never = (np.zeros(n, bool), np.zeros((n, J, 3)), truth, None)
+    fixed, raw = bench.single_view_errors(
+        [seen, never], [SensorPose(0, 0, 0, 0)] * 2, Profile(),
+        lambda t: np.zeros((len(t), J, 3)))
+    assert np.isclose(raw[0], np.sqrt(3) * 0.1)
+    assert np.isnan(fixed[1]) and np.isnan(raw[1])
+    assert bench.per_view(['a', 'b'], fixed) == {
+        'a': round(float(fixed[0]), 4), 'b': None}

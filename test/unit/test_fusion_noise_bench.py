@@ -57,6 +57,10 @@ def test_figures_are_below_the_best_view_in_percent():
                              alone=(0.050, 0.125)))
     assert f['below_best_alone_pct'] == 10.0
     assert f['hidden_below_best_alone_pct'] == 20.0
+    # A view that tracked no one has no error, and is not the best.
+    out = result(0.060, 0.045, 0.160, 0.100)
+    out['single_view_mean_m']['back'] = None
+    assert bench.figures(out)['best_view_m'] == 0.060
 
 
 def test_targets_are_counted_per_seed_and_spread_summarized():

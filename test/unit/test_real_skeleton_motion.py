@@ -14,13 +14,17 @@ SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..',
                       '..', 'scripts', 'real_skeleton_motion.py')
 
 
-def precog_csv(path, frames=4, camera_height=0.8):
+def precog_csv(path, frames=4, camera_height=0.8, untracked=()):
     """A PRECOG-style CSV of a person 3 m in front of a Kinect
-    ``camera_height`` m up, stepping 1 cm to the side each frame."""
+    ``camera_height`` m up, stepping 1 cm to the side each frame; the
+    ``untracked`` frames all 0 0 0 (the sensor's no one)."""
     rows = ['; '.join(KINECT_V1)]
     for k in range(frames):
         joints = []
         for n, name in enumerate(KINECT_V1):
+            if k in untracked:
+                joints.append('0 0 0')
+                continue
             y = -camera_height if ('Foot' in name or 'Ankle' in name) \
                 else 0.5 - 0.05 * n
             joints.append('%f %f %f' % (0.01 * k + 0.01 * n, y, 3.0))
@@ -52,4 +56,24 @@ def test_a_file_that_is_not_a_kinect_recording_is_refused(tmp_path):
                          text=True)
     assert run.returncode != 0
     assert 'not a Kinect v1 joint file' in run.stderr
+    assert not (tmp_path / 'x.npz').exists()
+
+
+def test_frames_without_a_person_are_left_out_and_none_is_refused(tmp_path):
+    csv, out = tmp_path / 'Seq9_8.csv', tmp_path / 'seq.npz'
+    precog_csv(csv, frames=5, untracked=(0, 3))
+    run = subprocess.run([sys.executable, SCRIPT, str(csv), '--out',
+                          str(out)], capture_output=True, text=True,
+                         check=True)
+    assert '3 frames' in run.stdout and '60 % of the joints' in run.stdout
+    motion = load_motion(str(out))
+    assert np.allclose(motion.times, np.array([1, 2, 4]) / 30.0)
+    assert np.isfinite(motion.positions).all()
+    empty = tmp_path / 'Seq9_7.csv'
+    precog_csv(empty, frames=3, untracked=(0, 1, 2))
+    run = subprocess.run([sys.executable, SCRIPT, str(empty), '--out',
+                          str(tmp_path / 'x.npz')], capture_output=True,
+                         text=True)
+    assert run.returncode != 0
+    assert 'no frame gives every joint' in run.stderr
     assert not (tmp_path / 'x.npz').exists()

@@ -48,11 +48,12 @@ def body_axes(points):
     hips = points[INDEX['left_hip']] - points[INDEX['right_hip']]
     up = points[INDEX['neck']] - (points[INDEX['left_hip']]
                                   + points[INDEX['right_hip']]) / 2
-    if not (np.isfinite(hips).all() and np.isfinite(up).all()):
+    if not (np.isfinite(hips).all() and np.isfinite(up).all()) \
+            or np.linalg.norm(up) < 1e-6:
         return None
     z = up / np.linalg.norm(up)
     y = hips - (hips @ z) * z
-    if np.linalg.norm(y) < 1e-6 or np.linalg.norm(up) < 1e-6:
+    if np.linalg.norm(y) < 1e-6:
         return None
     y = y / np.linalg.norm(y)
     return np.column_stack([np.cross(y, z), y, z])
