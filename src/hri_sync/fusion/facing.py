@@ -19,12 +19,14 @@ When they lie ``margin`` m or more to one side, that side is the front,
 and every view whose front points the other way is turned (every left
 and right joint exchanged).
 Nearer the trunk (arms hanging, hands on the hips) the hands say
-nothing, and the front they last decided (``HeldFront``), where they
-decided it at ``confirm`` instants or more within the last ``hold`` s,
-decides in their stead, turned since with the fused body (a dancer
-spins within a second); otherwise the views stand, their labels in
-doubt: each left and right joint's bound then takes in its partner on
-the other side (``either_side``).
+nothing, and the front they last decided (``HeldFront``), turned since
+with the fused body (a dancer spins within a second), decides in their
+stead for ``hold`` s after they last confirmed it (decided it at
+``confirm`` instants within ``confirm_within`` s: one instant can be a
+tracker's slip); otherwise the views stand, their labels in doubt: each
+left and right joint's bound then takes in its partner on the other side
+(``either_side``). Turned with the body, a held front does not grow stale
+as the person turns; what ``hold`` bounds is how long a wrong one lasts.
 """
 
 from __future__ import annotations
@@ -51,8 +53,9 @@ class FacingParams:
     confidence: float = 0.5     # a view's hand it sees
     views: int = 2              # views that see a hand
     split: float = 0.3          # cosine of a front from the views' axis
-    hold: float = 1.0           # s the hands' last front decides for them
-    confirm: int = 2            # instants they decided it within ``hold``
+    hold: float = 10.0          # s the hands' last front decides for them
+    confirm: int = 2            # instants that confirm a front ...
+    confirm_within: float = 1.0  # ... within this long (s)
 
 
 def front(positions: np.ndarray) -> Optional[np.ndarray]:
@@ -86,8 +89,8 @@ def views_to_turn(views: List[Observation], params: FacingParams,
     from the side the person's hands reach to, where the views disagree
     on the front; and that front (horizontal unit vector), None where the
     hands do not decide. There, ``held`` (the front the hands last
-    decided, within ``params.hold``) decides in their stead; without it
-    the views' labels are in doubt (``unsure``)."""
+    decided, confirmed within ``params.hold``) decides in their stead;
+    without it the views' labels are in doubt (``unsure``)."""
     fronts = [front(o.positions) for o in views]
     known = [f for f in fronts if f is not None]
     if len(known) < 2:
@@ -146,20 +149,22 @@ class HeldFront:
 
     def __init__(self, params: FacingParams):
         self.params = params
-        self.times: List[float] = []    # the hands' decisions within hold
+        self.times: List[float] = []    # the hands' recent decisions
+        self.confirmed: Optional[float] = None  # when they last confirmed
         self.front: Optional[np.ndarray] = None
 
     def views_to_turn(self, t: float, views: List[Observation]) -> Decision:
-        """views_to_turn at instant ``t``, the front held where the hands
-        decided it at ``confirm`` instants or more in the last ``hold``
-        s."""
-        self.times = [s for s in self.times if t - s <= self.params.hold]
-        held = self.front if len(self.times) >= self.params.confirm \
-            else None
+        """views_to_turn at instant ``t``, the front held within ``hold`` s
+        of the hands' last confirming it."""
+        held = self.front if self.confirmed is not None \
+            and t - self.confirmed <= self.params.hold else None
         decision = views_to_turn(views, self.params, held)
         if decision.front is not None:
-            self.times.append(t)
+            self.times = [s for s in self.times
+                          if t - s <= self.params.confirm_within] + [t]
             self.front = decision.front
+            if len(self.times) >= self.params.confirm:
+                self.confirmed = t
         return decision
 
     def turn_with(self, positions: np.ndarray) -> None:
