@@ -160,10 +160,28 @@ def test_a_side_view_is_not_taken_for_either_way():
     obs = views('abc', turned_views='b')
     side = obs[2].positions
     centre = side[INDEX['torso']].copy()
-    # The third view's body faces +y: its labels say neither way.
+    # The third view's body faces +y: its labels say neither way. (Its
+    # hands stay where they are.)
     rotated = (side - centre) @ np.array([[0, 1, 0], [-1, 0, 0], [0, 0, 1]])
+    hands = [INDEX[h] for h in HANDS]
+    rotated[hands] = side[hands] - centre
     obs[2].positions = rotated + centre
     assert decide(obs) == ['b']
+
+
+def test_a_hand_drawn_back_behind_the_trunk_decides_nothing():
+    # One hand punches 0.4 m forward, the other is drawn back 0.15 m
+    # behind the trunk: on average in front, but the hands point both ways.
+    obs = views('abcd', turned_views='bcd', forward=0.0)
+    for o in obs:
+        for hand, forward in (('left_hand', 0.4), ('right_hand', -0.15)):
+            o.positions[INDEX[hand], 0] += forward
+    assert decide(obs) == []
+    assert views_to_turn(obs, FacingParams()).unsure
+    # Drawn back less than the margin, it leaves the front to the other.
+    for o in obs:
+        o.positions[INDEX['right_hand'], 0] += 0.1
+    assert decide(obs) == ['b', 'c', 'd']
 
 
 def test_nan_hands_and_a_view_without_hips_are_left_out():

@@ -15,9 +15,11 @@ common axis, some less than -``split``), the hands the views see (confidence
 ``confidence`` or more), from each view's trunk centre, are averaged
 along that axis, weighted by confidence, where ``views`` views or more
 see one (a far view's lone hand can be 0.7 m off at full confidence).
-When they lie ``margin`` m or more to one side, that side is the front,
-and every view whose front points the other way is turned (every left
-and right joint exchanged).
+When they lie ``margin`` m or more to one side, and no hand a view sees
+lies ``margin`` or more to the other (one hand punching, the other drawn
+back behind the trunk: the average then points either way), that side is
+the front, and every view whose front points the other way is turned
+(every left and right joint exchanged).
 Nearer the trunk (arms hanging, hands on the hips) the hands say
 nothing, and the front they last decided (``HeldFront``), turned since
 with the fused body (a dancer spins within a second), decides in their
@@ -32,7 +34,7 @@ as the person turns; what ``hold`` bounds is how long a wrong one lasts.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import List, Optional
+from typing import List, Optional, Tuple
 
 import numpy as np
 
@@ -101,8 +103,11 @@ def views_to_turn(views: List[Observation], params: FacingParams,
     along = np.array([f @ axis if f is not None else 0.0 for f in fronts])
     if not (along.max() > params.split and along.min() < -params.split):
         return Decision([False] * len(views))
-    reach = _reach(views, axis, params)
-    if reach is not None and abs(reach) >= params.margin:
+    hands = _hands(views, axis, params)
+    reach = _reach(hands, params)
+    if reach is not None and abs(reach) >= params.margin and all(
+            a * np.sign(reach) > -params.margin
+            for view in hands for _, a in view):
         side = float(np.sign(reach))
         decided: Optional[np.ndarray] = side * axis
     elif held is not None and abs(held @ axis) > params.split:
@@ -123,24 +128,30 @@ def either_side(positions: np.ndarray, bound: np.ndarray) -> np.ndarray:
     return np.fmax(bound, reach)
 
 
-def _reach(views: List[Observation], axis: np.ndarray,
-           params: FacingParams) -> Optional[float]:
-    """How far (m) the hands the ``views`` see (confidence
-    ``params.confidence`` or more) lie along ``axis`` from each view's
-    trunk centre, weighted by confidence; None unless ``params.views`` or
-    more views see a hand."""
-    reach, weight, seeing = 0.0, 0.0, 0
+def _hands(views: List[Observation], axis: np.ndarray,
+           params: FacingParams) -> List[List[Tuple[float, float]]]:
+    """Per view, each hand it sees (confidence ``params.confidence`` or
+    more): its confidence and how far (m) it lies along ``axis`` from the
+    view's trunk centre."""
+    out: List[List[Tuple[float, float]]] = []
     for o in views:
         centre = o.positions[TRUNK].mean(axis=0)
-        seen = [j for j in HANDS if o.confidence[j] >= params.confidence
-                and np.isfinite(o.positions[j]).all()]
-        if not seen or not np.isfinite(centre).all():
-            continue
-        seeing += 1
-        for j in seen:
-            reach += o.confidence[j] * float((o.positions[j] - centre) @ axis)
-            weight += o.confidence[j]
-    return reach / weight if seeing >= params.views else None
+        out.append([(float(o.confidence[j]),
+                     float((o.positions[j] - centre) @ axis))
+                    for j in HANDS if o.confidence[j] >= params.confidence
+                    and np.isfinite(o.positions[j]).all()]
+                   if np.isfinite(centre).all() else [])
+    return out
+
+
+def _reach(hands: List[List[Tuple[float, float]]],
+           params: FacingParams) -> Optional[float]:
+    """The ``hands`` (``_hands``) along the axis, weighted by confidence;
+    None unless ``params.views`` views or more see a hand."""
+    seen = [h for view in hands for h in view]
+    if sum(1 for view in hands if view) < params.views:
+        return None
+    return sum(c * a for c, a in seen) / sum(c for c, _ in seen)
 
 
 class HeldFront:
