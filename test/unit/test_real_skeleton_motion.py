@@ -32,12 +32,23 @@ def precog_csv(path, frames=4, camera_height=0.8, untracked=()):
     path.write_text('\n'.join(rows) + '\n')
 
 
+def convert(csv, out, refused=None):
+    """The script run on ``csv``; with ``refused``, it fails with that
+    message on stderr and writes no ``out``."""
+    run = subprocess.run([sys.executable, SCRIPT, str(csv), '--out',
+                          str(out)], capture_output=True, text=True,
+                         check=refused is None)
+    if refused is not None:
+        assert run.returncode != 0
+        assert refused in run.stderr
+        assert not out.exists()
+    return run
+
+
 def test_a_recording_becomes_a_motion_with_its_feet_on_the_floor(tmp_path):
     csv, out = tmp_path / 'Seq9_9.csv', tmp_path / 'seq.npz'
     precog_csv(csv)
-    run = subprocess.run([sys.executable, SCRIPT, str(csv), '--out',
-                          str(out)], capture_output=True, text=True,
-                         check=True)
+    run = convert(csv, out)
     assert '4 frames' in run.stdout and '100 % of the joints' in run.stdout
     motion = load_motion(str(out))
     assert np.allclose(motion.times, np.arange(4) / 30.0)
@@ -51,29 +62,17 @@ def test_a_recording_becomes_a_motion_with_its_feet_on_the_floor(tmp_path):
 def test_a_file_that_is_not_a_kinect_recording_is_refused(tmp_path):
     bad = tmp_path / 'bad.csv'
     bad.write_text('a;b;c\n1 2 3;4 5 6;7 8 9\n')
-    run = subprocess.run([sys.executable, SCRIPT, str(bad), '--out',
-                          str(tmp_path / 'x.npz')], capture_output=True,
-                         text=True)
-    assert run.returncode != 0
-    assert 'not a Kinect v1 joint file' in run.stderr
-    assert not (tmp_path / 'x.npz').exists()
+    convert(bad, tmp_path / 'x.npz', refused='not a Kinect v1 joint file')
 
 
 def test_frames_without_a_person_are_left_out_and_none_is_refused(tmp_path):
     csv, out = tmp_path / 'Seq9_8.csv', tmp_path / 'seq.npz'
     precog_csv(csv, frames=5, untracked=(0, 3))
-    run = subprocess.run([sys.executable, SCRIPT, str(csv), '--out',
-                          str(out)], capture_output=True, text=True,
-                         check=True)
+    run = convert(csv, out)
     assert '3 frames' in run.stdout and '60 % of the joints' in run.stdout
     motion = load_motion(str(out))
     assert np.allclose(motion.times, np.array([1, 2, 4]) / 30.0)
     assert np.isfinite(motion.positions).all()
     empty = tmp_path / 'Seq9_7.csv'
     precog_csv(empty, frames=3, untracked=(0, 1, 2))
-    run = subprocess.run([sys.executable, SCRIPT, str(empty), '--out',
-                          str(tmp_path / 'x.npz')], capture_output=True,
-                         text=True)
-    assert run.returncode != 0
-    assert 'no frame gives every joint' in run.stderr
-    assert not (tmp_path / 'x.npz').exists()
+    convert(empty, tmp_path / 'x.npz', refused='no frame gives every joint')

@@ -103,12 +103,8 @@ def views_to_turn(views: List[Observation], params: FacingParams,
     along = np.array([f @ axis if f is not None else 0.0 for f in fronts])
     if not (along.max() > params.split and along.min() < -params.split):
         return Decision([False] * len(views))
-    hands = _hands(views, axis, params)
-    reach = _reach(hands, params)
-    if reach is not None and abs(reach) >= params.margin and all(
-            a * np.sign(reach) > -params.margin
-            for view in hands for _, a in view):
-        side = float(np.sign(reach))
+    side = _side(_hands(views, axis, params), params)
+    if side:
         decided: Optional[np.ndarray] = side * axis
     elif held is not None and abs(held @ axis) > params.split:
         side, decided = float(np.sign(held @ axis)), None
@@ -144,14 +140,21 @@ def _hands(views: List[Observation], axis: np.ndarray,
     return out
 
 
-def _reach(hands: List[List[Tuple[float, float]]],
-           params: FacingParams) -> Optional[float]:
-    """The ``hands`` (``_hands``) along the axis, weighted by confidence;
-    None unless ``params.views`` views or more see a hand."""
+def _side(hands: List[List[Tuple[float, float]]],
+          params: FacingParams) -> float:
+    """1 or -1: the side of the axis the ``hands`` (``_hands``) say is the
+    front, where ``params.views`` views or more see one and, weighted by
+    confidence, they lie ``params.margin`` or more to that side with none
+    as far to the other; 0 where they say nothing."""
     seen = [h for view in hands for h in view]
     if sum(1 for view in hands if view) < params.views:
-        return None
-    return sum(c * a for c, a in seen) / sum(c for c, _ in seen)
+        return 0.0
+    reach = sum(c * a for c, a in seen) / sum(c for c, _ in seen)
+    side = float(np.sign(reach))
+    if abs(reach) < params.margin or \
+            any(a * side <= -params.margin for _, a in seen):
+        return 0.0
+    return side
 
 
 class HeldFront:
