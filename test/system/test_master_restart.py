@@ -12,6 +12,7 @@ with the workspace sourced.
 """
 import os
 import signal
+import socket
 import subprocess
 import tempfile
 import xmlrpc.client
@@ -20,7 +21,7 @@ import pytest
 import rosbag
 import rosgraph
 from hri_sync.tools.procs import cmdline, cpu_seconds, descendants
-from hri_sync_support.harness import free_port, wait_until
+from hri_sync_support.harness import wait_until
 
 NODES = ['/control_module', '/decision_module', '/a/cpm', '/a/dpm',
          '/reference', '/a/tracker', '/recorder']
@@ -29,6 +30,26 @@ DEADLINE = 120.0   # s for nodes to (re)register; a hang, not a speed
 LAUNCH = os.path.join(os.path.dirname(os.path.abspath(__file__)),
                       'master_restart.launch')
 
+
+
+def port_below_ephemeral(host='127.0.0.1'):
+    """A free TCP port below the kernel's ephemeral range. The master is
+    restarted on its port: an ephemeral one, free while the master is
+    down, can go meanwhile to any process's bind(0) (the respawned nodes
+    bind theirs), and what answered getPid there passed for the new
+    master (a fresh clone's run once waited 120 s for /a/dpm, refused
+    beside a live /a/dpm that was not this launch's)."""
+    with open('/proc/sys/net/ipv4/ip_local_port_range') as f:
+        span = int(f.read().split()[0]) - 10000     # ports 10000 and up
+    for k in range(span):
+        port = 10000 + (os.getpid() + k) % span
+        with socket.socket() as s:
+            try:
+                s.bind((host, port))
+            except OSError:
+                continue
+            return port
+    raise RuntimeError('no free port below %d' % (10000 + span))
 
 
 def stop(proc, sig=signal.SIGINT, timeout=30.0):
@@ -49,7 +70,7 @@ class Session:
     """A master we own, a roslaunch against it, their logs."""
 
     def __init__(self, tmp):
-        self.port = free_port()
+        self.port = port_below_ephemeral()
         self.uri = 'http://127.0.0.1:%d/' % self.port
         self.tmp = tmp
         self.env = dict(os.environ, ROS_MASTER_URI=self.uri,
@@ -68,7 +89,14 @@ class Session:
             ['rosmaster', '--core', '-p', str(self.port)], env=self.env,
             stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
         return wait_until('master %d answering' % self.masters,
-                          self.master_pid, 60.0)
+                          self.our_master, 60.0,
+                          procs=[('rosmaster', self.master)])
+
+    def our_master(self):
+        """The master's pid once the one we started answers on the port
+        (another process that answers getPid there is not it)."""
+        pid = self.master_pid()
+        return pid if pid == self.master.pid else None
 
     def master_pid(self):
         try:
