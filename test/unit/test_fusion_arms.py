@@ -102,20 +102,21 @@ POSES = {'front': SensorPose(3.3, 0.0, 1.0, math.pi),
 
 
 def run(arms, swap_from=2.0, swap_to=4.0, seconds=6.0, swap=exchanged,
-        swapped=('back',), facing=FacingParams()):
+        swapped=('back',), facing=FacingParams(), alter=None):
     """A Fusion of four views of the salsa dancer (1 cm noise, 50 ms
     late); the ``swapped`` views' trackers exchange the arms (``swap``)
-    from ``swap_from`` to ``swap_to`` s. Returns the fusion, its frames
-    and the truth."""
+    from ``swap_from`` to ``swap_to`` s; every view sees ``alter(t, p)``
+    of the dancer's joints ``p`` where given. Returns the fusion, its
+    frames and the truth."""
     motion = dancer()
 
     def truth(t):
         return ORIGINAL.to_world(motion.positions_at([t])[0])
 
     def seen(view, t):
-        if view in swapped and swap_from <= t < swap_to:
-            return swap(truth(t))
-        return truth(t)
+        p = truth(t) if alter is None else alter(t, truth(t))
+        return swap(p) if view in swapped and swap_from <= t < swap_to \
+            else p
     fusion, frames = feed(seconds, {}, [seen], poses=POSES,
                           params=FusionParams(arms=arms, facing=facing))
     return fusion, frames, truth

@@ -11,10 +11,8 @@ from hri_sync.fusion.arms import TRUNK, ArmParams, turned
 from hri_sync.fusion.facing import (FacingParams, HeldFront, either_side,
                                     front, views_to_turn)
 from hri_sync.fusion.fuse import Observation
-from hri_sync.fusion.pipeline import FusionParams
 from hri_sync.fusion.report import view_status
-from test_fusion_arms import POSES, hand_error, run
-from test_fusion_wrong_pose import ORIGINAL, dancer, run as feed
+from test_fusion_arms import hand_error, run
 from test_fusion_core import body
 
 RNG = np.random.default_rng(65)
@@ -218,17 +216,16 @@ def hanging(hold):
     facing the wrong way from 2 to 5.5 s and every view's hands at the
     trunk from 3 to 5 s (they say nothing of the front there), the front
     the hands last decided held ``hold`` s."""
-    motion = dancer()
     hands = [INDEX[h] for h in HANDS]
 
-    def seen(view, t):
-        p = ORIGINAL.to_world(motion.positions_at([t])[0])
+    def at_trunk(t, p):
         if 3.0 <= t < 5.0:
             p[hands] = p[TRUNK].mean(axis=0)
-        return turned(p) if view in ('back', 'left') and 2.0 <= t < 5.5 \
-            else p
-    return feed(6.0, {}, [seen], poses=POSES, params=FusionParams(
-        arms=ArmParams(turn_margin=math.inf), facing=FacingParams(hold=hold)))
+        return p
+    fusion, frames, _ = run(ArmParams(turn_margin=math.inf), swap_to=5.5,
+                            swap=turned, swapped=('back', 'left'),
+                            facing=FacingParams(hold=hold), alter=at_trunk)
+    return fusion, frames
 
 
 def test_the_front_the_hands_last_decided_is_held_where_they_say_nothing():
