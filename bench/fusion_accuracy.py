@@ -786,8 +786,9 @@ def main():
            'best_view': best,
            'slowest_pipeline_p95_ms': round(max(np.percentile(
                [m['arrival'] - m['capture'] for m in msgs
-                if m['view'] == name], 95) for name in names
-               if np.isfinite(fixed[names.index(name)])) * 1e3, 1)}
+                if m['view'] == name], 95)
+               for name, err in zip(names, fixed) if np.isfinite(err))
+               * 1e3, 1)}
     declared = declared_poses(args.pose_error, names, poses)
     for aligned in (True, False):
         frames, captured, fusion = run_fusion(msgs, declared, aligned,

@@ -60,13 +60,14 @@ class FacingParams:
     confirm_within: float = 1.0  # ... within this long (s)
 
 
-def front(positions: np.ndarray) -> Optional[np.ndarray]:
+def front(positions: np.ndarray, hips_apart: float = HIPS_APART
+          ) -> Optional[np.ndarray]:
     """The horizontal unit vector a body at ``positions`` (world, z up)
     faces as its labels say (from its hips and neck); None when those
-    are not given, the hips lie under ``HIPS_APART`` apart (no side to
+    are not given, the hips lie under ``hips_apart`` apart (no side to
     tell) or the body lies flat."""
     hips = positions[INDEX['left_hip']] - positions[INDEX['right_hip']]
-    if not np.linalg.norm(hips) >= HIPS_APART:
+    if not np.linalg.norm(hips) >= hips_apart:
         return None
     axes = body_axes(positions)
     if axes is None:

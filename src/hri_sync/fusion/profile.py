@@ -44,6 +44,7 @@ import numpy as np
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
 from hri_sync.fusion.errors import ErrorModel
+from hri_sync.fusion.facing import front
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import own_sigma
 from hri_sync.fusion.lag import FilterLag, FilterParams
@@ -63,15 +64,14 @@ def back_view(positions: np.ndarray, sensor: np.ndarray
     (0 front-on, 0.5 side-on, 1 from behind); None when the body has no
     axes (hips or neck missing). World (z up) positions (15, 3) and
     sensor position."""
-    axes = body_axes(positions)
-    if axes is None:
+    faces = front(positions, hips_apart=0.0)
+    if faces is None:
         return None
-    front = axes[:2, 0]
     to = np.asarray(sensor, float)[:2] - positions[INDEX['torso'], :2]
-    norm = np.linalg.norm(front) * np.linalg.norm(to)
+    norm = np.linalg.norm(to)
     if not np.isfinite(norm) or norm < 1e-9:
         return None
-    return float((1.0 - front @ to / norm) / 2.0)
+    return float((1.0 - faces[:2] @ to / norm) / 2.0)
 
 
 @dataclass
