@@ -14,7 +14,10 @@ joints being the fusion's guards' to leave out, its jump guard's and its
 image test's: one CI run under load had a fused body of that view alone
 without its right elbow), and the healthy views in at least half the
 bodies; the diagnostics name the fault (~expect, a fault of
-hri_sync.fusion.views) on view ~faulty's status, and no other view's.
+hri_sync.fusion.views) on view ~faulty's status, and every other view is
+healthy (``none``) in most of its statuses after the fault: under load a
+healthy view's skeletons may come 0.5 s apart and it reads stalled for a
+status or two, while a fault put on the wrong view stays.
 """
 import threading
 import time
@@ -35,7 +38,7 @@ class FusionFault(unittest.TestCase):
     def setUpClass(cls):
         init_checker('fusion_check')
         cls.lock = threading.Lock()
-        cls.skeletons, cls.faults = [], {}
+        cls.skeletons, cls.faults, cls.statuses = [], {}, []
         rospy.Subscriber('/fused/skeleton', Skeleton, cls.on_skeleton)
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diag)
 
@@ -50,8 +53,10 @@ class FusionFault(unittest.TestCase):
             for s in msg.status:
                 if ': view ' in s.name:
                     faults = dict((v.key, v.value) for v in s.values)
-                    cls.faults[s.name.split(': view ')[1]] = \
-                        faults.get('faults', '')
+                    view = s.name.split(': view ')[1]
+                    cls.faults[view] = faults.get('faults', '')
+                    cls.statuses.append((time.time(), view,
+                                         cls.faults[view]))
 
     def newest(self):
         with self.lock:
@@ -77,7 +82,8 @@ class FusionFault(unittest.TestCase):
             lambda: expect in self.faults.get(faulty, ''), 60.0, 0.1),
             'diagnostics never named %s on %s: %s'
             % (expect, faulty, self.faults))
-        got, rate = self.rate_since(time.time())
+        named = time.time()
+        got, rate = self.rate_since(named)
         self.assertGreaterEqual(rate, least, 'after the fault')
         self.assertEqual({m.user_id for m in got}, {got[0].user_id})
         hidden = {'nan_joints': {7, 8},
@@ -93,8 +99,14 @@ class FusionFault(unittest.TestCase):
                                 'the healthy views gave %d of %d bodies'
                                 % (len(healthy), len(got)))
         with self.lock:
-            others = {v: f for v, f in self.faults.items() if v != faulty}
-        self.assertEqual(set(others.values()), {'none'}, others)
+            others = [(v, f) for t, v, f in self.statuses
+                      if t >= named and v != faulty]
+        self.assertTrue(others, 'no status of the other views after the '
+                        'fault')
+        for view in {v for v, _ in others}:
+            seen = [f for v, f in others if v == view]
+            self.assertGreater(2 * seen.count('none'), len(seen),
+                               'view %s: %s' % (view, seen))
 
 
 if __name__ == '__main__':
