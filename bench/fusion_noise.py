@@ -21,7 +21,11 @@ object:
   view has a skeleton at; and ``below_best_alone_pct`` /
   ``hidden_below_best_alone_pct``, the fused body below the best view
   alone through the same fusion (``best_view_alone``: its profile, filter
-  and posture);
+  and posture); ``nearest_view_below_best_pct`` /
+  ``nearest_view_hidden_below_best_pct``, the same for the view nearest
+  the truth at each instant and joint (``view_oracle_mean_m``: which no
+  fusion can know; where it is short of a target, no choice among the
+  views meets it);
 - ``summary``: each figure's median, least and greatest over the seeds;
 - ``targets_met``: per target, in how many of the seeds it is met.
 
@@ -78,6 +82,10 @@ def figures(out):
         'hidden_below_best_alone_pct': round(
             100 * (1 - out['fused_hidden_mean_m'] / alone['hidden_mean_m']),
             1),
+        'nearest_view_below_best_pct': round(
+            100 * (1 - out['view_oracle_mean_m'] / best), 1),
+        'nearest_view_hidden_below_best_pct': round(
+            100 * (1 - out['view_oracle_hidden_mean_m'] / hidden), 1),
     }
 
 

@@ -182,6 +182,56 @@ def test_a_hand_drawn_back_behind_the_trunk_decides_nothing():
     assert decide(obs) == ['b', 'c', 'd']
 
 
+def leading(lead, turned_views='bcd', lean=0.0):
+    """Four views of the body with its hands hanging, its trunk leaning
+    ``lean`` m forward at the neck, the head on the trunk's line but
+    ``lead`` m in front of it; ``turned_views`` take the back for the
+    front."""
+    obs = views('abcd', turned_views=turned_views, forward=0.0)
+    for o in obs:
+        neck = o.positions[INDEX['neck']]
+        neck[0] += lean
+        trunk = neck - o.positions[[INDEX['left_hip'],
+                                    INDEX['right_hip']]].mean(axis=0)
+        o.positions[INDEX['head']] = neck + 0.2 * trunk \
+            / np.linalg.norm(trunk) + (lead, 0.0, 0.0)
+    return obs
+
+
+def test_where_the_hands_say_nothing_the_head_leads_labels_in_doubt():
+    decision = views_to_turn(leading(0.08), FacingParams())
+    assert decision.turn == [False, True, True, True]
+    assert decision.by_head and decision.unsure and decision.front is None
+    assert decide(leading(-0.08)) == ['a']
+    # A head 3 cm ahead, or on the line of a trunk leaning 0.15 m: the
+    # views stand.
+    for obs in (leading(0.03), leading(0.0, lean=0.15)):
+        decision = views_to_turn(obs, FacingParams())
+        assert not any(decision.turn) and not decision.by_head
+        assert decision.unsure
+    assert decide(leading(0.08, lean=0.15)) == ['b', 'c', 'd']
+    assert decide(leading(0.08), FacingParams(head_margin=math.inf)) == []
+    # The hands, where they say something, and a held front come first.
+    reach = leading(-0.08)
+    for o in reach:
+        for hand in HANDS:
+            o.positions[INDEX[hand], 0] += 0.3
+    assert decide(reach) == ['b', 'c', 'd']
+    assert decide(leading(-0.08), held=np.array([1.0, 0.0, 0.0])) \
+        == ['b', 'c', 'd']
+
+
+def test_the_head_of_one_view_decides_nothing():
+    obs = leading(0.08)
+    for o in obs[1:]:
+        o.positions[INDEX['head']] = np.nan
+    assert decide(obs) == []
+    obs = leading(0.08)
+    for o in obs[1:]:
+        o.confidence[INDEX['neck']] = 0.2
+    assert decide(obs) == []
+
+
 def test_nan_hands_and_a_view_without_hips_are_left_out():
     obs = views('abcd', turned_views='bc')
     obs[0].positions[INDEX['left_hand']] = np.nan

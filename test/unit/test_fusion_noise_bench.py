@@ -14,19 +14,23 @@ spec.loader.exec_module(bench)
 
 def result(best, fused, best_hidden, fused_hidden, coverage=0.99,
            duplicates=0, latency=99.0, slowest=96.0, paired=None,
-           alone=None):
+           alone=None, nearest=None):
     """A fusion_accuracy.py JSON result's keys the bench reads
     (``paired``: the best view and the fused body on the same instants,
     and its share of them; ``alone``: the best view alone through the
-    fusion, whole and hidden; the run's own figures by default)."""
+    fusion, whole and hidden; ``nearest``: the view nearest the truth,
+    whole and hidden; the run's own figures by default)."""
     best_m, fused_m, share = paired or (best, fused, 1.0)
     alone_m, alone_hidden = alone or (best, best_hidden)
+    nearest_m, nearest_hidden = nearest or (best, best_hidden)
     return {'single_view_mean_m': {'front': best, 'right': best + 0.01},
             'best_view_alone': {'mean_m': alone_m,
                                 'hidden_mean_m': alone_hidden},
             'best_view_instants': {'share': share, 'best_view_m': best_m,
                                    'fused_m': fused_m},
             'fused_mean_m': fused,
+            'view_oracle_mean_m': nearest_m,
+            'view_oracle_hidden_mean_m': nearest_hidden,
             'best_view_hidden_mean_m': best_hidden,
             'fused_hidden_mean_m': fused_hidden,
             'latency_p95_ms': latency, 'slowest_pipeline_p95_ms': slowest,
@@ -57,6 +61,11 @@ def test_figures_are_below_the_best_view_in_percent():
                              alone=(0.050, 0.125)))
     assert f['below_best_alone_pct'] == 10.0
     assert f['hidden_below_best_alone_pct'] == 20.0
+    # The view nearest the truth at each joint: 0.054 m, 0.12 hidden.
+    f = bench.figures(result(0.060, 0.045, 0.160, 0.100,
+                             nearest=(0.054, 0.120)))
+    assert f['nearest_view_below_best_pct'] == 10.0
+    assert f['nearest_view_hidden_below_best_pct'] == 25.0
     # A view that tracked no one has no error, and is not the best.
     out = result(0.060, 0.045, 0.160, 0.100)
     out['single_view_mean_m']['back'] = None

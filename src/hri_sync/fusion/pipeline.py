@@ -474,7 +474,8 @@ class Fusion:
                          before: List[np.ndarray],
                          views: List[Observation]) -> bool:
         """Where the views disagree on the person's front, turn those
-        facing away from the hands (``facing``, hri_sync.fusion.facing);
+        facing away from the hands, or where they say nothing from the
+        side the head leads to (``facing``, hri_sync.fusion.facing);
         then turn back the views whose tracker took the body's back for
         its front, and exchange the arms of those whose tracker exchanged
         them (hri_sync.fusion.arms), against the person's body predicted
@@ -482,7 +483,8 @@ class Fusion:
         counted per view. Whether the views disagreed on the front and
         the hands did not decide."""
         decision = facing.views_to_turn(t, views)
-        self._swap(views, decision.turn, turned, 'turned_to_hands')
+        self._swap(views, decision.turn, turned,
+                   'turned_to_head' if decision.by_head else 'turned_to_hands')
         if len(before) < 2:
             return decision.unsure
         predicted = 2 * before[1] - before[0]

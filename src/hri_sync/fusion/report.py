@@ -43,6 +43,7 @@ def view_status(fusion: Fusion, view: str) -> Status:
               ('arms exchanged back', str(health.arms_exchanged)),
               ('turned back', str(health.turned_back)),
               ('turned to the hands', str(health.turned_to_hands)),
+              ('turned to the head', str(health.turned_to_head)),
               ('beyond range', str(health.beyond_range)),
               ('joints out of image', str(health.out_of_image)),
               ('hands out of reach', str(health.out_of_reach))]

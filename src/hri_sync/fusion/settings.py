@@ -36,6 +36,8 @@ SETTINGS: Tuple[Setting, ...] = (
     ('facing_margin', 'facing.margin', lambda x: x > 0,
      '> 0 m (inf: never)'),
     ('facing_hold', 'facing.hold', _at_least_0, '>= 0 s'),
+    ('facing_head_margin', 'facing.head_margin', lambda x: x > 0,
+     '> 0 m (inf: never)'),
     ('hand_reach', 'reach.hand', lambda x: x > 0, '> 0 m (inf: never)'),
     ('fov_deg', 'sight.fov_deg', lambda x: 0 < x < 360, '0-360 degrees'),
     ('vertical_fov_deg', 'sight.vertical_fov_deg', lambda x: 0 < x < 180,

@@ -19,7 +19,7 @@ down-weighted), and ``arms_exchanged`` counts the instants its tracker's
 left and right arms were exchanged back (hri_sync.fusion.arms),
 ``turned_back`` those its tracker took the body's back for its front,
 ``turned_to_hands`` those its body was turned to face where the hands
-reach (hri_sync.fusion.facing), ``beyond_range`` its skeletons of
+reach, ``turned_to_head`` where the head leads (hri_sync.fusion.facing), ``beyond_range`` its skeletons of
 someone farther than the sensor tracks (down-weighted), ``out_of_image``
 its joints left out where the fused body stands outside its image,
 ``out_of_reach`` its hands left out that no fused arm reaches
@@ -80,6 +80,7 @@ class ViewHealth:
     arms_exchanged: int = 0         # instants its arms were put right
     turned_back: int = 0            # instants its body was turned back
     turned_to_hands: int = 0        # instants it was turned to the hands
+    turned_to_head: int = 0         # ... to the side the head leads to
     beyond_range: int = 0           # its skeletons of someone too far
     out_of_image: int = 0           # its joints outside its image
     out_of_reach: int = 0           # its hands no fused arm reaches
