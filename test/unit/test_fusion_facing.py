@@ -261,21 +261,40 @@ def test_two_views_turned_of_four_are_counted_and_fused_nearer():
             str(fusion.health['back'].turned_to_hands)) in values
 
 
-def hanging(hold):
+def hanging(hold, head_ahead=0.0, head_margin=FacingParams.head_margin):
     """The fusion (and its frames) of the test above, the views behind
     facing the wrong way from 2 to 5.5 s and every view's hands at the
-    trunk from 3 to 5 s (they say nothing of the front there), the front
-    the hands last decided held ``hold`` s."""
+    trunk from 3 to 5 s (they say nothing of the front there), the head
+    ``head_ahead`` m further to the front there, the front the hands last
+    decided held ``hold`` s."""
     hands = [INDEX[h] for h in HANDS]
 
     def at_trunk(t, p):
         if 3.0 <= t < 5.0:
             p[hands] = p[TRUNK].mean(axis=0)
+            p[INDEX['head']] += head_ahead * front(p)
         return p
     fusion, frames, _ = run(ArmParams(turn_margin=math.inf), swap_to=5.5,
                             swap=turned, swapped=('back', 'left'),
-                            facing=FacingParams(hold=hold), alter=at_trunk)
+                            facing=FacingParams(hold=hold,
+                                                head_margin=head_margin),
+                            alter=at_trunk)
     return fusion, frames
+
+
+def test_where_the_hands_hang_unheld_the_head_turns_the_views_behind():
+    during = 60     # instants in 3-5 s
+    fusion, _ = hanging(0.0, head_ahead=0.08)
+    off, _ = hanging(0.0, head_ahead=0.08, head_margin=math.inf)
+    for view in ('back', 'left'):
+        assert fusion.health[view].turned_to_head >= 0.9 * during
+        assert off.health[view].turned_to_head == 0
+    assert fusion.health['front'].turned_to_head == 0
+    _, _, _, values = view_status(fusion, 'back')
+    assert ('turned to the head',
+            str(fusion.health['back'].turned_to_head)) in values
+    # The salsa dancer's own head (about 0.03 m ahead) turns none.
+    assert hanging(0.0)[0].health['back'].turned_to_head == 0
 
 
 def test_the_front_the_hands_last_decided_is_held_where_they_say_nothing():

@@ -56,6 +56,7 @@ from hri_sync.people.rep155 import body_axes
 HANDS = [INDEX['left_hand'], INDEX['right_hand']]
 HEAD, NECK = INDEX['head'], INDEX['neck']
 HIPS = [INDEX['left_hip'], INDEX['right_hip']]
+CENTRE = [HEAD, NECK] + HIPS    # the head's lead: the same either way
 HIPS_APART = 0.1    # m; people's hip joints lie 0.2-0.3 m apart
 
 
@@ -184,9 +185,8 @@ def _head_side(views: List[Observation], axis: np.ndarray,
     calls left); 0 where it does not."""
     leads, weights = [], []
     for o in views:
-        joints = [HEAD, NECK] + HIPS
-        if min(o.confidence[joints]) < params.confidence \
-                or not np.isfinite(o.positions[joints]).all():
+        if min(o.confidence[CENTRE]) < params.confidence \
+                or not np.isfinite(o.positions[CENTRE]).all():
             continue
         trunk = o.positions[NECK] - o.positions[HIPS].mean(axis=0)
         head = o.positions[HEAD] - o.positions[NECK]
@@ -195,7 +195,7 @@ def _head_side(views: List[Observation], axis: np.ndarray,
             continue
         leads.append(float(head @ axis - (trunk @ axis)
                            * np.linalg.norm(head) / length))
-        weights.append(float(min(o.confidence[joints])))
+        weights.append(float(min(o.confidence[CENTRE])))
     if len(leads) < params.views:
         return 0.0
     lead = float(np.average(leads, weights=weights))

@@ -481,7 +481,8 @@ class Fusion:
         them (hri_sync.fusion.arms), against the person's body predicted
         from its last two fused instants (``before``, constant velocity);
         counted per view. Whether the views disagreed on the front and
-        the hands did not decide."""
+        neither the hands nor a held front decided (the labels in
+        doubt)."""
         decision = facing.views_to_turn(t, views)
         self._swap(views, decision.turn, turned,
                    'turned_to_head' if decision.by_head else 'turned_to_hands')

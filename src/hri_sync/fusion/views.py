@@ -19,12 +19,12 @@ down-weighted), and ``arms_exchanged`` counts the instants its tracker's
 left and right arms were exchanged back (hri_sync.fusion.arms),
 ``turned_back`` those its tracker took the body's back for its front,
 ``turned_to_hands`` those its body was turned to face where the hands
-reach, ``turned_to_head`` where the head leads (hri_sync.fusion.facing), ``beyond_range`` its skeletons of
-someone farther than the sensor tracks (down-weighted), ``out_of_image``
-its joints left out where the fused body stands outside its image,
-``out_of_reach`` its hands left out that no fused arm reaches
-(hri_sync.fusion.reach). The view's pipeline latency (arrival minus
-capture) is kept to know how long to wait for it.
+reach, ``turned_to_head`` where the head leads (hri_sync.fusion.facing),
+``beyond_range`` its skeletons of someone farther than the sensor tracks
+(down-weighted), ``out_of_image`` its joints left out where the fused
+body stands outside its image, ``out_of_reach`` its hands left out that
+no fused arm reaches (hri_sync.fusion.reach). The view's pipeline latency
+(arrival minus capture) is kept to know how long to wait for it.
 """
 
 from __future__ import annotations
