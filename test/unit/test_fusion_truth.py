@@ -7,7 +7,7 @@ import pytest
 from hri_sync.dance_off.joints import INDEX
 from hri_sync.dance_off.motion import Motion
 from hri_sync.fusion.truth import (
-    PROFILED, Body, TruthScore, table, world_motion)
+    PROFILED, Body, TruthScore, rules_line, table, world_motion)
 
 EPOCH = 1000.0
 
@@ -102,6 +102,15 @@ def test_the_table_compares_the_fused_body_with_the_best_profiled_view():
     assert '25.0 % below the best view (left profiled, 0.080 m)' in last
     assert '96.0 %' in last and '40.0 ms beyond' in last
     assert 'nothing received' in table({}, 'fused')[-1]
+
+
+def test_the_side_rules_counts_per_view():
+    line = rules_line({'right': {'turned to the head': '0'},
+                       'left': {'turned to the hands': '3',
+                                'turned to the head': '12'}})
+    assert line.endswith('left: turned to the hands 3, turned to the head '
+                         '12; right: turned to the head 0')
+    assert 'no view status' in rules_line({})
 
 
 def test_the_fused_latency_after_the_newest_capture_it_used():

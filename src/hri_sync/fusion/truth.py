@@ -24,6 +24,10 @@ from hri_sync.dance_off.motion import Motion
 from hri_sync.fusion.associate import body_distance
 
 PROFILED = ' profiled'   # a view through its tracker's profile
+# The fusion's side rules, as each view's /diagnostics status counts them
+# (hri_sync.fusion.report): instants the view was put right.
+RULES = ('turned to the hands', 'turned to the head', 'turned back',
+         'arms exchanged back')
 
 
 def world_motion(motion: Motion) -> Motion:
@@ -136,6 +140,16 @@ class TruthScore:
                     np.array(s.fresh) * 1e3, lambda a: np.percentile(a, 95))
             out[name] = row
         return out
+
+
+def rules_line(counts: Dict[str, Dict[str, str]]) -> str:
+    """What the fusion's side rules did to each view (``counts``: view ->
+    its status's RULES values, as received), for a terminal."""
+    return 'fusion rules, instants per view since it started: ' + '; '.join(
+        '%s: %s' % (view, ', '.join('%s %s' % (rule, got[rule])
+                                    for rule in RULES if rule in got))
+        for view, got in sorted(counts.items())) if counts else \
+        'fusion rules: no view status received (/diagnostics)'
 
 
 def _stat(values: np.ndarray, f) -> float:
