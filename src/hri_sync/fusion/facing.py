@@ -28,8 +28,9 @@ stead for ``hold`` s after they last confirmed it (decided it at
 tracker's slip); otherwise the head decides, its labels in doubt: a
 person's head leads the trunk's line (from the hips' centre through the
 neck, extended by the neck-head length) to the front, on Kinect SDK
-skeletons of real people by 0.05-0.09 m (four subjects of five; 0.01 m
-the fifth); where the views that see the head, neck and hips lead it
+skeletons of real people by 0.05-0.10 m (medians of five subjects; the
+views' trackers measure the least's mostly under 0.05 m); where the
+views that see the head, neck and hips lead it
 ``head_margin`` or more to one side on average, weighted by confidence,
 the views facing the other way are turned. These are centre joints, the
 same whichever arm a view calls left. A motion-capture head on the
