@@ -63,7 +63,8 @@ HIPS_APART = 0.1    # m; people's hip joints lie 0.2-0.3 m apart
 
 @dataclass
 class FacingParams:
-    """When the hands decide which way a person faces."""
+    """When the hands, a held front or the head decide which way a person
+    faces."""
 
     margin: float = 0.1         # m the hands lie in front of the trunk
     confidence: float = 0.5     # a view's hand it sees
@@ -94,7 +95,8 @@ def front(positions: np.ndarray, hips_apart: float = HIPS_APART
 
 @dataclass
 class Decision:
-    """What the hands say of one person's views at an instant."""
+    """What the hands, a held front or the head say of one person's views
+    at an instant."""
 
     turn: List[bool]                    # per view: turn it
     front: Optional[np.ndarray] = None  # the front the hands decided
@@ -109,7 +111,8 @@ def views_to_turn(views: List[Observation], params: FacingParams,
     on the front; and that front (horizontal unit vector), None where the
     hands do not decide. There, ``held`` (the front the hands last
     decided, confirmed within ``params.hold``) decides in their stead;
-    without it the views' labels are in doubt (``unsure``)."""
+    without it the head's lead may (``by_head``), the views' labels in
+    doubt either way (``unsure``)."""
     fronts = [front(o.positions) for o in views]
     known = [f for f in fronts if f is not None]
     if len(known) < 2:
@@ -121,16 +124,14 @@ def views_to_turn(views: List[Observation], params: FacingParams,
     if not (along.max() > params.split and along.min() < -params.split):
         return Decision([False] * len(views))
     side = _side(_hands(views, axis, params), params)
-    if side:
-        decided: Optional[np.ndarray] = side * axis
-    elif held is not None and abs(held @ axis) > params.split:
-        side, decided = float(np.sign(held @ axis)), None
-    else:
-        side = _head_side(views, axis, params)
-        return Decision([bool(a * side < -params.split) for a in along],
-                        unsure=True, by_head=bool(side))
+    decided = side * axis if side else None
+    unsure = False
+    if not side and held is not None and abs(held @ axis) > params.split:
+        side = float(np.sign(held @ axis))
+    elif not side:
+        side, unsure = _head_side(views, axis, params), True
     return Decision([bool(a * side < -params.split) for a in along],
-                    decided)
+                    decided, unsure, by_head=unsure and bool(side))
 
 
 def either_side(positions: np.ndarray, bound: np.ndarray) -> np.ndarray:
@@ -186,7 +187,8 @@ def _head_side(views: List[Observation], axis: np.ndarray,
     calls left); 0 where it does not."""
     leads, weights = [], []
     for o in views:
-        if min(o.confidence[CENTRE]) < params.confidence \
+        weight = float(min(o.confidence[CENTRE]))
+        if weight < params.confidence \
                 or not np.isfinite(o.positions[CENTRE]).all():
             continue
         trunk = o.positions[NECK] - o.positions[HIPS].mean(axis=0)
@@ -196,7 +198,7 @@ def _head_side(views: List[Observation], axis: np.ndarray,
             continue
         leads.append(float(head @ axis - (trunk @ axis)
                            * np.linalg.norm(head) / length))
-        weights.append(float(min(o.confidence[CENTRE])))
+        weights.append(weight)
     if len(leads) < params.views:
         return 0.0
     lead = float(np.average(leads, weights=weights))
