@@ -27,6 +27,7 @@ import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 
+from hri_sync.fusion.report import view_named
 from hri_sync.msg import Skeleton
 from hri_sync.ros.node import init_checker
 from hri_sync.ros.timers import wait_for
@@ -51,9 +52,9 @@ class FusionFault(unittest.TestCase):
     def on_diag(cls, msg):
         with cls.lock:
             for s in msg.status:
-                if ': view ' in s.name:
+                view = view_named(s.name)
+                if view is not None:
                     faults = dict((v.key, v.value) for v in s.values)
-                    view = s.name.split(': view ')[1]
                     cls.faults[view] = faults.get('faults', '')
                     cls.statuses.append((time.time(), view,
                                          cls.faults[view]))

@@ -13,7 +13,7 @@ from hri_sync.fusion.fuse import FuseParams, Observation, fuse
 from hri_sync.fusion.pipeline import Fusion, FusionParams
 from hri_sync.fusion.profile import (ARMS, Profile, back_growth, back_view,
                                      confidence_power, fit_profile, rays)
-from hri_sync.fusion.report import people_status, view_status
+from hri_sync.fusion.report import people_status, view_named, view_status
 from hri_sync.people.rep155 import body_axes
 from test_fusion_wrong_pose import POSES, run
 
@@ -504,3 +504,16 @@ def test_shared_points_refine_a_view_from_the_others():
     assert before > 0.2 and after < 0.03
     assert refined.x == pytest.approx(0.5, abs=0.05)
     assert refined.yaw == pytest.approx(right['c'].yaw, abs=0.02)
+
+
+def test_a_views_status_is_known_by_its_name_on_diagnostics():
+    # diagnostic_updater puts the node's name before the status's own:
+    # a reader of /diagnostics gets the view back, and only for a view's.
+    fusion, _ = run(0.3, {}, [lambda view, t: body()])
+    name = view_status(fusion, 'left')[0]
+    assert view_named('fused/fusion: ' + name) == 'left'
+    assert view_named('/lab/fusion: ' + name) == 'left'
+    assert view_named('fused/fusion: people') is None
+    assert view_named('fused/fusion: calibration') is None
+    assert view_named('view left') is None
+    assert view_named('fused/fusion: view ') is None

@@ -16,7 +16,7 @@ played to it off ``/use_sim_time``).
 
 from __future__ import annotations
 
-from typing import List, Tuple
+from typing import List, Optional, Tuple
 
 from hri_sync.fusion.pipeline import Frame, Fusion
 
@@ -25,6 +25,15 @@ LATENCY = 'latency p95 after the newest capture (ms)'   # people's key
 LEFT_OUT = ('stalled', 'frozen', 'clock_lost')
 
 Status = Tuple[str, int, str, List[Tuple[str, str]]]
+VIEW = 'view '                  # a view's status: VIEW + its id
+
+
+def view_named(name: str) -> Optional[str]:
+    """The view whose status this is, from its name on /diagnostics
+    (``<node>: view <id>``, as diagnostic_updater names it); None for
+    any other status."""
+    node, sep, rest = name.partition(': ' + VIEW)
+    return rest if sep and rest else None
 
 
 def view_status(fusion: Fusion, view: str) -> Status:
@@ -49,7 +58,7 @@ def view_status(fusion: Fusion, view: str) -> Status:
               ('hands out of reach', str(health.out_of_reach))]
     values += [('rejected ' + r, str(n))
                for r, n in sorted(health.rejected.items())]
-    return 'view %s' % view, level, message, values
+    return VIEW + view, level, message, values
 
 
 def calibration_status(fusion: Fusion) -> Status:

@@ -21,7 +21,7 @@ from hri_sync.fusion.feed import (
 from hri_sync.fusion.frames import parse_pose
 from hri_sync.fusion.pipeline import Fusion
 from hri_sync.fusion.profile import profiles
-from hri_sync.fusion.report import statuses
+from hri_sync.fusion.report import VIEW, statuses
 from hri_sync.fusion.settings import fusion_params
 from hri_sync.msg import ClockState, Skeleton
 from hri_sync.ros.outbox import closed_at_shutdown
@@ -72,7 +72,7 @@ class FusionNode:
                              % v, DiagnosticStatus, self.on_status, v)
         self.updater = diagnostic_updater.Updater()
         self.updater.setHardwareID(self.client_id)
-        for name in ['view %s' % v for v in sorted(self.views)] + [
+        for name in [VIEW + v for v in sorted(self.views)] + [
                 'calibration', 'people']:
             self.updater.add(name, lambda stat, n=name: self.status(stat, n))
         rospy.Timer(rospy.Duration(param('poll_period', 0.005, float,
