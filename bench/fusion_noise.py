@@ -12,8 +12,8 @@ object:
 - ``runs``: per seed, the figures the targets are stated on: the best
   single view and the fused body (m, and how far below the best view in
   %), the same on the best view's hidden joints, the latency beyond the
-  slowest view's pipeline (ms), duplicate people and the bound coverage;
-  and ``below_best_same_instants_pct``, the fused body below the best
+  slowest view's pipeline (ms), duplicate people, the bound coverage and
+  the bounds' median (m); and ``below_best_same_instants_pct``, the fused body below the best
   view on the instants and joints both have (fusion_accuracy.py's
   ``best_view_instants``: the best view's own mean covers its tracked
   frames only, the fused body's every instant), with
@@ -74,6 +74,7 @@ def figures(out):
             out['latency_p95_ms'] - out['slowest_pipeline_p95_ms'], 1),
         'duplicate_people': out['duplicate_people'],
         'bound_coverage': out['bound_coverage'],
+        'bound_median_m': out['bound_median_m'],
         'below_best_same_instants_pct': round(
             100 * (1 - paired['fused_m'] / paired['best_view_m']), 1),
         'best_view_instant_share': paired['share'],

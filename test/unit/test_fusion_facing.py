@@ -83,8 +83,9 @@ def test_the_front_the_hands_decide_is_given_and_held_where_they_do_not():
     assert decide(hanging, held=-decided) == ['a']
     # A held front across the views' axis says neither way.
     assert decide(hanging, held=np.array([0.0, 1.0, 0.0])) == []
+    # The held front's labels are in doubt: the hands said it before.
     held = views_to_turn(hanging, FacingParams(), decided)
-    assert held.front is None and not held.unsure
+    assert held.front is None and held.unsure and not held.by_head
 
 
 def test_a_front_is_held_once_the_hands_said_it_twice_within_a_second():
@@ -221,6 +222,24 @@ def test_where_the_hands_say_nothing_the_head_leads_labels_in_doubt():
         == ['b', 'c', 'd']
 
 
+def test_views_that_agree_are_in_doubt_where_the_head_leads_behind():
+    # Every view takes the same front: none is turned, but a head that
+    # leads the trunk's line to their back puts their labels in doubt.
+    agreed = views_to_turn(leading(0.08, turned_views=''), FacingParams())
+    assert agreed.turn == [False] * 4 and not agreed.unsure
+    behind = views_to_turn(leading(-0.08, turned_views=''), FacingParams())
+    assert behind.turn == [False] * 4 and behind.unsure
+    assert not behind.by_head and behind.front is None
+    for lead in (-0.03, 0.0):
+        assert not views_to_turn(leading(lead, turned_views=''),
+                                 FacingParams()).unsure
+    # The same with every view turned: the head leads to their front.
+    assert not views_to_turn(leading(-0.08, turned_views='abcd'),
+                             FacingParams()).unsure
+    assert views_to_turn(leading(0.08, turned_views='abcd'),
+                         FacingParams()).unsure
+
+
 def test_the_head_of_one_view_decides_nothing():
     obs = leading(0.08)
     for o in obs[1:]:
@@ -309,20 +328,22 @@ def test_the_front_the_hands_last_decided_is_held_where_they_say_nothing():
     assert turned_to_hands(held) >= 0.9 * during
     # Held 1 s, the front lapses halfway through.
     assert 0.3 * during <= turned_to_hands(lapsed) <= 0.7 * during
-    # Unheld, the views' labels are in doubt there: each shoulder's bound
-    # takes in the other shoulder.
+    # Held or not, the views' labels are in doubt there (the hands said
+    # the front before, not now): each shoulder's bound takes in the
+    # other shoulder.
     left, right = INDEX['left_shoulder'], INDEX['right_shoulder']
 
-    def bodies(frames):
+    def bodies(frames, start=3.1, end=5.0):
         return [f.people[0].body for f in frames
-                if 3.1 <= f.stamp < 5.0 and f.people]
+                if start <= f.stamp < end and f.people]
 
     def apart(b):
         return np.linalg.norm(b.positions[left] - b.positions[right])
-    doubt = bodies(frames)
-    assert len(doubt) >= 50
-    assert all(b.bound[left] >= apart(b) and b.bound[right] >= apart(b)
-               for b in doubt)
-    # Held, the same instants keep their bounds.
-    sure = bodies(held_frames)
+    for doubt in (bodies(frames), bodies(held_frames)):
+        assert len(doubt) >= 50
+        assert all(b.bound[left] >= apart(b) and b.bound[right] >= apart(b)
+                   for b in doubt)
+    # Before, the views agree (and the head leads their way): sure.
+    sure = bodies(held_frames, 0.5, 2.0)
+    assert len(sure) >= 30
     assert sum(b.bound[left] < apart(b) for b in sure) >= 0.8 * len(sure)

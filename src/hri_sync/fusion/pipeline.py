@@ -26,7 +26,8 @@ body; where the profile has a learned error model
 against each other by it, given where they lie on the body fused so
 far. Before that, where the views disagree on which way the person
 faces, those facing away from where the hands reach are turned
-(hri_sync.fusion.facing; where the hands do not tell, each left and
+(hri_sync.fusion.facing; where the hands do not tell at the instant,
+or the head leads away from the front all views agree on, each left and
 right joint's bound takes in its partner on the other side); a view
 whose tracker took the body's back for its front is turned back, and
 one whose tracker exchanged the left and right arms has them put back
@@ -480,9 +481,9 @@ class Fusion:
         its front, and exchange the arms of those whose tracker exchanged
         them (hri_sync.fusion.arms), against the person's body predicted
         from its last two fused instants (``before``, constant velocity);
-        counted per view. Whether the views disagreed on the front and
-        neither the hands nor a held front decided (the labels in
-        doubt)."""
+        counted per view. Whether the labels are in doubt (the hands did
+        not decide the front at this instant where the views disagree, or
+        the head leads to the back of views that agree)."""
         decision = facing.views_to_turn(t, views)
         self._swap(views, decision.turn, turned,
                    'turned_to_head' if decision.by_head else 'turned_to_hands')
