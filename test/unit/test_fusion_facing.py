@@ -7,12 +7,13 @@ import numpy as np
 import pytest
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
-from hri_sync.fusion.arms import TRUNK, ArmParams, turned
+from hri_sync.fusion.arms import (BODY_LEFT, BODY_RIGHT, TRUNK, ArmParams,
+                                  turned)
 from hri_sync.fusion.facing import (FacingParams, HeldFront, either_side,
                                     front, views_to_turn)
 from hri_sync.fusion.fuse import Observation
 from hri_sync.fusion.report import view_status
-from test_fusion_arms import hand_error, run
+from test_fusion_arms import POSES, hand_error, run
 from test_fusion_core import body
 
 RNG = np.random.default_rng(65)
@@ -222,22 +223,44 @@ def test_where_the_hands_say_nothing_the_head_leads_labels_in_doubt():
         == ['b', 'c', 'd']
 
 
-def test_views_that_agree_are_in_doubt_where_the_head_leads_behind():
-    # Every view takes the same front: none is turned, but a head that
-    # leads the trunk's line to their back puts their labels in doubt.
+def kneeling(obs, bend=0.2):
+    """``obs`` with both knees bent ``bend`` m forward (+x) off their
+    hip-foot lines."""
+    for o in obs:
+        for knee in ('left_knee', 'right_knee'):
+            o.positions[INDEX[knee], 0] += bend
+    return obs
+
+
+def test_views_that_agree_on_a_front_the_head_leads_away_from():
+    # Every view takes the same front; a head that leads the trunk's line
+    # to their back puts their labels in doubt.
     agreed = views_to_turn(leading(0.08, turned_views=''), FacingParams())
     assert agreed.turn == [False] * 4 and not agreed.unsure
-    behind = views_to_turn(leading(-0.08, turned_views=''), FacingParams())
-    assert behind.turn == [False] * 4 and behind.unsure
-    assert not behind.by_head and behind.front is None
     for lead in (-0.03, 0.0):
         assert not views_to_turn(leading(lead, turned_views=''),
                                  FacingParams()).unsure
-    # The same with every view turned: the head leads to their front.
-    assert not views_to_turn(leading(-0.08, turned_views='abcd'),
-                             FacingParams()).unsure
-    assert views_to_turn(leading(0.08, turned_views='abcd'),
-                         FacingParams()).unsure
+    # Legs straight, the trackers had no cue to the front: the views are
+    # turned to the head (the labels still in doubt).
+    behind = views_to_turn(leading(-0.08, turned_views=''), FacingParams())
+    assert behind.turn == [True] * 4
+    assert behind.unsure and behind.by_head and behind.front is None
+    assert decide(leading(0.08, turned_views='abcd')) == list('abcd')
+    assert decide(leading(-0.08, turned_views='abcd')) == []
+    # A knee bent 0.2 m is a cue: the views stand, their labels in doubt.
+    bent = views_to_turn(kneeling(leading(-0.08, turned_views='')),
+                         FacingParams())
+    assert bent.turn == [False] * 4 and bent.unsure and not bent.by_head
+    # Bent 0.1 m, or knee_bend 0 (never turned):
+    assert decide(kneeling(leading(-0.08, turned_views=''), 0.1)) \
+        == list('abcd')
+    assert decide(leading(-0.08, turned_views=''),
+                  FacingParams(knee_bend=0.0)) == []
+    # Knees one view sees: the legs say nothing either way.
+    obs = leading(-0.08, turned_views='')
+    for o in obs[1:]:
+        o.confidence[INDEX['left_knee']] = 0.2
+    assert decide(obs) == []
 
 
 def test_the_head_of_one_view_decides_nothing():
@@ -347,3 +370,32 @@ def test_the_front_the_hands_last_decided_is_held_where_they_say_nothing():
     sure = bodies(held_frames, 0.5, 2.0)
     assert len(sure) >= 30
     assert sum(b.bound[left] < apart(b) for b in sure) >= 0.8 * len(sure)
+
+
+def test_views_that_all_took_the_back_for_the_front_are_turned_to_the_head():
+    # From 2 to 5.5 s every view's tracker takes the dancer's back for
+    # the front; from 3 to 5 s the hands hang, the knees straighten and
+    # the head leads 0.08 m to the true front: the four views are turned.
+    side = BODY_LEFT + BODY_RIGHT
+
+    def straight(t, p):
+        if 3.0 <= t < 5.0:
+            p[[INDEX[h] for h in HANDS]] = p[TRUNK].mean(axis=0)
+            for s in ('left', 'right'):
+                hip, foot = p[INDEX[s + '_hip']], p[INDEX[s + '_foot']]
+                p[INDEX[s + '_knee']] = (hip + foot) / 2
+            p[INDEX['head']] += 0.08 * front(p)
+        return p
+
+    def fused(knee_bend):
+        return run(ArmParams(turn_margin=math.inf), swap_to=5.5,
+                   swap=turned, swapped=tuple(POSES), alter=straight,
+                   facing=FacingParams(hold=0.0, knee_bend=knee_bend))
+    fusion, frames, truth = fused(FacingParams.knee_bend)
+    never, never_frames, _ = fused(0.0)
+    during = sum(1 for f in frames if 3.0 <= f.stamp < 5.0)
+    for view in POSES:
+        assert fusion.health[view].turned_to_head >= 0.9 * during
+        assert never.health[view].turned_to_head == 0
+    assert hand_error(frames, truth, 3.2, 5.0, side) \
+        < 0.5 * hand_error(never_frames, truth, 3.2, 5.0, side)

@@ -42,8 +42,12 @@ in doubt (a held front was wrong in 0-55 % of the instants it decided on
 real recordings of kicking and punching), and so are the labels of views
 that all agree on a front their head leads away from by ``head_margin``
 (every view, the one in front too, can take the back for the front for
-seconds). Labels in doubt: each left and right joint's bound takes in
-its partner on the other side (``either_side``). Turned with the body, a
+seconds). Where those views' legs are straight (no knee ``knee_bend``
+off its hip-foot line, median over the views; the project's tracker
+reads the front from knees bent 0.15 m), their trackers had no cue to
+the front, and they are turned to the head. Labels in doubt: each left
+and right joint's bound takes in its partner on the other side
+(``either_side``). Turned with the body, a
 held front does not grow stale as the person turns; what ``hold`` bounds
 is how long a wrong one lasts.
 """
@@ -63,6 +67,8 @@ from hri_sync.people.rep155 import body_axes
 HANDS = [INDEX['left_hand'], INDEX['right_hand']]
 HEAD, NECK = INDEX['head'], INDEX['neck']
 HIPS = [INDEX['left_hip'], INDEX['right_hip']]
+LEGS = [[INDEX[side + joint] for joint in ('_hip', '_knee', '_foot')]
+        for side in ('left', 'right')]
 CENTRE = [HEAD, NECK] + HIPS    # the head's lead: the same either way
 HIPS_APART = 0.1    # m; people's hip joints lie 0.2-0.3 m apart
 
@@ -80,6 +86,7 @@ class FacingParams:
     confirm: int = 2            # instants that confirm a front ...
     confirm_within: float = 1.0  # ... within this long (s)
     head_margin: float = 0.05   # m the head leads the trunk's line
+    knee_bend: float = 0.15     # m a knee bends off its hip-foot line
 
 
 def front(positions: np.ndarray, hips_apart: float = HIPS_APART
@@ -119,7 +126,7 @@ def views_to_turn(views: List[Observation], params: FacingParams,
     decided, confirmed within ``params.hold``) decides in their stead;
     without it the head's lead may (``by_head``), the views' labels in
     doubt either way (``unsure``); views that agree are in doubt where
-    their head leads the other way."""
+    their head leads the other way, and turned to it on straight legs."""
     fronts = [front(o.positions) for o in views]
     known = [f for f in fronts if f is not None]
     if len(known) < 2:
@@ -130,8 +137,12 @@ def views_to_turn(views: List[Observation], params: FacingParams,
     along = np.array([f @ axis if f is not None else 0.0 for f in fronts])
     if not (along.max() > params.split and along.min() < -params.split):
         agreed = float(np.sign(along.sum()))
-        return Decision([False] * len(views), unsure=bool(
-            agreed * _head_side(views, axis, params) < 0))
+        head = _head_side(views, axis, params)
+        if agreed * head >= 0:
+            return Decision([False] * len(views))
+        turn = _knees_straight(views, params)
+        return Decision([turn and bool(a * head < -params.split)
+                         for a in along], unsure=True, by_head=turn)
     side = _side(_hands(views, axis, params), params)
     if side:
         return Decision([bool(a * side < -params.split) for a in along],
@@ -215,6 +226,33 @@ def _head_side(views: List[Observation], axis: np.ndarray,
         return 0.0
     lead = float(np.average(leads, weights=weights))
     return float(np.sign(lead)) if abs(lead) >= params.head_margin else 0.0
+
+
+def _knees_straight(views: List[Observation],
+                    params: FacingParams) -> bool:
+    """Whether the legs give the trackers no cue to the front: in the
+    views that see hips, knees and feet (confidence ``params.confidence``
+    or more; ``params.views`` or more), the more bent knee lies under
+    ``params.knee_bend`` off its hip-foot line (median over the views)."""
+    bends = []
+    for o in views:
+        legs = [o.positions[leg] for leg in LEGS
+                if min(o.confidence[leg]) >= params.confidence
+                and np.isfinite(o.positions[leg]).all()]
+        if len(legs) == 2:
+            bends.append(max(_bend(*leg) for leg in legs))
+    return len(bends) >= params.views \
+        and float(np.median(bends)) < params.knee_bend
+
+
+def _bend(hip: np.ndarray, knee: np.ndarray, foot: np.ndarray) -> float:
+    """How far (m) the knee lies off the line from the hip to the foot."""
+    line = foot - hip
+    length = float(np.linalg.norm(line))
+    if length < 1e-6:
+        return float(np.linalg.norm(knee - hip))
+    off = knee - hip
+    return float(np.linalg.norm(off - line * (off @ line) / length ** 2))
 
 
 class HeldFront:

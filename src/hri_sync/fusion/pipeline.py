@@ -26,9 +26,11 @@ body; where the profile has a learned error model
 against each other by it, given where they lie on the body fused so
 far. Before that, where the views disagree on which way the person
 faces, those facing away from where the hands reach are turned
-(hri_sync.fusion.facing; where the hands do not tell at the instant,
-or the head leads away from the front all views agree on, each left and
-right joint's bound takes in its partner on the other side); a view
+(hri_sync.fusion.facing; views that all agree on a front the head
+leads away from are turned to the head where no knee bends; where the
+hands do not tell at the instant, or the head leads away from the front
+all views agree on, each left and right joint's bound takes in its
+partner on the other side); a view
 whose tracker took the body's back for its front is turned back, and
 one whose tracker exchanged the left and right arms has them put back
 (hri_sync.fusion.arms), against the person's body predicted from its
@@ -476,7 +478,9 @@ class Fusion:
                          views: List[Observation]) -> bool:
         """Where the views disagree on the person's front, turn those
         facing away from the hands, or where they say nothing from the
-        side the head leads to (``facing``, hri_sync.fusion.facing);
+        side the head leads to, and views that all agree on a front the
+        head leads away from, on straight legs, to the head (``facing``,
+        hri_sync.fusion.facing);
         then turn back the views whose tracker took the body's back for
         its front, and exchange the arms of those whose tracker exchanged
         them (hri_sync.fusion.arms), against the person's body predicted

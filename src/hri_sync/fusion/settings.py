@@ -38,6 +38,7 @@ SETTINGS: Tuple[Setting, ...] = (
     ('facing_hold', 'facing.hold', _at_least_0, '>= 0 s'),
     ('facing_head_margin', 'facing.head_margin', lambda x: x > 0,
      '> 0 m (inf: never)'),
+    ('facing_knee_bend', 'facing.knee_bend', _at_least_0, '>= 0 m'),
     ('hand_reach', 'reach.hand', lambda x: x > 0, '> 0 m (inf: never)'),
     ('fov_deg', 'sight.fov_deg', lambda x: 0 < x < 360, '0-360 degrees'),
     ('vertical_fov_deg', 'sight.vertical_fov_deg', lambda x: 0 < x < 180,
