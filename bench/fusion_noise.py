@@ -13,10 +13,10 @@ object:
   single view and the fused body (m, and how far below the best view in
   %), the same on the best view's hidden joints, the latency beyond the
   slowest view's pipeline (ms), duplicate people, the bound coverage and
-  the bounds' median (m); and ``below_best_same_instants_pct``, the fused body below the best
-  view on the instants and joints both have (fusion_accuracy.py's
-  ``best_view_instants``: the best view's own mean covers its tracked
-  frames only, the fused body's every instant), with
+  the bounds' median (m); and ``below_best_same_instants_pct``, the
+  fused body below the best view on the instants and joints both have
+  (fusion_accuracy.py's ``best_view_instants``: the best view's own mean
+  covers its tracked frames only, the fused body's every instant), with
   ``best_view_instant_share``, the share of the fused instants the best
   view has a skeleton at; and ``below_best_alone_pct`` /
   ``hidden_below_best_alone_pct``, the fused body below the best view

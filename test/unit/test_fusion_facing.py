@@ -12,7 +12,7 @@ from hri_sync.fusion.arms import (BODY_LEFT, BODY_RIGHT, TRUNK, ArmParams,
 from hri_sync.fusion.facing import (FacingParams, HeldFront, either_side,
                                     front, views_to_turn)
 from hri_sync.fusion.fuse import Observation
-from hri_sync.fusion.report import view_status
+from hri_sync.fusion.report import people_status, view_status
 from test_fusion_arms import POSES, hand_error, run
 from test_fusion_core import body
 
@@ -370,6 +370,14 @@ def test_the_front_the_hands_last_decided_is_held_where_they_say_nothing():
     sure = bodies(held_frames, 0.5, 2.0)
     assert len(sure) >= 30
     assert sum(b.bound[left] < apart(b) for b in sure) >= 0.8 * len(sure)
+    # /diagnostics says which.
+
+    def sides(t0, t1):
+        return {dict(people_status(held, f)[3])['person %d sides'
+                                                % f.people[0].person]
+                for f in held_frames if t0 <= f.stamp < t1 and f.people}
+    assert sides(3.1, 5.0) == {'in doubt'}
+    assert sides(0.5, 2.0) == {'sure'}
 
 
 def test_views_that_all_took_the_back_for_the_front_are_turned_to_the_head():

@@ -47,9 +47,9 @@ off its hip-foot line, median over the views; the project's tracker
 reads the front from knees bent 0.15 m), their trackers had no cue to
 the front, and they are turned to the head. Labels in doubt: each left
 and right joint's bound takes in its partner on the other side
-(``either_side``). Turned with the body, a
-held front does not grow stale as the person turns; what ``hold`` bounds
-is how long a wrong one lasts.
+(``either_side``). Turned with the body, a held front does not grow
+stale as the person turns; what ``hold`` bounds is how long a wrong one
+lasts.
 """
 
 from __future__ import annotations

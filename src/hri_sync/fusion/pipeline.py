@@ -131,6 +131,7 @@ class Person:
     person: int
     body: Fused
     newest: float               # newest capture used (global, s)
+    sides_in_doubt: bool = False  # its left and right may be exchanged
 
 
 @dataclass
@@ -430,7 +431,7 @@ class Fusion:
             if unsure:
                 bound = either_side(smoothed, bound)
             people.append(Person(pid, replace(
-                body, positions=smoothed, bound=bound), newest))
+                body, positions=smoothed, bound=bound), newest, unsure))
         self.sightlines.update(t, {pid: (bodies[pid].positions,
                                          {k[0] for k in keys})
                                    for pid, keys in groups.items()},

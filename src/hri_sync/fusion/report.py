@@ -7,7 +7,8 @@ NaN joints, joints at the sensor's origin or beyond its depth, wrong
 pose), its pipeline
 latency and stamp uncertainty; ``calibration``: the residual (mm) of each
 pair of views (WARN over the threshold); ``people``: the fused people,
-with the views each is fused from, id switches, left-out jumps and the
+with the views each is fused from and whether its left and right are in
+doubt (hri_sync.fusion.facing), id switches, left-out jumps and the
 fused latency (output time less the newest capture used, p95); WARN
 ``behind`` when every view's skeletons came over ``max_age`` after their
 capture (this node starved, its host's clock behind, or a recording
@@ -32,7 +33,7 @@ def view_named(name: str) -> Optional[str]:
     """The view whose status this is, from its name on /diagnostics
     (``<node>: view <id>``, as diagnostic_updater names it); None for
     any other status."""
-    node, sep, rest = name.partition(': ' + VIEW)
+    _, sep, rest = name.partition(': ' + VIEW)
     return rest if sep and rest else None
 
 
@@ -98,6 +99,8 @@ def people_status(fusion: Fusion, last: Frame | None) -> Status:
     people = last.people if last else []
     values = [('person %d views' % p.person, ' '.join(p.body.views))
               for p in people]
+    values += [('person %d sides' % p.person,
+                'in doubt' if p.sides_in_doubt else 'sure') for p in people]
     values += [('id switches', str(fusion.associator.switches)),
                ('jumps left out', str(fusion.associator.jumps)),
                (LATENCY, '%.1f' % (fusion.latency() * 1e3))]
