@@ -87,15 +87,16 @@ def turned(motion, degrees, mirrored=False):
         else motion
 
 
-def record(motion, views, seed, profile, cache, turn=0.0, mirrored=False):
+def record(motion, world, views, seed, profile, cache, turn=0.0,
+           mirrored=False):
     """(rows, inputs + 2) of one run (recorder's): ``views`` views, noise
-    ``seed``, the motion turned ``turn`` degrees and ``mirrored``
+    ``seed``, the motion at ``motion`` (``world``: it in world, loaded
+    once for every run) turned ``turn`` degrees and ``mirrored``
     (``turned``)."""
     scene = 'noise=kinect1' if seed == 1 else 'noise=kinect1&seed=%d' % seed
     args = fa.arguments(['--motion', motion, '--views', str(views),
                          '--scene', scene, '--cache', cache, '--jobs', '1'])
     names = [v[0] for v in fa.VIEWS[:views]]
-    world = fa.world_motion(fa.load_motion(motion))
     dumps, poses = fa.rendered_views(args, [turned(world, turn, mirrored)])
     rendered = [fa.read_dump(d) for d in dumps]
     msgs = fa.messages(rendered, np.random.default_rng(args.seed))
@@ -173,8 +174,9 @@ def main():
     values = yaml.safe_load(text)
     values.pop('errors', None)      # fitted again
     base = Profile.from_dict(values)
+    world = fa.world_motion(fa.load_motion(args.motion))
     rows = np.concatenate([
-        record(args.motion, v, s, base, args.cache, turn, mirrored)
+        record(args.motion, world, v, s, base, args.cache, turn, mirrored)
         for mirrored in [False] + [True] * args.mirrored
         for turn in args.turns for v in args.views
         for s in range(1, args.seeds + 1)])
