@@ -1,6 +1,8 @@
 """hri_sync.fusion.facing: where the views disagree on which way a person
 faces, those facing away from where the hands reach are turned; hands at
-the trunk, views that agree, or hands no view sees well decide nothing."""
+the trunk, views that agree, or hands no view sees well decide nothing;
+views that all agree against the head, on straight legs, are turned to
+it; the labels are sure only where the hands decide."""
 import math
 
 import numpy as np
