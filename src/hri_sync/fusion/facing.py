@@ -210,10 +210,9 @@ def _head_side(views: List[Observation], axis: np.ndarray,
     calls left); 0 where it does not."""
     leads, weights = [], []
     for o in views:
-        weight = float(min(o.confidence[CENTRE]))
-        if weight < params.confidence \
-                or not np.isfinite(o.positions[CENTRE]).all():
+        if not _sees(o, CENTRE, params):
             continue
+        weight = float(min(o.confidence[CENTRE]))
         trunk = o.positions[NECK] - o.positions[HIPS].mean(axis=0)
         head = o.positions[HEAD] - o.positions[NECK]
         length = float(np.linalg.norm(trunk))
@@ -236,13 +235,19 @@ def _knees_straight(views: List[Observation],
     ``params.knee_bend`` off its hip-foot line (median over the views)."""
     bends = []
     for o in views:
-        legs = [o.positions[leg] for leg in LEGS
-                if min(o.confidence[leg]) >= params.confidence
-                and np.isfinite(o.positions[leg]).all()]
+        legs = [o.positions[leg] for leg in LEGS if _sees(o, leg, params)]
         if len(legs) == 2:
             bends.append(max(_bend(*leg) for leg in legs))
     return len(bends) >= params.views \
         and float(np.median(bends)) < params.knee_bend
+
+
+def _sees(view: Observation, joints: List[int],
+          params: FacingParams) -> bool:
+    """Whether ``view`` gives every one of ``joints``, at confidence
+    ``params.confidence`` or more."""
+    return bool(min(view.confidence[joints]) >= params.confidence
+                and np.isfinite(view.positions[joints]).all())
 
 
 def _bend(hip: np.ndarray, knee: np.ndarray, foot: np.ndarray) -> float:

@@ -20,6 +20,7 @@ from __future__ import annotations
 from typing import List, Optional, Tuple
 
 from hri_sync.fusion.pipeline import Frame, Fusion
+from hri_sync.fusion.views import RULES
 
 OK, WARN, ERROR = 0, 1, 2       # diagnostic_msgs/DiagnosticStatus levels
 LATENCY = 'latency p95 after the newest capture (ms)'   # people's key
@@ -50,10 +51,8 @@ def view_status(fusion: Fusion, view: str) -> Status:
               ('period (ms)', '%.1f' % (health.period() * 1e3)),
               ('stamp uncertainty (ms)',
                '%.3f' % (health.last_uncertainty * 1e3)),
-              ('arms exchanged back', str(health.arms_exchanged)),
-              ('turned back', str(health.turned_back)),
-              ('turned to the hands', str(health.turned_to_hands)),
-              ('turned to the head', str(health.turned_to_head)),
+              *[(name, str(getattr(health, counter)))
+                for name, counter in RULES.items()],
               ('beyond range', str(health.beyond_range)),
               ('joints out of image', str(health.out_of_image)),
               ('hands out of reach', str(health.out_of_reach))]

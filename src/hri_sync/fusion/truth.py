@@ -22,12 +22,9 @@ import numpy as np
 from hri_sync.dance_off.joints import INDEX
 from hri_sync.dance_off.motion import Motion
 from hri_sync.fusion.associate import body_distance
+from hri_sync.fusion.views import RULES
 
 PROFILED = ' profiled'   # a view through its tracker's profile
-# The fusion's side rules, as each view's /diagnostics status counts them
-# (hri_sync.fusion.report): instants the view was put right.
-RULES = ('turned to the hands', 'turned to the head', 'turned back',
-         'arms exchanged back')
 
 
 def world_motion(motion: Motion) -> Motion:
@@ -144,7 +141,8 @@ class TruthScore:
 
 def rules_line(counts: Dict[str, Dict[str, str]]) -> str:
     """What the fusion's side rules did to each view (``counts``: view ->
-    its status's RULES values, as received), for a terminal."""
+    its status's values of hri_sync.fusion.views.RULES, as received), for
+    a terminal."""
     return 'fusion rules, instants per view since it started: ' + '; '.join(
         '%s: %s' % (view, ', '.join('%s %s' % (rule, got[rule])
                                     for rule in RULES if rule in got))
