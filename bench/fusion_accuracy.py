@@ -14,7 +14,8 @@ rendered truth. Prints one JSON object:
   frames; ``fused_mean_m``: the fused body's, on every fused instant;
 - ``best_view_hidden_mean_m`` / ``fused_hidden_mean_m``: on the instants
   and joints the best single view has at confidence < 0.5 (hidden),
-  the best view (interpolated to the instant) and the fused body;
+  the best view (interpolated to the instant) and the fused body (null,
+  and the hidden-joint target null, where the best view hides none);
 - ``latency_p95_ms``: publish time minus the newest capture used, beside
   ``slowest_pipeline_p95_ms`` (the slowest view's own latency);
 - ``duplicate_people``: person ids beyond the one dancer;
@@ -407,6 +408,11 @@ def redated(views, poses, params, delay, t):
     return np.array(out)
 
 
+def mean_m(errors):
+    """The mean of ``errors`` (m) to 0.1 mm; None when there are none."""
+    return round(float(np.mean(errors)), 4) if len(errors) else None
+
+
 def figures(frames, captured, truth, best_track):
     """The fused figures of one run (see the module docstring)."""
     people = [f for f in frames if f.people]
@@ -432,8 +438,8 @@ def figures(frames, captured, truth, best_track):
     ids = {p.person for f in frames for p in f.people}
     return {
         'fused_mean_m': round(float(err[ok].mean()), 4),
-        'best_view_hidden_mean_m': round(float(np.mean(hidden_best)), 4),
-        'fused_hidden_mean_m': round(float(np.mean(hidden_fused)), 4),
+        'best_view_hidden_mean_m': mean_m(hidden_best),
+        'fused_hidden_mean_m': mean_m(hidden_fused),
         'hidden_joint_instants': len(hidden_best),
         'latency_p95_ms': round(float(np.percentile(latency, 95)) * 1e3, 1),
         'duplicate_people': max(len(ids) - 1, 0),
@@ -519,7 +525,7 @@ def oracle(instants, best):
                 & np.isfinite(seen[best].positions).all(axis=1)
             hidden.extend(low[hid])
     return {'view_oracle_mean_m': round(float(np.mean(near)), 4),
-            'view_oracle_hidden_mean_m': round(float(np.mean(hidden)), 4)}
+            'view_oracle_hidden_mean_m': mean_m(hidden)}
 
 
 def paired_with_best(instants, best):
@@ -583,13 +589,16 @@ def hidden_by_sight(instants, best):
 
 
 def targets(out):
-    """Each target of the fusion and whether this run meets it."""
-    best = min(out['single_view_mean_m'].values())
+    """Each target of the fusion and whether this run meets it (None: the
+    best view hides no joint, nothing for the hidden-joint target)."""
+    best = min(v for v in out['single_view_mean_m'].values()
+               if v is not None)     # None: a view that tracked no one
     limit = out['slowest_pipeline_p95_ms'] + 33 + 5
-    return {k: bool(v) for k, v in {
+    hidden = out['best_view_hidden_mean_m']
+    return {k: None if v is None else bool(v) for k, v in {
         'fused_20pct_below_best_view': out['fused_mean_m'] <= 0.8 * best,
-        'hidden_40pct_below_best_view':
-            out['fused_hidden_mean_m'] <= 0.6 * out['best_view_hidden_mean_m'],
+        'hidden_40pct_below_best_view': None if hidden is None else
+            out['fused_hidden_mean_m'] <= 0.6 * hidden,
         'latency_p95_within_%.0f_ms' % limit: out['latency_p95_ms'] <= limit,
         'no_duplicate_people': out['duplicate_people'] == 0,
         'bound_coverage_95pct': out['bound_coverage'] >= 0.95,
@@ -829,6 +838,11 @@ def per_view(names, values):
             for n, v in zip(names, values)}
 
 
+def metres(value):
+    """A figure in m for the table; '-' for None (no hidden joint)."""
+    return '-' if value is None else '%.3f' % value
+
+
 def print_table(out):
     """The demo's view of the figures."""
     plain = out['no_time_alignment']
@@ -838,13 +852,13 @@ def print_table(out):
         if err is None:
             print('%-24s %10s' % (view, 'no one'))
             continue
-        print('%-24s %10.3f %16s' % (view, err, '%.3f' % out[
-            'best_view_hidden_mean_m'] if view == out['best_view'] else ''))
-    print('%-24s %10.3f %16.3f' % ('fused', out['fused_mean_m'],
-                                   out['fused_hidden_mean_m']))
-    print('%-24s %10.3f %16.3f' % ('fused, arrival stamps',
-                                   plain['fused_mean_m'],
-                                   plain['fused_hidden_mean_m']))
+        print('%-24s %10.3f %16s' % (view, err, metres(out[
+            'best_view_hidden_mean_m']) if view == out['best_view'] else ''))
+    print('%-24s %10.3f %16s' % ('fused', out['fused_mean_m'],
+                                 metres(out['fused_hidden_mean_m'])))
+    print('%-24s %10.3f %16s' % ('fused, arrival stamps',
+                                 plain['fused_mean_m'],
+                                 metres(plain['fused_hidden_mean_m'])))
     print('latency p95 %.0f ms (slowest view\'s pipeline %.0f ms); '
           '%d duplicate people; %.1f %% of truth within the 95 %% bounds'
           % (out['latency_p95_ms'], out['slowest_pipeline_p95_ms'],

@@ -26,8 +26,11 @@ object:
   the truth at each instant and joint (``view_oracle_mean_m``: which no
   fusion can know; where it is short of a target, no choice among the
   views meets it);
-- ``summary``: each figure's median, least and greatest over the seeds;
-- ``targets_met``: per target, in how many of the seeds it is met.
+- ``summary``: each figure's median, least and greatest over the seeds
+  that have it, and in how many (``of``): the hidden-joint figures are
+  null in a draw whose best view hides no joint;
+- ``targets_met``: per target, in how many of the seeds it is met (of
+  the seeds it applies to: ``targets_applied``).
 
     bench/fusion_noise.py --motion data/motion/cmu_61_01_salsa.track \
         --views 4 --seeds 5
@@ -55,6 +58,13 @@ def scene_for(scene, seed):
     return scene if seed == 1 else '%s&seed=%d' % (scene, seed)
 
 
+def below(value, reference):
+    """How far ``value`` is below ``reference`` (%); None without both."""
+    if value is None or reference is None:
+        return None
+    return round(100 * (1 - value / reference), 1)
+
+
 def figures(out):
     """The target figures of one fusion_accuracy.py JSON result."""
     best = min(v for v in out['single_view_mean_m'].values()
@@ -65,28 +75,24 @@ def figures(out):
     return {
         'best_view_m': best,
         'fused_m': out['fused_mean_m'],
-        'below_best_pct': round(100 * (1 - out['fused_mean_m'] / best), 1),
+        'below_best_pct': below(out['fused_mean_m'], best),
         'best_view_hidden_m': hidden,
         'fused_hidden_m': out['fused_hidden_mean_m'],
-        'hidden_below_best_pct': round(
-            100 * (1 - out['fused_hidden_mean_m'] / hidden), 1),
+        'hidden_below_best_pct': below(out['fused_hidden_mean_m'], hidden),
         'latency_beyond_slowest_ms': round(
             out['latency_p95_ms'] - out['slowest_pipeline_p95_ms'], 1),
         'duplicate_people': out['duplicate_people'],
         'bound_coverage': out['bound_coverage'],
         'bound_median_m': out['bound_median_m'],
-        'below_best_same_instants_pct': round(
-            100 * (1 - paired['fused_m'] / paired['best_view_m']), 1),
+        'below_best_same_instants_pct': below(paired['fused_m'],
+                                              paired['best_view_m']),
         'best_view_instant_share': paired['share'],
-        'below_best_alone_pct': round(
-            100 * (1 - out['fused_mean_m'] / alone['mean_m']), 1),
-        'hidden_below_best_alone_pct': round(
-            100 * (1 - out['fused_hidden_mean_m'] / alone['hidden_mean_m']),
-            1),
-        'nearest_view_below_best_pct': round(
-            100 * (1 - out['view_oracle_mean_m'] / best), 1),
-        'nearest_view_hidden_below_best_pct': round(
-            100 * (1 - out['view_oracle_hidden_mean_m'] / hidden), 1),
+        'below_best_alone_pct': below(out['fused_mean_m'], alone['mean_m']),
+        'hidden_below_best_alone_pct': below(out['fused_hidden_mean_m'],
+                                             alone['hidden_mean_m']),
+        'nearest_view_below_best_pct': below(out['view_oracle_mean_m'], best),
+        'nearest_view_hidden_below_best_pct': below(
+            out['view_oracle_hidden_mean_m'], hidden),
     }
 
 
@@ -99,17 +105,27 @@ def verdicts(out):
 
 
 def targets_met(runs):
-    """Per target, how many runs meet it."""
-    return {name: sum(1 for r in runs if r['targets'][name])
-            for name in runs[0]['targets']}
+    """Per target, how many runs meet it, and how many it applies to."""
+    names = runs[0]['targets']
+    return ({name: sum(1 for r in runs if r['targets'][name])
+             for name in names},
+            {name: sum(1 for r in runs if r['targets'][name] is not None)
+             for name in names})
 
 
 def summary(runs):
-    """Each figure's median, least and greatest over ``runs``."""
-    return {key: {'median': round(statistics.median(r[key] for r in runs), 4),
-                  'min': min(r[key] for r in runs),
-                  'max': max(r[key] for r in runs)}
-            for key in runs[0] if key not in ('seed', 'targets')}
+    """Each figure's median, least and greatest over the ``runs`` that
+    have it (None where none has), and in how many."""
+    out = {}
+    for key in runs[0]:
+        if key in ('seed', 'targets'):
+            continue
+        values = [r[key] for r in runs if r[key] is not None]
+        out[key] = {'median': round(statistics.median(values), 4)
+                    if values else None,
+                    'min': min(values, default=None),
+                    'max': max(values, default=None), 'of': len(values)}
+    return out
 
 
 def main():
@@ -134,10 +150,11 @@ def main():
                      % (seed, proc.stderr.strip()[-2000:]))
         out = json.loads(proc.stdout)
         runs.append(dict(seed=seed, targets=verdicts(out), **figures(out)))
+    met, applied = targets_met(runs)
     print(json.dumps({'scene': args.scene, 'arguments': rest, 'runs': runs,
-                      'summary': summary(runs),
-                      'targets_met': targets_met(runs),
-                      'seeds': args.seeds}, indent=1))
+                      'summary': summary(runs), 'targets_met': met,
+                      'targets_applied': applied, 'seeds': args.seeds},
+                     indent=1))
 
 
 if __name__ == '__main__':

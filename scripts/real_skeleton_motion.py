@@ -3,7 +3,11 @@
 
 Checks the tracker and the fusion on motion that is not in the repo:
 reads a Kinect v1 PRECOG CSV or a Kinect v2 LabanotationSuite CSV
-(hri_sync.people.kinect_csv), sets the feet on the floor (their median
+(hri_sync.people.kinect_csv), puts each foot joint on its shin's line
+below the ankle (the project's body, NiTE's, has its foot joint at the
+sole under the shin; a Kinect SDK's foot joint lies 5-9 cm ahead of the
+ankle, which would render every straight leg with its knee behind the
+line from the hip to the foot), sets the feet on the floor (their median
 at ``FEET_Y`` in the motion's frame, where the development clip has
 its feet) and writes a motion ``.npz`` (the joints as the
 Kinect tracked them, at its times: v1 at its nominal 30 Hz) for
@@ -30,6 +34,19 @@ from hri_sync.people.kinect_csv import (read_kinect_v1,  # noqa: E402
 
 FEET_Y = -0.949     # m: the feet's median height in the development clip
 FEET = [INDEX['left_foot'], INDEX['right_foot']]
+KNEES = [INDEX['left_knee'], INDEX['right_knee']]
+
+
+def feet_under_shins(positions, ankles):
+    """``positions`` (N, 15, 3) with each foot on its shin's line, below
+    the ankle (N, 2, 3) by the recording's median drop of the SDK's foot
+    along the shin."""
+    shin = ankles - positions[:, KNEES]
+    shin /= np.linalg.norm(shin, axis=-1, keepdims=True)
+    drop = np.nanmedian(np.sum((positions[:, FEET] - ankles) * shin, axis=-1))
+    out = positions.copy()
+    out[:, FEET] = ankles + shin * drop
+    return out
 
 
 def motion_of(path, kinect):
@@ -40,11 +57,11 @@ def motion_of(path, kinect):
     rec = (read_kinect_v1 if kinect == 1 else read_kinect_v2)(path)
     given = np.isfinite(rec.positions).all(axis=-1) \
         & (rec.positions != 0).any(axis=-1)
-    whole = given.all(axis=1)
+    whole = given.all(axis=1) & np.isfinite(rec.ankles).all(axis=(1, 2))
     if not whole.any():
         raise ValueError('%s: no frame gives every joint (the sensor '
                          'tracked no one)' % path)
-    positions = rec.positions[whole].copy()
+    positions = feet_under_shins(rec.positions[whole], rec.ankles[whole])
     positions[..., 1] += FEET_Y - np.median(positions[:, FEET, 1])
     name = os.path.splitext(os.path.basename(path))[0]
     return (Motion(rec.stamps[whole], positions, name=name),

@@ -33,6 +33,21 @@ def frame(t, fused):
         types.SimpleNamespace(body=body)])
 
 
+def test_a_best_view_that_hides_nothing_leaves_the_hidden_target_open():
+    out = {'single_view_mean_m': {'front': 0.06, 'back': None},
+           'fused_mean_m': 0.045, 'best_view_hidden_mean_m': None,
+           'fused_hidden_mean_m': None, 'slowest_pipeline_p95_ms': 90.0,
+           'latency_p95_ms': 95.0, 'duplicate_people': 0,
+           'bound_coverage': 0.99}
+    t = bench.targets(out)
+    assert t['hidden_40pct_below_best_view'] is None
+    assert t['fused_20pct_below_best_view'] is True
+    assert bench.mean_m([]) is None
+    assert bench.mean_m([0.1, 0.2]) == 0.15
+    out.update(best_view_hidden_mean_m=0.2, fused_hidden_mean_m=0.1)
+    assert bench.targets(out)['hidden_40pct_below_best_view'] is True
+
+
 def test_hidden_joints_are_grouped_by_the_views_that_see_them():
     truth = np.zeros((J, 3))
     off = np.zeros((J, 3))

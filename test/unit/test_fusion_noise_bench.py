@@ -92,15 +92,46 @@ def test_targets_are_counted_per_seed_and_spread_summarized():
         r['targets'] = v
         runs.append(dict(seed=seed, targets=bench.verdicts(r),
                          **bench.figures(r)))
-    assert bench.targets_met(runs) == {
-        'fused_20pct_below_best_view': 2,
-        'latency_p95_within_38_ms_of_slowest_view': 2,
-        'bound_coverage_95pct': 2}
+    met, applied = bench.targets_met(runs)
+    assert met == {'fused_20pct_below_best_view': 2,
+                   'latency_p95_within_38_ms_of_slowest_view': 2,
+                   'bound_coverage_95pct': 2}
+    assert set(applied.values()) == {3}
     s = bench.summary(runs)
     assert 'seed' not in s and 'targets' not in s
     assert s['below_best_pct'] == {'median': 25.0, 'min': 16.7,
-                                   'max': 33.3}
+                                   'max': 33.3, 'of': 3}
     assert s['bound_coverage']['min'] == 0.94
+
+
+def test_a_draw_whose_best_view_hides_nothing_has_no_hidden_figures():
+    # An upper-body gesture seen whole by the best view in two draws of
+    # three: the hidden-joint figures are null there, not NaN, and the
+    # summary and the target count only the draw that has them.
+    results = [result(0.060, 0.045, None, None),
+               result(0.060, 0.045, 0.160, 0.090),
+               result(0.060, 0.045, None, None)]
+    hidden = [None, True, None]
+    runs = []
+    for seed, (r, h) in enumerate(zip(results, hidden), start=1):
+        r['targets'] = {'fused_20pct_below_best_view': True,
+                        'hidden_40pct_below_best_view': h}
+        runs.append(dict(seed=seed, targets=bench.verdicts(r),
+                         **bench.figures(r)))
+    assert runs[0]['hidden_below_best_pct'] is None
+    assert runs[0]['nearest_view_hidden_below_best_pct'] is None
+    assert runs[0]['below_best_pct'] == 25.0
+    met, applied = bench.targets_met(runs)
+    assert met['hidden_40pct_below_best_view'] == 1
+    assert applied == {'fused_20pct_below_best_view': 3,
+                       'hidden_40pct_below_best_view': 1}
+    s = bench.summary(runs)
+    assert s['hidden_below_best_pct'] == {'median': 43.8, 'min': 43.8,
+                                          'max': 43.8, 'of': 1}
+    assert s['fused_m']['of'] == 3
+    runs.pop(1)
+    assert bench.summary(runs)['fused_hidden_m'] == {
+        'median': None, 'min': None, 'max': None, 'of': 0}
 
 
 def test_arguments_that_print_other_figures_are_refused():

@@ -14,10 +14,12 @@ SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..',
                       '..', 'scripts', 'real_skeleton_motion.py')
 
 
-def precog_csv(path, frames=4, camera_height=0.8, untracked=()):
+def precog_csv(path, frames=4, camera_height=0.8, untracked=(),
+               toes=(0.0, 0.0)):
     """A PRECOG-style CSV of a person 3 m in front of a Kinect
     ``camera_height`` m up, stepping 1 cm to the side each frame; the
-    ``untracked`` frames all 0 0 0 (the sensor's no one)."""
+    ``untracked`` frames all 0 0 0 (the sensor's no one); the SDK's foot
+    joints ``toes`` (ahead, down) m from the ankles."""
     rows = ['; '.join(KINECT_V1)]
     for k in range(frames):
         joints = []
@@ -27,7 +29,10 @@ def precog_csv(path, frames=4, camera_height=0.8, untracked=()):
                 continue
             y = -camera_height if ('Foot' in name or 'Ankle' in name) \
                 else 0.5 - 0.05 * n
-            joints.append('%f %f %f' % (0.01 * k + 0.01 * n, y, 3.0))
+            z = 3.0
+            if 'Foot' in name:
+                z, y = z - toes[0], y - toes[1]
+            joints.append('%f %f %f' % (0.01 * k + 0.01 * n, y, z))
         rows.append(';'.join(joints) + ';punch')
     path.write_text('\n'.join(rows) + '\n')
 
@@ -57,6 +62,20 @@ def test_a_recording_becomes_a_motion_with_its_feet_on_the_floor(tmp_path):
     # the sidestep survives, 1 cm a frame
     torso = motion.positions[:, INDEX['torso']]
     assert np.allclose(np.abs(np.diff(torso[:, 0])), 0.01, atol=1e-3)
+
+
+def test_each_foot_is_put_on_its_shin_below_the_ankle(tmp_path):
+    # The SDK's foot 7 cm ahead of the ankle (towards the sensor) and 6 cm
+    # down; the shins from the knees (0.65 and 0.45 m above) nearly upright.
+    csv, out = tmp_path / 'Seq9_6.csv', tmp_path / 'seq.npz'
+    precog_csv(csv, toes=(0.07, 0.06))
+    convert(csv, out)
+    p = load_motion(str(out)).positions
+    for knee, foot, above in (('left_knee', 'left_foot', 0.65),
+                              ('right_knee', 'right_foot', 0.45)):
+        assert np.allclose(p[:, INDEX[foot], 2], 3.0, atol=1e-3)
+        shin = np.linalg.norm(p[:, INDEX[foot]] - p[:, INDEX[knee]], axis=1)
+        assert np.allclose(shin, np.hypot(above, 0.01) + 0.06, atol=1e-3)
 
 
 def test_a_file_that_is_not_a_kinect_recording_is_refused(tmp_path):

@@ -25,13 +25,26 @@ class Recording:
     device_ticks: np.ndarray    # (N,) the sensor's own timestamps (int)
     positions: np.ndarray       # (N, 15, 3) m, Skeleton frame
     confidence: np.ndarray      # (N, 15): 1 tracked, 0.5 inferred, 0 not
+    ankles: np.ndarray          # (N, 2, 3) m, left and right; NaN: not given
 
     def clip(self, t0, t1):
         """The frames stamped in [t0, t1) s, re-stamped from 0."""
         k = (self.stamps >= t0) & (self.stamps < t1)
         first = self.stamps[k][0]
         return Recording(self.stamps[k] - first, self.device_ticks[k],
-                         self.positions[k], self.confidence[k])
+                         self.positions[k], self.confidence[k],
+                         self.ankles[k])
+
+
+ANKLES = (('AnkleLeft',), ('AnkleRight',))
+
+
+def _ankles(points, names):
+    """The (2, 3) ankles of one frame's ``points``; an SDK's joint it does
+    not track (0 0 0) is NaN."""
+    a = select(points, names, ANKLES)
+    a[~(a != 0).any(axis=-1)] = np.nan
+    return a
 
 
 def read_kinect_v2(path):
@@ -53,7 +66,8 @@ def read_kinect_v2(path):
     confidence = np.stack([select(s[:, None], KINECT_V2, FROM_KINECT_V2)[:, 0]
                            for s in state])
     stamps = (ticks - ticks[0]) * 1e-7
-    return Recording(stamps, ticks, positions, confidence)
+    ankles = np.stack([_ankles(p, KINECT_V2) for p in points])
+    return Recording(stamps, ticks, positions, confidence, ankles)
 
 
 def read_kinect_v1(path):
@@ -70,5 +84,6 @@ def read_kinect_v1(path):
     positions = np.stack([select(p, KINECT_V1, FROM_KINECT_V1)
                           for p in points])
     n = len(positions)
+    ankles = np.stack([_ankles(p, KINECT_V1) for p in points])
     return Recording(np.arange(n) / KINECT_V1_RATE, np.arange(n),
-                     positions, np.ones((n, 15)))
+                     positions, np.ones((n, 15)), ankles)
