@@ -3,14 +3,16 @@
 
 Checks the tracker and the fusion on motion that is not in the repo:
 reads a Kinect v1 PRECOG CSV or a Kinect v2 LabanotationSuite CSV
-(hri_sync.people.kinect_csv), puts each foot joint on its shin's line
-below the ankle (the project's body, NiTE's, has its foot joint at the
-sole under the shin; a Kinect SDK's foot joint lies 5-9 cm ahead of the
-ankle, which would render every straight leg with its knee behind the
-line from the hip to the foot), sets the feet on the floor (their median
+(hri_sync.people.kinect_csv) as the project's body (NiTE's 15 joints,
+the tracker's model): each foot joint on its shin's line below the ankle
+(the body's foot is the sole under the shin; a Kinect SDK's foot joint
+lies 5-9 cm ahead of the ankle, which would render every straight leg
+with its knee behind the line from the hip to the foot) and the torso
+midway between the hips' centre and the neck (the Kinect v1 SDK's Spine
+lies a quarter of the way up), sets the feet on the floor (their median
 at ``FEET_Y`` in the motion's frame, where the development clip has
-its feet) and writes a motion ``.npz`` (the joints as the
-Kinect tracked them, at its times: v1 at its nominal 30 Hz) for
+its feet) and writes a motion ``.npz`` (at the Kinect's times: v1 at
+its nominal 30 Hz) for
 ``bench/fusion_accuracy.py --motion`` or ``bench/fusion_noise.py``:
 
     scripts/real_skeleton_motion.py Seq2_8.csv --out /tmp/precog_2_8.npz
@@ -35,6 +37,7 @@ from hri_sync.people.kinect_csv import (read_kinect_v1,  # noqa: E402
 FEET_Y = -0.949     # m: the feet's median height in the development clip
 FEET = [INDEX['left_foot'], INDEX['right_foot']]
 KNEES = [INDEX['left_knee'], INDEX['right_knee']]
+HIPS = [INDEX['left_hip'], INDEX['right_hip']]
 
 
 def feet_under_shins(positions, ankles):
@@ -46,6 +49,15 @@ def feet_under_shins(positions, ankles):
     drop = np.nanmedian(np.sum((positions[:, FEET] - ankles) * shin, axis=-1))
     out = positions.copy()
     out[:, FEET] = ankles + shin * drop
+    return out
+
+
+def torso_midway(positions):
+    """``positions`` (N, 15, 3) with the torso midway between the hips'
+    centre and the neck."""
+    out = positions.copy()
+    out[:, INDEX['torso']] = (positions[:, HIPS].mean(axis=1)
+                              + positions[:, INDEX['neck']]) / 2
     return out
 
 
@@ -61,7 +73,8 @@ def motion_of(path, kinect):
     if not whole.any():
         raise ValueError('%s: no frame gives every joint (the sensor '
                          'tracked no one)' % path)
-    positions = feet_under_shins(rec.positions[whole], rec.ankles[whole])
+    positions = torso_midway(feet_under_shins(rec.positions[whole],
+                                              rec.ankles[whole]))
     positions[..., 1] += FEET_Y - np.median(positions[:, FEET, 1])
     name = os.path.splitext(os.path.basename(path))[0]
     return (Motion(rec.stamps[whole], positions, name=name),

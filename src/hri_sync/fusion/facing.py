@@ -21,12 +21,11 @@ back behind the trunk: the average then points either way), that side is
 the front, and every view whose front points the other way is turned
 (every left and right joint exchanged).
 Nearer the trunk (arms hanging, hands on the hips) the hands say
-nothing, and the front they last confirmed (``HeldFront``: decided it at
-``confirm`` instants within ``confirm_within`` s, as one instant can be a
-tracker's slip), turned since with the fused body (a dancer spins within
-a second; a turn of more than 90 degrees at one instant is the fused
-labels exchanged, not followed), decides in their stead for ``hold`` s
-after that; otherwise the head decides, its labels in doubt: a
+nothing, and the front they last decided (``HeldFront``), turned since
+with the fused body (a dancer spins within a second), decides in their
+stead for ``hold`` s after they last confirmed it (decided it at
+``confirm`` instants within ``confirm_within`` s: one instant can be a
+tracker's slip); otherwise the head decides, its labels in doubt: a
 person's head leads the trunk's line (from the hips' centre through the
 neck, extended by the neck-head length) to the front, on Kinect SDK
 skeletons of real people by 0.05-0.10 m (medians of five subjects; the
@@ -127,8 +126,7 @@ def views_to_turn(views: List[Observation], params: FacingParams,
     decided, confirmed within ``params.hold``) decides in their stead;
     without it the head's lead may (``by_head``), the views' labels in
     doubt either way (``unsure``); views that agree are in doubt where
-    their head leads the other way, and turned to it on straight legs,
-    unless a held front sides with them."""
+    their head leads the other way, and turned to it on straight legs."""
     fronts = [front(o.positions) for o in views]
     known = [f for f in fronts if f is not None]
     if len(known) < 2:
@@ -139,8 +137,6 @@ def views_to_turn(views: List[Observation], params: FacingParams,
     along = np.array([f @ axis if f is not None else 0.0 for f in fronts])
     if not (along.max() > params.split and along.min() < -params.split):
         agreed = float(np.sign(along.sum()))
-        if held is not None and held @ axis * agreed > params.split:
-            return Decision([False] * len(views))
         head = _head_side(views, axis, params)
         if agreed * head >= 0:
             return Decision([False] * len(views))
@@ -270,35 +266,27 @@ class HeldFront:
 
     def __init__(self, params: FacingParams):
         self.params = params
-        # the hands' recent decisions: (instant, front)
-        self.decided: List[Tuple[float, np.ndarray]] = []
+        self.times: List[float] = []    # the hands' recent decisions
         self.confirmed: Optional[float] = None  # when they last confirmed
         self.front: Optional[np.ndarray] = None
 
     def views_to_turn(self, t: float, views: List[Observation]) -> Decision:
         """views_to_turn at instant ``t``, the front held within ``hold`` s
-        of the hands' last confirming it. A front is confirmed, and held,
-        once the hands decided it (within 90 degrees) at ``confirm``
-        instants within ``confirm_within`` s: one instant's decision the
-        other way does not replace the held front."""
+        of the hands' last confirming it."""
         held = self.front if self.confirmed is not None \
             and t - self.confirmed <= self.params.hold else None
         decision = views_to_turn(views, self.params, held)
         if decision.front is not None:
-            now = decision.front
-            self.decided = [(s, f) for s, f in self.decided
-                            if t - s <= self.params.confirm_within
-                            and f @ now > 0] + [(t, now)]
-            if len(self.decided) >= self.params.confirm:
-                self.front, self.confirmed = now, t
+            self.times = [s for s in self.times
+                          if t - s <= self.params.confirm_within] + [t]
+            self.front = decision.front
+            if len(self.times) >= self.params.confirm:
+                self.confirmed = t
         return decision
 
     def turn_with(self, positions: np.ndarray) -> None:
-        """The held front turns with the body fused at ``positions``; a
-        front more than 90 degrees from it is the body's labels exchanged
-        (a wrong turn of the views), not the person turning: left as it
-        was."""
+        """The held front turns with the body fused at ``positions``."""
         if self.front is not None:
             now = front(positions)
-            if now is not None and now @ self.front > 0:
+            if now is not None:
                 self.front = now
