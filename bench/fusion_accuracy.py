@@ -591,8 +591,7 @@ def hidden_by_sight(instants, best):
 def targets(out):
     """Each target of the fusion and whether this run meets it (None: the
     best view hides no joint, nothing for the hidden-joint target)."""
-    best = min(v for v in out['single_view_mean_m'].values()
-               if v is not None)     # None: a view that tracked no one
+    best = out['single_view_mean_m'][out['best_view']]
     limit = out['slowest_pipeline_p95_ms'] + 33 + 5
     hidden = out['best_view_hidden_mean_m']
     return {k: None if v is None else bool(v) for k, v in {

@@ -67,8 +67,7 @@ def below(value, reference):
 
 def figures(out):
     """The target figures of one fusion_accuracy.py JSON result."""
-    best = min(v for v in out['single_view_mean_m'].values()
-               if v is not None)     # None: a view that tracked no one
+    best = out['single_view_mean_m'][out['best_view']]
     hidden = out['best_view_hidden_mean_m']
     paired = out['best_view_instants']
     alone = out['best_view_alone']

@@ -31,7 +31,7 @@ sys.path.insert(0, os.path.join(ROOT, 'src'))
 
 from hri_sync.dance_off.joints import INDEX  # noqa: E402
 from hri_sync.dance_off.motion import Motion  # noqa: E402
-from hri_sync.people.kinect_csv import (read_kinect_v1,  # noqa: E402
+from hri_sync.people.kinect_csv import (given, read_kinect_v1,  # noqa: E402
                                         read_kinect_v2)
 
 FEET_Y = -0.949     # m: the feet's median height in the development clip
@@ -67,9 +67,8 @@ def motion_of(path, kinect):
     track at 0 0 0), and the share of its joints the sensor tracked;
     ValueError when no frame gives every joint."""
     rec = (read_kinect_v1 if kinect == 1 else read_kinect_v2)(path)
-    given = np.isfinite(rec.positions).all(axis=-1) \
-        & (rec.positions != 0).any(axis=-1)
-    whole = given.all(axis=1) & np.isfinite(rec.ankles).all(axis=(1, 2))
+    joints = given(rec.positions)
+    whole = joints.all(axis=1) & given(rec.ankles).all(axis=1)
     if not whole.any():
         raise ValueError('%s: no frame gives every joint (the sensor '
                          'tracked no one)' % path)
@@ -78,7 +77,7 @@ def motion_of(path, kinect):
     positions[..., 1] += FEET_Y - np.median(positions[:, FEET, 1])
     name = os.path.splitext(os.path.basename(path))[0]
     return (Motion(rec.stamps[whole], positions, name=name),
-            float(np.mean(given & (rec.confidence >= 1.0))))
+            float(np.mean(joints & (rec.confidence >= 1.0))))
 
 
 def main():

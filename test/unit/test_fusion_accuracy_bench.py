@@ -35,6 +35,7 @@ def frame(t, fused):
 
 def test_a_best_view_that_hides_nothing_leaves_the_hidden_target_open():
     out = {'single_view_mean_m': {'front': 0.06, 'back': None},
+           'best_view': 'front',
            'fused_mean_m': 0.045, 'best_view_hidden_mean_m': None,
            'fused_hidden_mean_m': None, 'slowest_pipeline_p95_ms': 90.0,
            'latency_p95_ms': 95.0, 'duplicate_people': 0,

@@ -24,6 +24,7 @@ def result(best, fused, best_hidden, fused_hidden, coverage=0.99,
     alone_m, alone_hidden = alone or (best, best_hidden)
     nearest_m, nearest_hidden = nearest or (best, best_hidden)
     return {'single_view_mean_m': {'front': best, 'right': best + 0.01},
+            'best_view': 'front',
             'best_view_alone': {'mean_m': alone_m,
                                 'hidden_mean_m': alone_hidden},
             'best_view_instants': {'share': share, 'best_view_m': best_m,

@@ -37,8 +37,6 @@ from typing import Deque, Dict, List, Tuple
 
 
 
-# What a view's skeletons may be noted for (counted over ``window`` s):
-# the fault each is reported as, and how.
 # The side rules' counts as a view's status names them (status key:
 # ViewHealth counter): instants the view was put right
 # (hri_sync.fusion.arms, hri_sync.fusion.facing).
@@ -46,6 +44,8 @@ RULES = {'arms exchanged back': 'arms_exchanged',
          'turned back': 'turned_back',
          'turned to the hands': 'turned_to_hands',
          'turned to the head': 'turned_to_head'}
+# What a view's skeletons may be noted for (counted over ``window`` s):
+# the fault each is reported as, and how.
 NOTED = {
     'repeated': ('repeated', 'skeletons repeated the one before'),
     'future_stamp': ('bad_stamps', "stamped ahead of the fusion's clock"),

@@ -39,11 +39,17 @@ class Recording:
 ANKLES = (('AnkleLeft',), ('AnkleRight',))
 
 
+def given(points):
+    """Which of the (..., 3) ``points`` a Kinect SDK gave: finite and not
+    at 0 0 0 (where it puts a joint it does not track)."""
+    return np.isfinite(points).all(axis=-1) & (points != 0).any(axis=-1)
+
+
 def _ankles(points, names):
-    """The (2, 3) ankles of one frame's ``points``; an SDK's joint it does
-    not track (0 0 0) is NaN."""
+    """The (2, 3) ankles of one frame's ``points``; one not ``given`` is
+    NaN."""
     a = select(points, names, ANKLES)
-    a[~(a != 0).any(axis=-1)] = np.nan
+    a[~given(a)] = np.nan
     return a
 
 
