@@ -107,10 +107,16 @@ def test_a_front_is_held_once_the_hands_said_it_twice_within_a_second():
     assert held.views_to_turn(5.0, hanging_hands).turn == [False] * 3
 
 
-def test_the_held_front_turns_with_the_fused_body():
+def held_forwards():
+    """A HeldFront the hands confirmed facing +x."""
     held = HeldFront(FacingParams())
     for t in (0.0, 0.1):
         held.views_to_turn(t, views('abc', turned_views='bc'))
+    return held
+
+
+def test_the_held_front_turns_with_the_fused_body():
+    held = held_forwards()
     # The person has turned about: the views still disagree, and the
     # held front, turned with the fused body, now sides with b and c.
     held.turn_with(turned(body()))
@@ -122,6 +128,30 @@ def test_the_held_front_turns_with_the_fused_body():
     flat[INDEX['left_hip']] = np.nan
     held.turn_with(flat)
     assert np.allclose(held.front, (-1, 0, 0))
+
+
+def test_hands_against_the_held_front_replace_it_only_said_twice_within_a_second():
+    held = held_forwards()
+    # The hands say the back is the front (a kick's drawn-back hands, or a
+    # tracker's slip): once, the held front decides, the labels in doubt.
+    slip = views('abc', turned_views='bc', forward=-0.3)
+    for t in (0.5, 2.0):    # 1.5 s apart: the first too old to confirm
+        decision = held.views_to_turn(t, slip)
+        assert decision.turn == [False, True, True]
+        assert decision.front is None and decision.unsure
+        assert np.allclose(decision.against, (-1, 0, 0), atol=0.05)
+    # Again within a second, but the hands said the held front between:
+    # held off again.
+    held.views_to_turn(2.2, views('abc', turned_views='bc'))
+    assert held.views_to_turn(2.4, slip).front is None
+    # Again within a second: they decide, and their front is held.
+    decision = held.views_to_turn(2.5, slip)
+    assert decision.turn == [True, False, False] and not decision.unsure
+    hanging = views('abc', turned_views='bc', forward=0.0)
+    assert held.views_to_turn(2.6, hanging).turn == [True, False, False]
+    # Without a held front, the hands decide at once.
+    assert views_to_turn(slip, FacingParams(), None, overrule=False).turn \
+        == [True, False, False]
 
 
 @pytest.mark.parametrize('kwargs', [

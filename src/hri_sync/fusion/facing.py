@@ -25,7 +25,8 @@ nothing, and the front they last decided (``HeldFront``), turned since
 with the fused body (a dancer spins within a second), decides in their
 stead for ``hold`` s after they last confirmed it (decided it at
 ``confirm`` instants within ``confirm_within`` s: one instant can be a
-tracker's slip); otherwise the head decides, its labels in doubt: a
+tracker's slip; hands that say the other side from a held front decide
+only so confirmed); otherwise the head decides, its labels in doubt: a
 person's head leads the trunk's line (from the hips' centre through the
 neck, extended by the neck-head length) to the front, on Kinect SDK
 skeletons of real people by 0.05-0.10 m (medians of five subjects; the
@@ -115,10 +116,12 @@ class Decision:
     front: Optional[np.ndarray] = None  # the front the hands decided
     unsure: bool = False                # the views disagree, in doubt
     by_head: bool = False               # the head's lead turned the views
+    against: Optional[np.ndarray] = None  # the hands' front, held off
 
 
 def views_to_turn(views: List[Observation], params: FacingParams,
-                  held: Optional[np.ndarray] = None) -> Decision:
+                  held: Optional[np.ndarray] = None,
+                  overrule: bool = True) -> Decision:
     """For each of one person's ``views``, whether its front points away
     from the side the person's hands reach to, where the views disagree
     on the front; and that front (horizontal unit vector), None where the
@@ -126,7 +129,9 @@ def views_to_turn(views: List[Observation], params: FacingParams,
     decided, confirmed within ``params.hold``) decides in their stead;
     without it the head's lead may (``by_head``), the views' labels in
     doubt either way (``unsure``); views that agree are in doubt where
-    their head leads the other way, and turned to it on straight legs."""
+    their head leads the other way, and turned to it on straight legs.
+    Unless ``overrule``, hands that say the other side from ``held``
+    decide nothing (their front is given as ``against``)."""
     fronts = [front(o.positions) for o in views]
     known = [f for f in fronts if f is not None]
     if len(known) < 2:
@@ -144,6 +149,10 @@ def views_to_turn(views: List[Observation], params: FacingParams,
         return Decision([turn and bool(a * head < -params.split)
                          for a in along], unsure=True, by_head=turn)
     side = _side(_hands(views, axis, params), params)
+    against = None
+    if side and not overrule and held is not None \
+            and side * float(held @ axis) < -params.split:
+        side, against = 0.0, side * axis
     if side:
         return Decision([bool(a * side < -params.split) for a in along],
                         side * axis)
@@ -154,7 +163,7 @@ def views_to_turn(views: List[Observation], params: FacingParams,
         side = _head_side(views, axis, params)
         by_head = bool(side)
     return Decision([bool(a * side < -params.split) for a in along],
-                    unsure=True, by_head=by_head)
+                    unsure=True, by_head=by_head, against=against)
 
 
 def either_side(positions: np.ndarray, bound: np.ndarray) -> np.ndarray:
@@ -262,11 +271,15 @@ def _bend(hip: np.ndarray, knee: np.ndarray, foot: np.ndarray) -> float:
 
 class HeldFront:
     """One person's front as the hands last decided it, held where they
-    say nothing."""
+    say nothing. Hands that say the other side from a held front once
+    decide nothing (one instant can be a tracker's slip, which the held
+    front would then keep); said again within ``confirm_within`` s, with
+    no decision for the held front between, they replace it."""
 
     def __init__(self, params: FacingParams):
         self.params = params
         self.times: List[float] = []    # the hands' recent decisions
+        self.against: List[float] = []  # ... against the held front
         self.confirmed: Optional[float] = None  # when they last confirmed
         self.front: Optional[np.ndarray] = None
 
@@ -275,10 +288,18 @@ class HeldFront:
         of the hands' last confirming it."""
         held = self.front if self.confirmed is not None \
             and t - self.confirmed <= self.params.hold else None
-        decision = views_to_turn(views, self.params, held)
+        within = self.params.confirm_within
+        self.against = [s for s in self.against if t - s <= within]
+        decision = views_to_turn(
+            views, self.params, held,
+            len(self.against) + 1 >= self.params.confirm)
+        if decision.against is not None:
+            self.against.append(t)
         if decision.front is not None:
-            self.times = [s for s in self.times
-                          if t - s <= self.params.confirm_within] + [t]
+            if held is not None and decision.front @ held < 0:
+                self.times = self.against       # they confirm it
+            self.against = []
+            self.times = [s for s in self.times if t - s <= within] + [t]
             self.front = decision.front
             if len(self.times) >= self.params.confirm:
                 self.confirmed = t
