@@ -130,7 +130,7 @@ def test_the_held_front_turns_with_the_fused_body():
     assert np.allclose(held.front, (-1, 0, 0))
 
 
-def test_hands_against_the_held_front_replace_it_only_said_twice_within_a_second():
+def test_hands_against_a_held_front_decide_only_said_twice_in_a_second():
     held = held_forwards()
     # The hands say the back is the front (a kick's drawn-back hands, or a
     # tracker's slip): once, the held front decides, the labels in doubt.
