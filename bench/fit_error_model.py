@@ -5,8 +5,9 @@ Runs bench/fusion_accuracy.py's fusion (its renders and its tracker
 profile, without an error model) on MOTION with 3 and 4 views and the
 renderer's noise seeds 1..N, the motion turned about the vertical by
 each of --turns (the same sensors see it from other sides) and, with
---mirrored, mirrored left to right too; records at every fused instant
-each view's joints as the model takes them
+--mirrored, mirrored left to right too, and on each --also motion as it
+is (real recordings of people facing the front sensor); records at every
+fused instant each view's joints as the model takes them
 (hri_sync.fusion.errors.inputs: where the joint lies on the fused body
 and its confidence) and their squared error against the rendered truth,
 and fits a Poisson-loss boosted tree ensemble on them (scikit-learn's
@@ -16,7 +17,8 @@ prints JSON: the rows, and per joint kind the measured and the model's
 rms error.
 
     bench/fit_error_model.py --motion data/motion/cmu_60_01_salsa.npz \\
-        --turns 0 90 180 270 --out config/fusion_depth_tracker.yaml
+        --turns 0 90 180 270 --also data/motion/real/precog_Seq*.npz \\
+        --jobs 2 --out config/fusion_depth_tracker.yaml
 
 Needs the built workspace sourced and scikit-learn (make setup).
 """
@@ -88,14 +90,15 @@ def turned(motion, degrees, mirrored=False):
 
 
 def record(motion, world, views, seed, profile, cache, turn=0.0,
-           mirrored=False):
+           mirrored=False, jobs=1):
     """(rows, inputs + 2) of one run (recorder's): ``views`` views, noise
     ``seed``, the motion at ``motion`` (``world``: it in world, loaded
     once for every run) turned ``turn`` degrees and ``mirrored``
-    (``turned``)."""
+    (``turned``), its views rendered ``jobs`` at once."""
     scene = 'noise=kinect1' if seed == 1 else 'noise=kinect1&seed=%d' % seed
     args = fa.arguments(['--motion', motion, '--views', str(views),
-                         '--scene', scene, '--cache', cache, '--jobs', '1'])
+                         '--scene', scene, '--cache', cache,
+                         '--jobs', str(jobs)])
     names = [v[0] for v in fa.VIEWS[:views]]
     dumps, poses = fa.rendered_views(args, [turned(world, turn, mirrored)])
     rendered = [fa.read_dump(d) for d in dumps]
@@ -106,6 +109,20 @@ def record(motion, world, views, seed, profile, cache, turn=0.0,
                                     lambda t: fa.truth_at(rendered, poses,
                                                           t), profile))
     return np.concatenate(rows)
+
+
+def plan(motion, also, views, seeds, turns, mirrored):
+    """The runs recorded, (motion, views, seed, turn, mirrored): ``motion``
+    turned by each of ``turns`` (and mirrored too, when ``mirrored``),
+    each of ``also`` as it is; the most views first (their renders serve
+    the fewer), noise seeds 1..``seeds``."""
+    return [(m, v, s, turn, mirror)
+            for m in [motion] + list(also)
+            for mirror in ([False, True] if mirrored and m == motion
+                           else [False])
+            for turn in (turns if m == motion else [0.0])
+            for v in sorted(views, reverse=True)
+            for s in range(1, seeds + 1)]
 
 
 def exported(model, distances):
@@ -151,6 +168,10 @@ def summary(model, rows):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('--motion', required=True, help='.bvh, .npz or .track')
+    ap.add_argument('--also', nargs='+', default=[], metavar='MOTION',
+                    help='more motions fitted on with it, each as it is '
+                    '(not turned nor mirrored), with the same views and '
+                    'seeds')
     ap.add_argument('--views', type=int, nargs='+', default=[3, 4],
                     choices=(2, 3, 4))
     ap.add_argument('--seeds', type=int, default=5,
@@ -166,6 +187,8 @@ def main():
     ap.add_argument('--profile', default=fa.PROFILE,
                     help='the tracker profile (YAML; default %(default)s)')
     ap.add_argument('--cache', default='/tmp/hri_sync_fusion')
+    ap.add_argument('--jobs', type=int, default=1,
+                    help='views rendered at once (default %(default)s)')
     ap.add_argument('--out', help='write the profile with the model here')
     args = ap.parse_args()
     fa.FPS = args.fps   # every view's frame times follow it
@@ -174,12 +197,16 @@ def main():
     values = yaml.safe_load(text)
     values.pop('errors', None)      # fitted again
     base = Profile.from_dict(values)
-    world = fa.world_motion(fa.load_motion(args.motion))
-    rows = np.concatenate([
-        record(args.motion, world, v, s, base, args.cache, turn, mirrored)
-        for mirrored in [False] + [True] * args.mirrored
-        for turn in args.turns for v in args.views
-        for s in range(1, args.seeds + 1)])
+    worlds = {}
+    rows = []
+    for motion, views, seed, turn, mirrored in plan(
+            args.motion, args.also, args.views, args.seeds, args.turns,
+            args.mirrored):
+        if motion not in worlds:
+            worlds[motion] = fa.world_motion(fa.load_motion(motion))
+        rows.append(record(motion, worlds[motion], views, seed, base,
+                           args.cache, turn, mirrored, args.jobs))
+    rows = np.concatenate(rows)
     model, fitted = fit(rows)
     check = model.predict(rows[:, :-2])
     if not np.allclose(check, fitted.predict(rows[:, :-2]), rtol=1e-6):
@@ -193,6 +220,7 @@ def main():
                 'joint error from where it lies), fitted with',
                 '  ' + command]))
     print(json.dumps({'motion': os.path.basename(args.motion),
+                      'also': [os.path.basename(m) for m in args.also],
                       'views': args.views, 'seeds': args.seeds,
                       'fps': args.fps,
                       'turns_deg': args.turns, 'mirrored': args.mirrored,

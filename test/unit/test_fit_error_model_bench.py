@@ -40,6 +40,18 @@ def test_the_exported_trees_give_the_fitted_models_errors():
     assert model.predict(high)[0] > 4 * model.predict(low)[0]
 
 
+def test_the_motion_is_turned_and_mirrored_and_the_others_run_as_they_are():
+    runs = bench.plan('salsa', ['punch'], [3, 4], 2, [0.0, 90.0], True)
+    salsa = [r for r in runs if r[0] == 'salsa']
+    assert len(salsa) == 2 * 2 * 2 * 2         # mirrored, turns, views, seeds
+    assert {(r[3], r[4]) for r in salsa} == {
+        (0.0, False), (90.0, False), (0.0, True), (90.0, True)}
+    assert [r for r in runs if r[0] == 'punch'] == [
+        ('punch', 4, 1, 0.0, False), ('punch', 4, 2, 0.0, False),
+        ('punch', 3, 1, 0.0, False), ('punch', 3, 2, 0.0, False)]
+    assert runs[0] == ('salsa', 4, 1, 0.0, False)   # most views first
+
+
 def test_the_model_goes_into_the_profile_once_its_other_lines_kept():
     text = '# the profile\nsigma: 0.05\n# why\noffsets:\n- [0, 0, 0]\n'
     model = hands_on_the_trunk().to_dict()

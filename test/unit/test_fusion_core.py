@@ -8,10 +8,11 @@ from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
 from hri_sync.fusion.align import Sample, Track
 from hri_sync.fusion.associate import Associator
 from hri_sync.fusion.calibration import Residuals, refine_pose, shared_points
+from hri_sync.fusion.facing import back_view
 from hri_sync.fusion.frames import SensorPose, facing, parse_pose
 from hri_sync.fusion.fuse import FuseParams, Observation, fuse
 from hri_sync.fusion.pipeline import Fusion, FusionParams
-from hri_sync.fusion.profile import (ARMS, Profile, back_growth, back_view,
+from hri_sync.fusion.profile import (ARMS, Profile, back_growth,
                                      confidence_power, fit_profile, rays)
 from hri_sync.fusion.report import people_status, view_named, view_status
 from hri_sync.people.rep155 import body_axes

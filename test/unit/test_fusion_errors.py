@@ -42,6 +42,17 @@ def test_the_inputs_say_where_a_joint_lies_towards_and_across_the_sensor():
     assert row['log_confidence'] == pytest.approx(math.log(0.05))
     assert row['log_sigma'] == pytest.approx(math.log(0.05))
     assert x.shape == (15, len(INPUTS))
+    assert row['back'] == pytest.approx(0.0)
+
+
+def test_the_inputs_say_how_much_of_the_back_the_view_sees():
+    truth = body()
+    sensor = np.array([-3.0, 0.0, 1.0])         # behind the body
+    back = inputs(truth, np.ones(15), np.full(15, 0.05), truth, sensor)
+    assert back[:, INPUTS.index('back')] == pytest.approx(np.ones(15))
+    truth[INDEX['left_hip']] = np.nan           # no front to tell
+    unknown = inputs(truth, np.ones(15), np.full(15, 0.05), truth, sensor)
+    assert np.isnan(unknown[:, INPUTS.index('back')]).all()
 
 
 def test_trees_route_rows_and_missing_values_and_sum_in_the_log():
@@ -86,6 +97,19 @@ def test_a_model_round_trips_and_a_broken_one_is_refused():
     for distances in (None, [3.0, 2.0], [-1.0, 2.0]):
         with pytest.raises(ValueError, match='distances'):
             ErrorModel.from_dict({**d, 'distances': distances})
+
+
+def test_a_model_fitted_before_an_input_was_added_takes_the_first():
+    d = hands_on_the_trunk().to_dict()
+    older = ErrorModel.from_dict({**d, 'inputs': list(INPUTS[:6])})
+    x = np.random.default_rng(2).uniform(0, 4, (50, len(INPUTS)))
+    assert older.predict(x) == pytest.approx(
+        hands_on_the_trunk().predict(x))
+    assert older.to_dict()['inputs'] == list(INPUTS[:6])
+    with pytest.raises(ValueError, match='not a tree'):
+        ErrorModel.from_dict({**d, 'inputs': list(INPUTS[:KIND])})
+    with pytest.raises(ValueError, match='takes the inputs'):
+        ErrorModel.from_dict({**d, 'inputs': list(INPUTS[1:])})
 
 
 def test_a_profile_carries_its_error_model():

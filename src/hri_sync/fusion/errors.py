@@ -15,7 +15,13 @@ tells it apart. For each of a view's joints, six inputs:
   sensor, along the floor (m; negative: behind the body);
 - ``across``: how far it lies from the line through the fused torso to
   the sensor (m);
-- ``across_floor``: the same along the floor (m).
+- ``across_floor``: the same along the floor (m);
+- ``back``: how much of the fused body's back the view sees (0 front-on,
+  1 from behind: hri_sync.fusion.facing.back_view; unknown without the
+  fused hips and neck). A person punching towards one sensor hides the
+  arms from the sensors behind, whose trackers still give them at full
+  confidence: where the joints lie alone did not tell those views' arms
+  from the front one's (six real Kinect v1 recordings).
 
 Each depends on the instant alone: a fusion of a recording weighs the
 views as the live one did (a person's bone lengths over the last seconds
@@ -42,10 +48,11 @@ from typing import Any, Dict, List, Tuple
 import numpy as np
 
 from hri_sync.dance_off.joints import INDEX
+from hri_sync.fusion.facing import back_view
 from hri_sync.fusion.fuse import LEAST_CONFIDENCE
 
 INPUTS = ('log_confidence', 'kind', 'log_sigma', 'toward', 'across',
-          'across_floor')
+          'across_floor', 'back')
 ROWS = 50000    # rows ErrorModel.predict walks the trees with at once
 KIND = np.array([0, 0, 0, 1, 1, 2, 2, 3, 3, 0, 0, 4, 4, 5, 5], float)
 
@@ -53,7 +60,7 @@ KIND = np.array([0, 0, 0, 1, 1, 2, 2, 3, 3, 0, 0, 4, 4, 5, 5], float)
 def inputs(positions: np.ndarray, confidence: np.ndarray,
            sigma: np.ndarray, body: np.ndarray,
            sensor: np.ndarray) -> np.ndarray:
-    """(15, 6) the model's inputs (``INPUTS``) for one view's joints
+    """(15, 7) the model's inputs (``INPUTS``) for one view's joints
     (``positions`` (15, 3) world, ``confidence``, ``sigma``: the profile's
     error, m) given the person's fused ``body`` (15, 3) and the view's
     ``sensor`` (3,)."""
@@ -63,10 +70,12 @@ def inputs(positions: np.ndarray, confidence: np.ndarray,
     rel = positions - torso
     toward = rel @ to
     side = rel - toward[:, None] * to
+    back = back_view(body, sensor)
     return np.column_stack([
         np.log(np.maximum(confidence, LEAST_CONFIDENCE)), KIND,
         np.log(sigma), toward, np.linalg.norm(side, axis=1),
-        np.linalg.norm(side[:, :2], axis=1)])
+        np.linalg.norm(side[:, :2], axis=1),
+        np.full(len(positions), np.nan if back is None else back)])
 
 
 @dataclass
@@ -89,10 +98,12 @@ class ErrorModel:
               'missing_left')
 
     def __init__(self, baseline: float, trees: List[Tree],
-                 distances: Tuple[float, float] = (0.0, math.inf)) -> None:
+                 distances: Tuple[float, float] = (0.0, math.inf),
+                 takes: int = len(INPUTS)) -> None:
         self.baseline = float(baseline)
         self.trees = trees
         self.distances = distances
+        self.takes = takes      # the first of INPUTS it was fitted on
         # every tree's nodes in one array, children by their place in it
         start = np.cumsum([0] + [len(t.feature) for t in trees])
         self._start = start[:-1]
@@ -103,7 +114,7 @@ class ErrorModel:
                 self._start, np.diff(start))
 
     def predict(self, x: np.ndarray) -> np.ndarray:
-        """(n,) expected squared errors (m^2) of rows ``x`` (n, 6), up to
+        """(n,) expected squared errors (m^2) of rows ``x`` (n, 7), up to
         ``ROWS`` at a time (every tree is walked at once: its arrays hold
         trees x rows)."""
         return np.concatenate([self._walk(x[k:k + ROWS])
@@ -136,7 +147,7 @@ class ErrorModel:
 
     def to_dict(self) -> Dict[str, Any]:
         """Plain values (a YAML param)."""
-        return {'inputs': list(INPUTS),
+        return {'inputs': list(INPUTS[:self.takes]),
                 'distances': [round(float(d), 3) for d in self.distances],
                 'baseline': round(self.baseline, 6),
                 'trees': [{'feature': t.feature.tolist(),
@@ -150,9 +161,15 @@ class ErrorModel:
     @classmethod
     def from_dict(cls, d: Dict[str, Any]) -> 'ErrorModel':
         """An ErrorModel from ``to_dict``'s values; ValueError when they
-        do not make one (other inputs, nodes out of range, a loop)."""
-        if list(d.get('inputs', ())) != list(INPUTS):
-            raise ValueError('an error model takes the inputs %s, not %r'
+        do not make one (other inputs, nodes out of range, a loop). A
+        model fitted before inputs were added takes the first of
+        ``INPUTS``, as many as it names."""
+        named = d.get('inputs')
+        named = list(named) if isinstance(named, (list, tuple)) else []
+        takes = len(named)
+        if not takes or named != list(INPUTS[:takes]):
+            raise ValueError('an error model takes the inputs %s (or the '
+                             'first of them), not %r'
                              % (list(INPUTS), d.get('inputs')))
         trees = []
         for k, t in enumerate(d.get('trees') or ()):
@@ -169,14 +186,14 @@ class ErrorModel:
                         a['missing_left'].astype(bool))
             split = tree.feature >= 0
             if n == 0 or any(len(a[f]) != n for f in cls.FIELDS) \
-                    or (tree.feature >= len(INPUTS)).any() \
+                    or (tree.feature >= takes).any() \
                     or not np.isfinite(tree.value).all() \
                     or ((tree.left <= np.arange(n))
                         | (tree.left >= n)
                         | (tree.right <= np.arange(n))
                         | (tree.right >= n))[split].any():
                 raise ValueError('error model tree %d is not a tree of '
-                                 'the %d inputs' % (k, len(INPUTS)))
+                                 'the %d inputs' % (k, takes))
             trees.append(tree)
         baseline = float(d.get('baseline', np.nan))
         if not trees or not np.isfinite(baseline):
@@ -190,4 +207,4 @@ class ErrorModel:
         if not 0 <= near < far:
             raise ValueError('an error model knows distances 0 <= near < '
                              'far, not %r' % [near, far])
-        return cls(baseline, trees, (near, far))
+        return cls(baseline, trees, (near, far), takes)

@@ -107,6 +107,23 @@ def front(positions: np.ndarray, hips_apart: float = HIPS_APART
     return forward / norm if norm > 1e-6 else None
 
 
+def back_view(positions: np.ndarray, sensor: np.ndarray
+              ) -> Optional[float]:
+    """How much of a body's back a sensor sees: ``(1 - cos a) / 2``, a
+    the angle at the body between its front and the sensor along the floor
+    (0 front-on, 0.5 side-on, 1 from behind); None when the body has no
+    axes (hips or neck missing). World (z up) positions (15, 3) and
+    sensor position."""
+    faces = front(positions, hips_apart=0.0)
+    if faces is None:
+        return None
+    to = np.asarray(sensor, float)[:2] - positions[INDEX['torso'], :2]
+    norm = np.linalg.norm(to)
+    if not np.isfinite(norm) or norm < 1e-9:
+        return None
+    return float((1.0 - faces[:2] @ to / norm) / 2.0)
+
+
 @dataclass
 class Decision:
     """What the hands, a held front or the head say of one person's views

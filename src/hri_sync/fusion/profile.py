@@ -44,7 +44,7 @@ import numpy as np
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
 from hri_sync.fusion.errors import ErrorModel
-from hri_sync.fusion.facing import front
+from hri_sync.fusion.facing import back_view
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import own_sigma
 from hri_sync.fusion.lag import FilterLag, FilterParams
@@ -55,23 +55,6 @@ ARMS = [INDEX[n] for n in ('left_elbow', 'right_elbow', 'left_hand',
                            'right_hand')]
 KEYS = ('delay', 'delay_spread', 'sigma', 'sigma_common',
         'confidence_power', 'back_arms')
-
-
-def back_view(positions: np.ndarray, sensor: np.ndarray
-              ) -> Optional[float]:
-    """How much of a body's back a sensor sees: ``(1 - cos a) / 2``, a
-    the angle at the body between its front and the sensor along the floor
-    (0 front-on, 0.5 side-on, 1 from behind); None when the body has no
-    axes (hips or neck missing). World (z up) positions (15, 3) and
-    sensor position."""
-    faces = front(positions, hips_apart=0.0)
-    if faces is None:
-        return None
-    to = np.asarray(sensor, float)[:2] - positions[INDEX['torso'], :2]
-    norm = np.linalg.norm(to)
-    if not np.isfinite(norm) or norm < 1e-9:
-        return None
-    return float((1.0 - faces[:2] @ to / norm) / 2.0)
 
 
 @dataclass
