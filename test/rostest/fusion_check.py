@@ -16,10 +16,10 @@ without its right elbow), and the healthy views in at least half the
 bodies; the diagnostics name the fault (~expect, a fault of
 hri_sync.fusion.views) on view ~faulty's status, and every other view is
 healthy (``none``) in most of its first 8 statuses or more after the
-fault: under load a healthy view's skeletons may
-come 0.5 s apart and it reads stalled for a status or two (one CI run had
-only two statuses of a view by the time the rates were counted, one of
-them stalled), while a fault put on the wrong view stays.
+fault: under load a healthy view's skeletons may come 0.5 s apart and it
+reads stalled for a status or two (one CI run had only two statuses of a
+view by the time the rates were counted, one of them stalled), while a
+fault put on the wrong view stays.
 """
 import threading
 import time

@@ -5,7 +5,7 @@ The profile takes a view's error from its confidence and where its sensor
 stands; the depth tracker's arms are also wrong where they say they are
 seen: a hand the tracker lays on the trunk's depth points (the true hand
 hidden behind the body) is as far off as a guess. Where the joint lies
-tells it apart. For each of a view's joints, six inputs:
+tells it apart. For each of a view's joints, seven inputs:
 
 - ``log_confidence``: log of its confidence (floored at 0.05);
 - ``kind``: 0 head, neck, torso, hips; 1 shoulders; 2 elbows; 3 hands;
@@ -21,7 +21,7 @@ tells it apart. For each of a view's joints, six inputs:
   fused hips and neck). A person punching towards one sensor hides the
   arms from the sensors behind, whose trackers still give them at full
   confidence: where the joints lie alone did not tell those views' arms
-  from the front one's (six real Kinect v1 recordings).
+  from the front one's (real Kinect v1 recordings, docs/fusion.md).
 
 Each depends on the instant alone: a fusion of a recording weighs the
 views as the live one did (a person's bone lengths over the last seconds
