@@ -103,26 +103,24 @@ class FusionFault(unittest.TestCase):
         self.assertGreaterEqual(2 * len(healthy), len(got),
                                 'the healthy views gave %d of %d bodies'
                                 % (len(healthy), len(got)))
-        wait_for(lambda: min(self.counts_after(named, faulty).values(),
+        wait_for(lambda: min(map(len, self.others(named, faulty).values()),
                              default=0) >= self.STATUSES, 60.0, 0.1)
-        with self.lock:
-            others = [(v, f) for t, v, f in self.statuses
-                      if t >= named and v != faulty]
+        others = self.others(named, faulty)
         self.assertTrue(others, 'no status of the other views after the '
                         'fault')
-        for view in {v for v, _ in others}:
-            seen = [f for v, f in others if v == view]
+        for view, seen in others.items():
             self.assertGreater(2 * seen.count('none'), len(seen),
                                'view %s: %s' % (view, seen))
 
-    def counts_after(self, t0, faulty):
-        """Statuses of each view but ``faulty`` since ``t0``."""
-        counts = {}
+    def others(self, t0, faulty):
+        """Each view but ``faulty``: its faults in its statuses since
+        ``t0``."""
+        seen = {}
         with self.lock:
-            for t, view, _ in self.statuses:
+            for t, view, faults in self.statuses:
                 if t >= t0 and view != faulty:
-                    counts[view] = counts.get(view, 0) + 1
-        return counts
+                    seen.setdefault(view, []).append(faults)
+        return seen
 
 
 if __name__ == '__main__':
