@@ -154,6 +154,50 @@ def test_hands_against_a_held_front_decide_only_said_twice_in_a_second():
         == [True, False, False]
 
 
+def test_hands_against_a_held_front_decide_only_said_more_often_than_it():
+    held = held_forwards()
+    deciding = views('abc', turned_views='bc')
+    slip = views('abc', turned_views='bc', forward=-0.3)
+    for t in (0.2, 0.3, 0.4):           # the hands say the held front ...
+        held.views_to_turn(t, deciding)
+    hanging = views('abc', turned_views='bc', forward=0.0)
+    held.views_to_turn(0.5, hanging)
+    # ... then the other side (a kick's arms swung back), twice, three
+    # times: the held front, said at five instants of the last second,
+    # decides (the first two have aged out of that second by 1.15).
+    for t in (1.0, 1.05, 1.1):
+        assert held.views_to_turn(t, slip).front is None
+    # A fourth time, more often than the held front in the last second
+    # (0.2, 0.3, 0.4): they decide.
+    decision = held.views_to_turn(1.15, slip)
+    assert decision.turn == [True, False, False] and not decision.unsure
+
+
+def test_a_held_front_the_fused_body_turned_about_is_not_the_hands():
+    held = held_forwards()
+    deciding = views('abc', turned_views='bc')
+    for t in (0.2, 0.3, 0.4):
+        held.views_to_turn(t, deciding)
+    # The fused body's labels were exchanged (views that agreed, wrong):
+    # its front points the other way one instant later, and the held front
+    # with it, but the hands never said that front.
+    held.turn_with(turned(body()))
+    assert np.allclose(held.front, (-1, 0, 0))
+    assert held.views_to_turn(0.5, deciding).front is None
+    decision = held.views_to_turn(0.55, deciding)
+    assert decision.turn == [False, True, True] and not decision.unsure
+    # Turned 60 degrees (the person turning), it keeps their decisions.
+    held = held_forwards()
+    for t in (0.2, 0.3, 0.4):
+        held.views_to_turn(t, deciding)
+    c, s = math.cos(math.radians(60)), math.sin(math.radians(60))
+    turning = body()
+    turning[:, :2] = turning[:, :2] @ np.array([[c, s], [-s, c]])
+    held.turn_with(turning)
+    assert held.front @ (1, 0, 0) == pytest.approx(0.5, abs=0.05)
+    assert len(held.times) == 5
+
+
 @pytest.mark.parametrize('kwargs', [
     dict(turned_views='bc', forward=0.05),      # hands at the trunk
     dict(turned_views=''),                      # the views agree

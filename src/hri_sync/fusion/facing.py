@@ -26,7 +26,9 @@ with the fused body (a dancer spins within a second), decides in their
 stead for ``hold`` s after they last confirmed it (decided it at
 ``confirm`` instants within ``confirm_within`` s: one instant can be a
 tracker's slip; hands that say the other side from a held front decide
-only so confirmed); otherwise the head decides, its labels in doubt: a
+only so confirmed, and said at more instants of that time than the held
+front: a kick swings both arms behind the trunk for a few instants after
+they punched forwards); otherwise the head decides, its labels in doubt: a
 person's head leads the trunk's line (from the hips' centre through the
 neck, extended by the neck-head length) to the front, on Kinect SDK
 skeletons of real people by 0.05-0.10 m (medians of five subjects; the
@@ -291,7 +293,8 @@ class HeldFront:
     say nothing. Hands that say the other side from a held front once
     decide nothing (one instant can be a tracker's slip, which the held
     front would then keep); said again within ``confirm_within`` s, with
-    no decision for the held front between, they replace it."""
+    no decision for the held front between, and at more instants within
+    it than the hands said the held front, they replace it."""
 
     def __init__(self, params: FacingParams):
         self.params = params
@@ -307,9 +310,11 @@ class HeldFront:
             and t - self.confirmed <= self.params.hold else None
         within = self.params.confirm_within
         self.against = [s for s in self.against if t - s <= within]
+        self.times = [s for s in self.times if t - s <= within]
         decision = views_to_turn(
             views, self.params, held,
-            len(self.against) + 1 >= self.params.confirm)
+            len(self.against) + 1 >= self.params.confirm
+            and len(self.against) + 1 > len(self.times))
         if decision.against is not None:
             self.against.append(t)
         if decision.front is not None:
@@ -323,8 +328,14 @@ class HeldFront:
         return decision
 
     def turn_with(self, positions: np.ndarray) -> None:
-        """The held front turns with the body fused at ``positions``."""
+        """The held front turns with the body fused at ``positions``; where
+        that body's front points the other way from one instant to the
+        next (its labels exchanged, as no one turns about that fast), the
+        hands never said it, and their decisions for the front before
+        confirm it no more."""
         if self.front is not None:
             now = front(positions)
             if now is not None:
+                if now @ self.front < 0:
+                    self.times = []
                 self.front = now
