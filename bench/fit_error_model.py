@@ -39,6 +39,7 @@ from hri_sync.dance_off.frames import rotation  # noqa: E402
 from hri_sync.fusion.arms import turned as sides_exchanged  # noqa: E402
 from hri_sync.fusion.errors import (  # noqa: E402
     INPUTS, ErrorModel, Tree, inputs)
+from hri_sync.fusion.facing import back_views  # noqa: E402
 from hri_sync.fusion.fuse import LEAST_CONFIDENCE, own_sigma  # noqa: E402
 from hri_sync.fusion.profile import Profile  # noqa: E402
 from hri_sync.fusion.sightlines import distance  # noqa: E402
@@ -57,13 +58,15 @@ def recorder(rows, poses, truth, profile):
     the range's growth)."""
     def inspect(t, person, views, body):
         true = truth(np.array([t]))[0]
-        for o in views:
+        backs = back_views(body.positions, [poses[o.view].translation()
+                                            for o in views])
+        for o, back in zip(views, backs):
             sigma = own_sigma(profile.sigma, o.confidence, o.power)
             if o.scale is not None:
                 sigma = sigma * o.scale
             sensor = poses[o.view].translation()
             x = inputs(o.positions, o.confidence, sigma, body.positions,
-                       sensor)
+                       sensor, back)
             err2 = ((o.positions - true) ** 2).sum(axis=1)
             ok = np.isfinite(err2) & (o.confidence >= LEAST_CONFIDENCE)
             far = np.full(ok.sum(), distance(body.positions, sensor))

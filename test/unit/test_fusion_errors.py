@@ -8,6 +8,7 @@ import pytest
 
 from hri_sync.dance_off.joints import INDEX
 from hri_sync.fusion.errors import INPUTS, ErrorModel, Tree, inputs
+from hri_sync.fusion.facing import back_view, back_views
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.pipeline import Fusion, FusionParams
 from hri_sync.fusion.profile import Profile
@@ -32,8 +33,9 @@ def hands_on_the_trunk():
 def test_the_inputs_say_where_a_joint_lies_towards_and_across_the_sensor():
     truth = body()
     truth[HAND] = [0.5, -0.2, 1.5]              # torso at (0, 0, 1.2)
+    sensor = np.array([3.0, 0.0, 1.0])
     x = inputs(truth, np.full(15, 0.02), np.full(15, 0.05), truth,
-               np.array([3.0, 0.0, 1.0]))
+               sensor, back_view(truth, sensor))
     row = dict(zip(INPUTS, x[HAND]))
     assert row['toward'] == pytest.approx(0.5)
     assert row['across'] == pytest.approx(math.hypot(0.2, 0.3))
@@ -48,11 +50,23 @@ def test_the_inputs_say_where_a_joint_lies_towards_and_across_the_sensor():
 def test_the_inputs_say_how_much_of_the_back_the_view_sees():
     truth = body()
     sensor = np.array([-3.0, 0.0, 1.0])         # behind the body
-    back = inputs(truth, np.ones(15), np.full(15, 0.05), truth, sensor)
+    back = inputs(truth, np.ones(15), np.full(15, 0.05), truth, sensor,
+                  back_view(truth, sensor))
     assert back[:, INPUTS.index('back')] == pytest.approx(np.ones(15))
     truth[INDEX['left_hip']] = np.nan           # no front to tell
-    unknown = inputs(truth, np.ones(15), np.full(15, 0.05), truth, sensor)
+    unknown = inputs(truth, np.ones(15), np.full(15, 0.05), truth, sensor,
+                     back_view(truth, sensor))
     assert np.isnan(unknown[:, INPUTS.index('back')]).all()
+
+
+def test_every_views_back_is_found_at_once_as_one_at_a_time():
+    truth = body()
+    sensors = [np.array(s, float) for s in
+               ((3, 0, 1), (0, 3, 1), (-3, 0, 1), (-2, -2, 1))]
+    assert back_views(truth, sensors) == [back_view(truth, s)
+                                          for s in sensors]
+    truth[INDEX['left_hip']] = np.nan
+    assert back_views(truth, sensors) == [None] * 4
 
 
 def test_trees_route_rows_and_missing_values_and_sum_in_the_log():

@@ -17,8 +17,8 @@ tells it apart. For each of a view's joints, seven inputs:
   the sensor (m);
 - ``across_floor``: the same along the floor (m);
 - ``back``: how much of the fused body's back the view sees (0 front-on,
-  1 from behind: hri_sync.fusion.facing.back_view; unknown without the
-  fused hips and neck). A person punching towards one sensor hides the
+  1 from behind: hri_sync.fusion.facing.back_view, given; unknown
+  without the fused hips and neck). A person punching towards one sensor hides the
   arms from the sensors behind, whose trackers still give them at full
   confidence: where the joints lie alone did not tell those views' arms
   from the front one's (real Kinect v1 recordings, docs/fusion.md).
@@ -43,12 +43,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Dict, List, Tuple
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
 from hri_sync.dance_off.joints import INDEX
-from hri_sync.fusion.facing import back_view
 from hri_sync.fusion.fuse import LEAST_CONFIDENCE
 
 INPUTS = ('log_confidence', 'kind', 'log_sigma', 'toward', 'across',
@@ -59,18 +58,18 @@ KIND = np.array([0, 0, 0, 1, 1, 2, 2, 3, 3, 0, 0, 4, 4, 5, 5], float)
 
 def inputs(positions: np.ndarray, confidence: np.ndarray,
            sigma: np.ndarray, body: np.ndarray,
-           sensor: np.ndarray) -> np.ndarray:
+           sensor: np.ndarray, back: Optional[float]) -> np.ndarray:
     """(15, 7) the model's inputs (``INPUTS``) for one view's joints
     (``positions`` (15, 3) world, ``confidence``, ``sigma``: the profile's
-    error, m) given the person's fused ``body`` (15, 3) and the view's
-    ``sensor`` (3,)."""
+    error, m) given the person's fused ``body`` (15, 3), the view's
+    ``sensor`` (3,) and how much of the body's back it sees (``back``:
+    hri_sync.fusion.facing.back_views, found once for every view)."""
     torso = body[INDEX['torso']]
     to = np.asarray(sensor, float)[:2] - torso[:2]
     to = np.r_[to / max(float(np.linalg.norm(to)), 1e-9), 0.0]
     rel = positions - torso
     toward = rel @ to
     side = rel - toward[:, None] * to
-    back = back_view(body, sensor)
     return np.column_stack([
         np.log(np.maximum(confidence, LEAST_CONFIDENCE)), KIND,
         np.log(sigma), toward, np.linalg.norm(side, axis=1),

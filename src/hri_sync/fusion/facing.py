@@ -116,14 +116,22 @@ def back_view(positions: np.ndarray, sensor: np.ndarray
     (0 front-on, 0.5 side-on, 1 from behind); None when the body has no
     axes (hips or neck missing). World (z up) positions (15, 3) and
     sensor position."""
+    return back_views(positions, [sensor])[0]
+
+
+def back_views(positions: np.ndarray, sensors: List[np.ndarray]
+               ) -> List[Optional[float]]:
+    """``back_view`` of one body for each of ``sensors``, its front found
+    once."""
     faces = front(positions, hips_apart=0.0)
-    if faces is None:
-        return None
-    to = np.asarray(sensor, float)[:2] - positions[INDEX['torso'], :2]
-    norm = np.linalg.norm(to)
-    if not np.isfinite(norm) or norm < 1e-9:
-        return None
-    return float((1.0 - faces[:2] @ to / norm) / 2.0)
+    out: List[Optional[float]] = []
+    for sensor in sensors:
+        to = np.asarray(sensor, float)[:2] - positions[INDEX['torso'], :2]
+        norm = np.linalg.norm(to)
+        out.append(None if faces is None or not np.isfinite(norm)
+                   or norm < 1e-9
+                   else float((1.0 - faces[:2] @ to / norm) / 2.0))
+    return out
 
 
 @dataclass
@@ -321,7 +329,7 @@ class HeldFront:
             if held is not None and decision.front @ held < 0:
                 self.times = self.against       # they confirm it
             self.against = []
-            self.times = [s for s in self.times if t - s <= within] + [t]
+            self.times = self.times + [t]       # both pruned above
             self.front = decision.front
             if len(self.times) >= self.params.confirm:
                 self.confirmed = t

@@ -77,7 +77,8 @@ from hri_sync.fusion.arms import (ArmParams, arms_to_exchange,
 from hri_sync.fusion.associate import Associator, Key, body_distance, views_of
 from hri_sync.fusion.calibration import Fit, PoseFit, Residuals
 from hri_sync.fusion.errors import inputs
-from hri_sync.fusion.facing import FacingParams, HeldFront, either_side
+from hri_sync.fusion.facing import (FacingParams, HeldFront, back_views,
+                                    either_side)
 from hri_sync.fusion.frames import SensorPose
 from hri_sync.fusion.fuse import (FuseParams, Fused, Observation, fuse,
                                   own_sigma)
@@ -555,9 +556,10 @@ class Fusion:
         at ``positions`` (its profile's ``vantage``); whether any
         changed."""
         changed = False
-        for o in views:
-            o.scale = self.profiles[o.view].vantage(
-                positions, self.poses[o.view].translation())
+        backs = back_views(positions, [self.poses[o.view].translation()
+                                       for o in views])
+        for o, back in zip(views, backs):
+            o.scale = self.profiles[o.view].vantage(back)
             changed |= o.scale is not None
         return changed
 
@@ -572,7 +574,9 @@ class Fusion:
         top; a view farther from the person or nearer than the model knows
         keeps its profile's. Whether any view was weighed by a model."""
         modelled, was, now = [], [], []
-        for o in views:
+        backs = back_views(positions, [self.poses[o.view].translation()
+                                       for o in views])
+        for o, back in zip(views, backs):
             profile = self.profiles[o.view]
             sensor = self.poses[o.view].translation()
             if profile.errors is None or \
@@ -584,7 +588,7 @@ class Fusion:
             was.append(np.ones(NUM_JOINTS) if o.scale is None else o.scale)
             now.append(np.sqrt(profile.errors.predict(inputs(
                 o.positions, o.confidence, base * was[-1], positions,
-                sensor)) / 3.0) / base)
+                sensor, back)) / 3.0) / base)
         if not modelled:
             return False
         finite = np.array([np.isfinite(o.positions).all(axis=1)

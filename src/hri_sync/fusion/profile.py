@@ -102,15 +102,12 @@ class Profile:
             return positions
         return positions - self.offsets @ axes.T
 
-    def vantage(self, positions: np.ndarray, sensor: np.ndarray
-                ) -> Optional[np.ndarray]:
+    def vantage(self, back: Optional[float]) -> Optional[np.ndarray]:
         """(15,) multipliers of a view's sigma from where its sensor
-        stands to the (fused) body: the arms' ``1 + back_arms *
-        back_view``; None when they are all 1."""
-        if self.back_arms <= 0:
-            return None
-        back = back_view(positions, sensor)
-        if back is None:
+        stands to the (fused) body, ``back`` (its ``back_view``; None:
+        unknown): the arms' ``1 + back_arms * back``; None when they are
+        all 1."""
+        if self.back_arms <= 0 or back is None:
             return None
         scale = np.ones(NUM_JOINTS)
         scale[ARMS] += self.back_arms * back
