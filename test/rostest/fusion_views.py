@@ -4,7 +4,8 @@
 Publishes /<view>/skeleton (hri_sync/Skeleton, 30 Hz, stamped 20 ms
 before now, joints of data/motion ~motion seen from each view's pose in
 ~poses, 1 cm noise) and /<view>/clock_state (ok, 0.5 ms). ~fault, on view
-~faulty from ~fault_after s: ``stall`` (it stops), ``not_tracking`` (it
+~faulty from ~fault_after s after the fusion listens to every view:
+``stall`` (it stops), ``not_tracking`` (it
 stops, and its tracker's /<view>/tracker/sensor_status says, each second,
 that it tracks no one: the person left its range), ``clock_lost`` (its
 ClockState is not ok), ``wrong_pose`` (it is seen from its pose moved
@@ -72,6 +73,12 @@ def main():
     rospy.Subscriber('/calibration/capture_data', CaptureData,
                      on_calibration)
     rng = np.random.default_rng(36)
+    # The fault's clock starts once the fusion listens to every view: on a
+    # busy machine its node can start after ~fault_after s, and a view
+    # stalled before it connected would read no_data, not stalled.
+    while not rospy.is_shutdown() and \
+            min(p.get_num_connections() for p in pubs.values()) == 0:
+        time.sleep(0.05)
     start, lost, still = time.time(), False, None
     rate = rospy.Rate(30)
     while not rospy.is_shutdown():
