@@ -3,14 +3,14 @@
 
 Publishes /<view>/skeleton (hri_sync/Skeleton, 30 Hz, stamped 20 ms
 before now, joints of data/motion ~motion seen from each view's pose in
-~poses, 1 cm noise) and /<view>/clock_state (ok, 0.5 ms). ~fault, on view
-~faulty from ~fault_after s after the fusion listens to every view:
-``stall`` (it stops), ``not_tracking`` (it
-stops, and its tracker's /<view>/tracker/sensor_status says, each second,
-that it tracks no one: the person left its range), ``clock_lost`` (its
-ClockState is not ok), ``wrong_pose`` (it is seen from its pose moved
-~wrong_shift m along x and turned ~wrong_turn degrees, default 0.3 and 10;
-the fusion keeps the declared one),
+~poses, 1 cm noise) and /<view>/clock_state (ok, 0.5 ms). ~fault, on
+view ~faulty from ~fault_after s (and 1 s at least after the fusion
+listens to every view): ``stall`` (it stops), ``not_tracking`` (it
+stops, and its tracker's /<view>/tracker/sensor_status says, each
+second, that it tracks no one: the person left its range),
+``clock_lost`` (its ClockState is not ok), ``wrong_pose`` (it is seen
+from its pose moved ~wrong_shift m along x and turned ~wrong_turn
+degrees, default 0.3 and 10; the fusion keeps the declared one),
 ``nan_joints`` (every skeleton has NaN hands), ``frozen`` (it sends its
 skeleton of ~fault_after s again and again, freshly stamped, as a Kinect
 SDK repeats its last one), or ``none``.  In the
@@ -73,17 +73,18 @@ def main():
     rospy.Subscriber('/calibration/capture_data', CaptureData,
                      on_calibration)
     rng = np.random.default_rng(36)
-    # The fault's clock starts once the fusion listens to every view: on a
-    # busy machine its node can start after ~fault_after s, and a view
-    # stalled before it connected would read no_data, not stalled.
-    while not rospy.is_shutdown() and \
-            min(p.get_num_connections() for p in pubs.values()) == 0:
-        time.sleep(0.05)
     start, lost, still = time.time(), False, None
+    # On a busy machine the fusion's node can start after ~fault_after s: a
+    # view stalled before the fusion heard it would read no_data, not
+    # stalled. The fault then waits for the fusion; the dancer does not.
+    fault_at = None
     rate = rospy.Rate(30)
     while not rospy.is_shutdown():
+        if fault_at is None and \
+                min(p.get_num_connections() for p in pubs.values()) > 0:
+            fault_at = max(start + after, time.time() + 1.0)
         stamp = time.time() - 0.02
-        late = time.time() - start > after
+        late = fault_at is not None and time.time() > fault_at
         held = sum(min(max(stamp - a, 0.0), b - a) for a, b in pauses)
         world = ORIGINAL.to_world(motion.positions_at(
             [stamp - start - held])[0])
