@@ -161,3 +161,31 @@ def test_frames_out_of_index_order_are_not_a_restart():
     assert s['frames_skipped'] == 2
     assert s['frames_published'] + s['frames_skipped'] <= \
         s['frames_expected']
+
+
+def test_a_late_frame_stamped_past_the_later_ones_is_not_a_restart():
+    # As above, with the device clock map moved up: frame 99 comes after
+    # frame 102 and is stamped after it too.  Taken for a new stretch, the
+    # frames after it would count the stall's frames again (a starved CI
+    # run: 348 skipped of 180 expected).
+    stream = [(d, i, k + 40) for d, i, k in tracker_stream(
+        180, stall=[99, 100])]
+    at = next(n for n, (_, i, _) in enumerate(stream) if i == 99)
+    late = stream.pop(at)
+    stream.insert(at + 1, (stream[at][0] + 0.01, late[1], late[2]))
+    s = count(stream, 6.0)
+    assert s['frames_published'] == 178
+    assert s['frames_skipped'] == 2
+    assert s['frames_expected'] == 180
+
+
+def test_a_restart_that_gives_a_skipped_frames_index_again_starts_over():
+    # The tracker restarted (its count back to 0) and its sensor's first
+    # frame has the index of one the stretch skipped: a new stretch, not a
+    # late frame (its count is below those of the frames around it).
+    before = [(d, i, k + 5) for d, i, k in tracker_stream(150,
+                                                          stall=[20])]
+    after = [(d + 5.0, i + 20, k) for d, i, k in tracker_stream(100)]
+    s = count(before + after, 10.0)
+    assert s['frames_published'] == 249
+    assert s['frames_skipped'] == 1

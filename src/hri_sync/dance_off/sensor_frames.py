@@ -24,17 +24,19 @@ Skeletons without a frame index (0: a replayed or older sensor) are not
 counted; without two frames of known index and stamp the rate, and so
 ``frames_expected`` and ``frames_unpublished``, are NaN.  A frame index that
 goes back (the sensor reopened, a recording looping) starts a new stretch,
-unless the frame lies inside the stretch on both counts (index and device
-time): then it is a frame of the stretch that came after later ones (stamp
-order, when the device clock map moved between them), counted as published
-and not as a restart; a count that goes back (the tracker restarted)
-counts from its new value.
+unless the frame is one the stretch has not had, between two it has, and
+its count of skipped frames lies between theirs: then it is a frame of the
+stretch that came after later ones (stamp order, when the device clock map
+moved between them, either way), counted as published and not as a
+restart (which would count the frames after it twice); a count that goes
+back (the tracker restarted) counts from its new value.
 """
 
 from __future__ import annotations
 
+import bisect
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 
 @dataclass
@@ -45,6 +47,18 @@ class _Stretch:
     first_device: float
     last_index: int
     last_device: float
+    counts: dict[int, int] = field(default_factory=dict)   # index: skipped
+
+    def holds_late(self, index: int, skipped: int) -> bool:
+        """Whether frame ``index`` with count ``skipped`` is one of the
+        stretch's that came late: one it has not had, between two it has,
+        its count between theirs."""
+        if not self.first_index < index < self.last_index \
+                or index in self.counts:
+            return False
+        seen = sorted(self.counts)
+        k = bisect.bisect(seen, index)
+        return self.counts[seen[k - 1]] <= skipped <= self.counts[seen[k]]
 
     def rate(self) -> float:
         """Frames per second over the stretch (NaN: one frame)."""
@@ -72,16 +86,18 @@ class SensorFrames:
         last = self._stretches[-1] if self._stretches else None
         if last is not None and index == last.last_index:
             return                       # another user of the same frame
-        if (last is not None and last.first_index <= index < last.last_index
-                and last.first_device <= device < last.last_device):
+        if last is not None and last.holds_late(index, skipped):
+            last.counts[index] = skipped
             self.published += 1          # a frame of the stretch, late
             return
         if last is None or index < last.last_index:
             between = index - 1          # a new stretch: frames before it
-            self._stretches.append(_Stretch(index, device, index, device))
+            last = _Stretch(index, device, index, device)
+            self._stretches.append(last)
         else:
             between = index - last.last_index - 1
             last.last_index, last.last_device = index, device
+        last.counts[index] = skipped
         self.published += 1
         if self._count is not None:
             grown = (skipped - self._count if skipped >= self._count
