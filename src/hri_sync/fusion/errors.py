@@ -18,10 +18,11 @@ tells it apart. For each of a view's joints, seven inputs:
 - ``across_floor``: the same along the floor (m);
 - ``back``: how much of the fused body's back the view sees (0 front-on,
   1 from behind: hri_sync.fusion.facing.back_view, given; unknown
-  without the fused hips and neck). A person punching towards one sensor hides the
-  arms from the sensors behind, whose trackers still give them at full
-  confidence: where the joints lie alone did not tell those views' arms
-  from the front one's (real Kinect v1 recordings, docs/fusion.md).
+  without the fused hips and neck). A person punching towards one sensor
+  hides the arms from the sensors behind, whose trackers still give them
+  at full confidence: where the joints lie alone did not tell those
+  views' arms from the front one's (real Kinect v1 recordings,
+  docs/fusion.md).
 
 Each depends on the instant alone: a fusion of a recording weighs the
 views as the live one did (a person's bone lengths over the last seconds
