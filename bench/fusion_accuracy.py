@@ -41,6 +41,11 @@ rendered truth. Prints one JSON object:
   instants and joints (the fused instants the best view has a skeleton
   at: ``share``): ``single_view_mean_m`` covers a view's tracked frames
   only, ``fused_mean_m`` every fused instant;
+- ``labels_from_later``: the fused body as a recording fused afterwards
+  gives it, each instant whose sides were in doubt given the labels of
+  the next sure one (hri_sync.fusion.relabel; fuse_bag
+  --labels-from-later): ``fused_mean_m``, ``fused_hidden_mean_m``,
+  ``bound_coverage`` and ``exchanged_instants``;
 - ``no_time_alignment``: the same fusion fed each view's arrival time as
   its stamp (a plain subscriber), same figures;
 - ``targets``: each target and whether it is met.
@@ -104,6 +109,7 @@ from hri_sync.fusion.lag import FilterLag  # noqa: E402
 from hri_sync.fusion.pipeline import Fusion, FusionParams  # noqa: E402
 from hri_sync.fusion.profile import (  # noqa: E402
     Profile, fit_profile, timing_spread)
+from hri_sync.fusion.relabel import labels_from_later  # noqa: E402
 from hri_sync.fusion.truth import world_motion  # noqa: E402
 from hri_sync_support.fusion_people import (  # noqa: E402
     gait_cycle, match, score, walker)
@@ -807,6 +813,8 @@ def main():
         result['unmatched_instants'] = dict(fusion.sightlines.instants)
         if aligned:
             out.update(result)
+            out['labels_from_later'] = afterwards_figures(
+                frames, captured, truth, tracks[best])
             out['best_view_alone'] = alone_figures(
                 msgs, best, declared[best], profile, truth, tracks[best])
             instants = views_at(frames, truth, tracks)
@@ -828,6 +836,19 @@ def main():
         print_table(out)
     else:
         print(json.dumps(out, indent=1, default=float))
+
+
+def afterwards_figures(frames, captured, truth, best_track):
+    """The fused figures of ``frames`` with the sides in doubt put right
+    from later instants, as a recording fused afterwards can
+    (hri_sync.fusion.relabel): ``fused_mean_m``, ``fused_hidden_mean_m``,
+    ``bound_coverage`` and ``exchanged_instants``."""
+    relabelled, exchanged = labels_from_later(frames)
+    result = figures(relabelled, captured, truth, best_track)
+    return {'fused_mean_m': result['fused_mean_m'],
+            'fused_hidden_mean_m': result['fused_hidden_mean_m'],
+            'bound_coverage': result['bound_coverage'],
+            'exchanged_instants': exchanged}
 
 
 def per_view(names, values):

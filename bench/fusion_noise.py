@@ -25,7 +25,11 @@ object:
   ``nearest_view_hidden_below_best_pct``, the same for the view nearest
   the truth at each instant and joint (``view_oracle_mean_m``: which no
   fusion can know; where it is short of a target, no choice among the
-  views meets it);
+  views meets it); ``afterwards_below_best_pct`` /
+  ``afterwards_hidden_below_best_pct`` and ``afterwards_bound_coverage``,
+  the fused body as a recording fused afterwards with the sides in doubt
+  put right from later instants gives it (fuse_bag --labels-from-later;
+  fusion_accuracy.py's ``labels_from_later``);
 - ``summary``: each figure's median, least and greatest over the seeds
   that have it, and in how many (``of``): the hidden-joint figures are
   null in a draw whose best view hides no joint;
@@ -71,6 +75,7 @@ def figures(out):
     hidden = out['best_view_hidden_mean_m']
     paired = out['best_view_instants']
     alone = out['best_view_alone']
+    later = out['labels_from_later']
     return {
         'best_view_m': best,
         'fused_m': out['fused_mean_m'],
@@ -92,6 +97,10 @@ def figures(out):
         'nearest_view_below_best_pct': below(out['view_oracle_mean_m'], best),
         'nearest_view_hidden_below_best_pct': below(
             out['view_oracle_hidden_mean_m'], hidden),
+        'afterwards_below_best_pct': below(later['fused_mean_m'], best),
+        'afterwards_hidden_below_best_pct': below(
+            later['fused_hidden_mean_m'], hidden),
+        'afterwards_bound_coverage': later['bound_coverage'],
     }
 
 

@@ -38,6 +38,7 @@ from geometry_msgs.msg import Point, Quaternion
 from std_msgs.msg import Header
 
 from hri_sync.dance_off.motion import load_motion
+from hri_sync.fusion.arms import turned
 from hri_sync.fusion.frames import SensorPose, parse_pose
 from hri_sync.msg import ClockState, Skeleton
 from hri_sync_support.harness import free_port, wait_for_master, wait_until
@@ -236,6 +237,36 @@ def test_a_split_recording_is_fused_as_one(fused):
     with rosbag.Bag(out) as bag:
         again = [(topic, t.to_sec()) for topic, _, t in bag.read_messages()]
     assert again == [(topic, t) for topic, _, t in msgs]
+
+
+def test_labels_from_later_fuse_the_same_instants(fused):
+    _, msgs, _, folder = fused
+    out = str(folder / 'relabelled.bag')
+    run = fuse_bag(str(folder / 'views.bag'), '--out', out, '--poses',
+                   str(POSES), '--clock-state', '/recorder/clock_state',
+                   '--profile', str(folder / 'plain.yaml'), '--set',
+                   'smooth_accel=30', '--labels-from-later')
+    assert run.returncode == 0, run.stderr
+    exchanged = re.search(r'(\d+) person-instants whose left and right '
+                          r'were in doubt given the labels of a later sure '
+                          r'one', run.stdout)
+    assert exchanged, run.stdout
+    with rosbag.Bag(out) as bag:
+        again = [(topic, msg, t.to_sec())
+                 for topic, msg, t in bag.read_messages()]
+    assert [(topic, t) for topic, _, t in again] == \
+        [(topic, t) for topic, _, t in msgs]
+    # each skeleton as before, or with its left and right exchanged
+    changed = 0
+    for (topic, a, _), (_, b, _) in zip(msgs, again):
+        if not topic.endswith('/skeleton'):
+            continue
+        pa, pb = [np.array([(p.x, p.y, p.z) for p in m.positions])
+                  for m in (a, b)]
+        if not np.array_equal(pa, pb):
+            np.testing.assert_array_equal(pb, turned(pa))
+            changed += 1
+    assert changed == int(exchanged.group(1))
 
 
 def test_bad_options_and_a_recording_without_the_views(fused):

@@ -14,15 +14,18 @@ spec.loader.exec_module(bench)
 
 def result(best, fused, best_hidden, fused_hidden, coverage=0.99,
            duplicates=0, latency=99.0, slowest=96.0, paired=None,
-           alone=None, nearest=None):
+           alone=None, nearest=None, later=None):
     """A fusion_accuracy.py JSON result's keys the bench reads
     (``paired``: the best view and the fused body on the same instants,
     and its share of them; ``alone``: the best view alone through the
     fusion, whole and hidden; ``nearest``: the view nearest the truth,
-    whole and hidden; the run's own figures by default)."""
+    whole and hidden; ``later``: fused afterwards, the sides in doubt
+    put right from later instants, whole and hidden; the run's own
+    figures by default)."""
     best_m, fused_m, share = paired or (best, fused, 1.0)
     alone_m, alone_hidden = alone or (best, best_hidden)
     nearest_m, nearest_hidden = nearest or (best, best_hidden)
+    later_m, later_hidden = later or (fused, fused_hidden)
     return {'single_view_mean_m': {'front': best, 'right': best + 0.01},
             'best_view': 'front',
             'best_view_alone': {'mean_m': alone_m,
@@ -36,7 +39,11 @@ def result(best, fused, best_hidden, fused_hidden, coverage=0.99,
             'fused_hidden_mean_m': fused_hidden,
             'latency_p95_ms': latency, 'slowest_pipeline_p95_ms': slowest,
             'duplicate_people': duplicates, 'bound_coverage': coverage,
-            'bound_median_m': 0.15}
+            'bound_median_m': 0.15,
+            'labels_from_later': {'fused_mean_m': later_m,
+                                  'fused_hidden_mean_m': later_hidden,
+                                  'bound_coverage': coverage,
+                                  'exchanged_instants': 0}}
 
 
 def test_seed_one_is_the_scene_as_given():
@@ -69,6 +76,12 @@ def test_figures_are_below_the_best_view_in_percent():
                              nearest=(0.054, 0.120)))
     assert f['nearest_view_below_best_pct'] == 10.0
     assert f['nearest_view_hidden_below_best_pct'] == 25.0
+    # Fused afterwards, the start's sides put right: 0.042 m, 0.08 hidden.
+    f = bench.figures(result(0.060, 0.045, 0.160, 0.100,
+                             later=(0.042, 0.080), coverage=0.97))
+    assert f['afterwards_below_best_pct'] == 30.0
+    assert f['afterwards_hidden_below_best_pct'] == 50.0
+    assert f['afterwards_bound_coverage'] == 0.97
     # A view that tracked no one has no error, and is not the best.
     out = result(0.060, 0.045, 0.160, 0.100)
     out['single_view_mean_m']['back'] = None

@@ -16,7 +16,11 @@ each second, and the REP 155 bodies fusion.launch's rep155_bridge gives
 the world frame is on /tf_static; /humans/bodies/tracked every 0.1 s).
 A study recorded raw can be fused again with refined poses
 (scripts/fusion_refine_pose.py) or other settings (--set NAME=VALUE, the
-launch file's args). Prints the views' and people's statuses at the end.
+launch file's args), and with --labels-from-later each person's instants
+whose left and right were in doubt take the labels of the next sure one
+(hri_sync.fusion.relabel: the recording is read and fused twice, every
+fused instant held in memory between). Prints the views' and people's
+statuses at the end.
 
 Needs no roscore. Exit status: 0 fused; 1 nothing fused; 2 bad options or
 a bag it cannot read.
@@ -41,6 +45,7 @@ from hri_sync.fusion.feed import (
 from hri_sync.fusion.frames import parse_pose
 from hri_sync.fusion.pipeline import Fusion
 from hri_sync.fusion.profile import profiles
+from hri_sync.fusion.relabel import labels_from_later
 from hri_sync.fusion.report import statuses
 from hri_sync.fusion.ros_fusion import fused_messages
 from hri_sync.fusion.settings import NAMES, fusion_params
@@ -79,6 +84,11 @@ def arguments(argv):
                         "host's ClockState topic ('': its clock is the "
                         'global clock)')
     parser.add_argument('--stamp-uncertainty', type=float, default=0.001)
+    parser.add_argument('--labels-from-later', action='store_true',
+                        help="give each person's instants whose left and "
+                        'right were in doubt the labels of the next sure '
+                        'one (the recording is fused twice; '
+                        'hri_sync.fusion.relabel)')
     parser.add_argument('--set', action='append', default=[],
                         metavar='NAME=VALUE', help='a fusion setting: '
                         + ', '.join(NAMES))
@@ -156,6 +166,8 @@ class Output:
         self.fused = self.people = 0
         self.ids, self.last, self.summary = set(), None, []
         self.bodies, self.tracked_at = TrackedBodies(FORGET_AFTER), None
+        self.relabelled = {}    # stamp: the frame written in its stead
+        self.exchanged = None   # person-instants relabelled, if asked
 
     def rep155(self, t, skeletons):
         """The bodies' tf; the sensor frame's pose first."""
@@ -184,6 +196,7 @@ class Output:
     def write(self, step):
         t, cid = rospy.Time.from_sec(step.t), self.args.client_id
         for frame in step.frames:
+            frame = self.relabelled.get(frame.stamp, frame)
             skeletons, cloud = fused_messages(
                 frame, to_global(frame.stamp, self.replay.host, True),
                 self.output_pose, cid, self.args.world_frame)
@@ -208,6 +221,9 @@ class Output:
               'to %s' % (self.fused, self.people, ', '.join(
                   'person %d' % i for i in sorted(self.ids)) or 'nobody',
                   self.args.out))
+        if self.exchanged is not None:
+            print('%d person-instants whose left and right were in doubt '
+                  'given the labels of a later sure one' % self.exchanged)
         print('at the end of the recording:')
         for task, level, message, values in self.summary:
             print('  %-5s %s: %s' % (LEVELS[level], task, message))
@@ -264,17 +280,30 @@ def main(argv=None):
     """Runs fuse_bag; its exit status."""
     parser, args = arguments(argv)
     poses, output_pose, profile, params, topics = setup(parser, args)
-    replay = Replay(lambda clock: Fusion(poses, params, clock, profile),
-                    extra=args.stamp_uncertainty)
+
+    def replay():
+        return Replay(lambda clock: Fusion(poses, params, clock, profile),
+                      extra=args.stamp_uncertainty)
+
+    def steps(bags, through):
+        return through.run(heapq.merge(*(records(b, topics) for b in bags),
+                                       key=lambda r: r.t))
+
     try:
         with contextlib.ExitStack() as stack:
             bags = [stack.enter_context(open_bag(b)) for b in args.bags]
             say_missing(bags, topics)
+            relabelled = None
+            if args.labels_from_later:     # the same fusion, looked ahead
+                relabelled, exchanged = labels_from_later(
+                    [f for step in steps(bags, replay()) for f in step.frames])
+            fusion = replay()
             output = Output(stack.enter_context(rosbag.Bag(args.out, 'w')),
-                            replay, output_pose, args)
-            for step in replay.run(heapq.merge(
-                    *(records(b, topics) for b in bags),
-                    key=lambda r: r.t)):
+                            fusion, output_pose, args)
+            if relabelled is not None:
+                output.relabelled = {f.stamp: f for f in relabelled}
+                output.exchanged = exchanged
+            for step in steps(bags, fusion):
                 output.write(step)
     except (rosbag.ROSBagException, OSError, ValueError) as e:
         print('fuse_bag: %s' % e, file=sys.stderr)

@@ -1,0 +1,83 @@
+"""A recording's fused people, their sides in doubt put right from later.
+
+Live, the fusion decides at each instant which way a person faces from
+what the views give then (hri_sync.fusion.facing); where nothing decides
+(the hands near the trunk, the views split evenly, the head's lead too
+small) a person's left and right stay in doubt, and can be exchanged
+until the hands first reach out: on real Kinect v1 recordings of people
+punching who face one sensor, for up to a second at the start
+(docs/fusion.md). A recording fused afterwards can look ahead: no one
+turns about in an instant, so a person's front from one fused instant to
+the next (``max_step`` s apart or less) turns by well under a right
+angle. From each instant whose sides were sure, back through the
+instants before it whose sides were in doubt, each instant is given the
+labels whose front continues the one after it (every left and right
+joint exchanged where it points the other way). The chain ends at an
+instant whose sides were sure, at two fronts more than 60 degrees from
+one line (a turn it cannot tell from an exchange), or at a gap of over
+``max_step`` s between instants that have a front (hips and neck given,
+the hips apart: one without is passed over and kept as it is); instants
+in doubt after a person's last sure one keep their labels. Their bounds,
+which take in both sides where the sides are in doubt, are kept (moved
+with their joints), and so is the doubt.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Dict, List, Optional, Tuple
+
+import numpy as np
+
+from hri_sync.fusion.arms import turned
+from hri_sync.fusion.facing import front
+from hri_sync.fusion.pipeline import Frame, Person
+
+MAX_STEP = 0.25     # s between fused instants the chain crosses
+LEAST_COS = 0.5     # the fronts it compares lie within 60 degrees
+
+
+def exchanged_sides(person: Person) -> Person:
+    """``person`` with every left and right joint exchanged (positions,
+    confidence, bound, sigma and scatter alike)."""
+    body = person.body
+    return replace(person, body=replace(
+        body, positions=turned(body.positions),
+        confidence=turned(body.confidence), bound=turned(body.bound),
+        scatter=turned(body.scatter), sigma=turned(body.sigma)))
+
+
+def labels_from_later(frames: List[Frame], max_step: float = MAX_STEP
+                      ) -> Tuple[List[Frame], int]:
+    """``frames`` (in time order) with the people's instants in doubt
+    given their labels from the next sure instant (module docstring), and
+    how many person-instants had their sides exchanged. The frames given
+    are not changed."""
+    people: Dict[int, List[Tuple[int, int]]] = {}
+    for i, frame in enumerate(frames):
+        for k, p in enumerate(frame.people):
+            people.setdefault(p.person, []).append((i, k))
+    out = [list(frame.people) for frame in frames]
+    changed = 0
+    for seq in people.values():
+        after: Optional[np.ndarray] = None     # the front of the next
+        next_t = 0.0
+        for i, k in reversed(seq):
+            p, t = out[i][k], frames[i].stamp
+            faces = front(p.body.positions)
+            if not p.sides_in_doubt:
+                after, next_t = faces, t
+                continue
+            if faces is None:       # judged by nothing, bridged
+                continue
+            if after is None or next_t - t > max_step \
+                    or abs(faces @ after) < LEAST_COS:
+                after = None
+                continue
+            if faces @ after < 0:
+                out[i][k] = exchanged_sides(p)
+                faces = -faces
+                changed += 1
+            after, next_t = faces, t
+    return [replace(frame, people=people_at)
+            for frame, people_at in zip(frames, out)], changed
