@@ -159,3 +159,14 @@ def test_exchanged_sides_moves_every_per_joint_figure():
                                       getattr(p.body, name)[right])
     assert q.body.views == p.body.views and q.sides_in_doubt
     assert len(q.body.positions) == NUM_JOINTS
+
+
+def test_a_sure_instant_without_a_front_is_passed_over():
+    hips_together = facing(0)
+    for hip in ('left_hip', 'right_hip'):
+        hips_together[INDEX[hip], 1] = 0.0
+    bodies = [turned(facing(0))] * 5 + [hips_together] + [facing(0)] * 3
+    out, exchanged = labels_from_later(
+        frames_of(bodies, [True] * 5 + [False] * 4))
+    assert exchanged == 5
+    assert all(fr @ facing_x() > 0 for fr in fronts(out[:5]))

@@ -16,7 +16,8 @@ joint exchanged where it points the other way). The chain ends at an
 instant whose sides were sure, at two fronts more than 60 degrees from
 one line (a turn it cannot tell from an exchange), or at a gap of over
 ``max_step`` s between instants that have a front (hips and neck given,
-the hips apart: one without is passed over and kept as it is); instants
+the hips apart: an instant without one, sure or in doubt, is passed over
+and kept as it is); instants
 in doubt after a person's last sure one keep their labels. Their bounds,
 which take in both sides where the sides are in doubt, are kept (moved
 with their joints), and so is the doubt.
@@ -65,10 +66,10 @@ def labels_from_later(frames: List[Frame], max_step: float = MAX_STEP
         for i, k in reversed(seq):
             p, t = out[i][k], frames[i].stamp
             faces = front(p.body.positions)
+            if faces is None:       # judged by nothing, passed over
+                continue
             if not p.sides_in_doubt:
                 after, next_t = faces, t
-                continue
-            if faces is None:       # judged by nothing, bridged
                 continue
             if after is None or next_t - t > max_step \
                     or abs(faces @ after) < LEAST_COS:
