@@ -131,6 +131,18 @@ def test_a_turn_it_cannot_tell_from_an_exchange_ends_the_chain():
     out, exchanged = labels_from_later(
         frames_of(bodies, [True] * 5 + [False] * 3))
     assert exchanged == 0
+    # An exchange the filter spread over instants: the labels right, then
+    # swung round by about 60 degrees a step to the wrong way, then sure
+    # and right: the last wrong one is put right, the chain ends at the
+    # swing and the instants before it keep their (right) labels.
+    bodies = [facing(0)] * 5 + [facing(62), facing(125), turned(facing(0))] \
+        + [facing(0)] * 3
+    out, exchanged = labels_from_later(
+        frames_of(bodies, [True] * 8 + [False] * 3))
+    assert exchanged == 1
+    np.testing.assert_allclose(out[7].people[0].body.positions, facing(0))
+    for f, p in zip(out[:5], bodies[:5]):
+        np.testing.assert_array_equal(f.people[0].body.positions, p)
 
 
 def test_each_person_takes_its_own_later_labels():

@@ -13,8 +13,9 @@ angle. From each instant whose sides were sure, back through the
 instants before it whose sides were in doubt, each instant is given the
 labels whose front continues the one after it (every left and right
 joint exchanged where it points the other way). The chain ends at an
-instant whose sides were sure, at two fronts more than 60 degrees from
-one line (a turn it cannot tell from an exchange), or at a gap of over
+instant whose sides were sure, at two fronts more than 45 degrees from
+one line (an exchange the joint filter spread over several instants, or
+a turn: it tells neither from the other), or at a gap of over
 ``max_step`` s between instants that have a front (hips and neck given,
 the hips apart: an instant without one, sure or in doubt, is passed over
 and kept as it is); instants
@@ -35,7 +36,7 @@ from hri_sync.fusion.facing import front
 from hri_sync.fusion.pipeline import Frame, Person
 
 MAX_STEP = 0.25     # s between fused instants the chain crosses
-LEAST_COS = 0.5     # the fronts it compares lie within 60 degrees
+LEAST_COS = 0.7     # the fronts it compares lie within 45 degrees
 
 
 def exchanged_sides(person: Person) -> Person:
