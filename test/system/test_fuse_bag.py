@@ -8,8 +8,11 @@ from 6 s on.  Runs ``fuse_bag`` on it (no roscore) and checks what it
 wrote: a fused person on the 30 Hz grid of the global clock, near the
 motion, from all three views until the stall and two after, recorded
 after the newest capture it used; the back view's diagnostics ERROR
-``stalled`` at the end; and that a bad setting, views the bag lacks and
-a missing bag each give a clear error and exit status.  Then the live
+``stalled`` at the end; that with --labels-from-later it writes the same
+instants, each skeleton as before or with its sides exchanged as it
+says, and the instants the look-ahead relabels are the ones written so;
+and that a bad setting, views the bag lacks and a missing bag each give
+a clear error and exit status.  Then the live
 fusion node (fuse_bag_live.launch: three views of a dancer, the views and
 the live fused body recorded by rosbag record, 12 s from its first fused
 skeleton) against fuse_bag on that
@@ -28,6 +31,7 @@ import re
 import signal
 import subprocess
 import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -38,8 +42,10 @@ from geometry_msgs.msg import Point, Quaternion
 from std_msgs.msg import Header
 
 from hri_sync.dance_off.motion import load_motion
+from hri_sync.fusion import ros_fuse_bag
 from hri_sync.fusion.arms import turned
 from hri_sync.fusion.frames import SensorPose, parse_pose
+from hri_sync.fusion.relabel import exchanged_sides
 from hri_sync.msg import ClockState, Skeleton
 from hri_sync_support.harness import free_port, wait_for_master, wait_until
 
@@ -267,6 +273,44 @@ def test_labels_from_later_fuse_the_same_instants(fused):
             np.testing.assert_array_equal(pb, turned(pa))
             changed += 1
     assert changed == int(exchanged.group(1))
+
+
+def test_the_relabelled_instants_are_the_ones_written(fused, monkeypatch):
+    # fuse_bag in this process, every tenth fused instant's people given
+    # exchanged sides by the look-ahead: those, and only those, are
+    # written exchanged.
+    _, msgs, _, folder = fused
+    exchanged_at = set()
+
+    def every_tenth(frames):
+        out = []
+        for k, frame in enumerate(frames):
+            if k % 10 == 0 and frame.people:
+                exchanged_at.add(frame.stamp)
+                frame = replace(frame, people=[exchanged_sides(p)
+                                               for p in frame.people])
+            out.append(frame)
+        return out, len(exchanged_at)
+
+    monkeypatch.setattr(ros_fuse_bag, 'labels_from_later', every_tenth)
+    out = str(folder / 'every_tenth.bag')
+    assert ros_fuse_bag.main([
+        str(folder / 'views.bag'), '--out', out, '--poses', str(POSES),
+        '--clock-state', '/recorder/clock_state', '--profile',
+        str(folder / 'plain.yaml'), '--set', 'smooth_accel=30',
+        '--labels-from-later']) == 0
+    with rosbag.Bag(out) as bag:
+        again = [msg for _, msg, _ in bag.read_messages('/fused/skeleton')]
+    before = [msg for topic, msg, _ in msgs if topic == '/fused/skeleton']
+    assert len(again) == len(before) and exchanged_at
+    changed = 0
+    for a, b in zip(before, again):
+        pa, pb = [np.array([(p.x, p.y, p.z) for p in m.positions])
+                  for m in (a, b)]
+        if not np.array_equal(pa, pb):
+            np.testing.assert_array_equal(pb, turned(pa))
+            changed += 1
+    assert changed == len(exchanged_at)
 
 
 def test_bad_options_and_a_recording_without_the_views(fused):

@@ -281,29 +281,29 @@ def main(argv=None):
     parser, args = arguments(argv)
     poses, output_pose, profile, params, topics = setup(parser, args)
 
-    def replay():
-        return Replay(lambda clock: Fusion(poses, params, clock, profile),
-                      extra=args.stamp_uncertainty)
-
-    def steps(bags, through):
-        return through.run(heapq.merge(*(records(b, topics) for b in bags),
-                                       key=lambda r: r.t))
+    def replayed(bags):
+        """A fresh Replay of the recording, and its steps."""
+        replay = Replay(lambda clock: Fusion(poses, params, clock, profile),
+                        extra=args.stamp_uncertainty)
+        return replay, replay.run(heapq.merge(
+            *(records(b, topics) for b in bags), key=lambda r: r.t))
 
     try:
         with contextlib.ExitStack() as stack:
             bags = [stack.enter_context(open_bag(b)) for b in args.bags]
             say_missing(bags, topics)
             relabelled = None
-            if args.labels_from_later:     # the same fusion, looked ahead
+            if args.labels_from_later:      # the same fusion, looked ahead
+                _, steps = replayed(bags)
                 relabelled, exchanged = labels_from_later(
-                    [f for step in steps(bags, replay()) for f in step.frames])
-            fusion = replay()
+                    [f for step in steps for f in step.frames])
+            replay, steps = replayed(bags)
             output = Output(stack.enter_context(rosbag.Bag(args.out, 'w')),
-                            fusion, output_pose, args)
+                            replay, output_pose, args)
             if relabelled is not None:
                 output.relabelled = {f.stamp: f for f in relabelled}
                 output.exchanged = exchanged
-            for step in steps(bags, fusion):
+            for step in steps:
                 output.write(step)
     except (rosbag.ROSBagException, OSError, ValueError) as e:
         print('fuse_bag: %s' % e, file=sys.stderr)
