@@ -182,3 +182,28 @@ def test_a_sure_instant_without_a_front_is_passed_over():
         frames_of(bodies, [True] * 5 + [False] * 4))
     assert exchanged == 5
     assert all(fr @ facing_x() > 0 for fr in fronts(out[:5]))
+
+
+def test_a_lone_sure_instant_takes_the_labels_a_confirmed_later_run_gives():
+    # One instant the hands decided wrongly (sure, alone), the instants in
+    # doubt around it: the sure run after them puts them and it right, and
+    # the chain goes on through the right ones before it unchanged.
+    wrong = turned(facing(0))
+    bodies = [facing(0)] * 5 + [wrong] * 4 + [facing(0)] * 3
+    doubts = [True] * 5 + [False] + [True] * 3 + [False] * 3
+    out, exchanged = labels_from_later(frames_of(bodies, doubts))
+    assert exchanged == 4
+    for f in out:
+        np.testing.assert_allclose(f.people[0].body.positions, facing(0))
+
+
+def test_a_lone_sure_instant_no_chain_reaches_decides_before_it():
+    frames = frames_of([turned(facing(0))] * 5 + [facing(0)],
+                       [True] * 5 + [False])
+    later = [Frame(frames[-1].stamp + 0.3 + k * STEP,
+                   [person(turned(facing(0)), False)], 0.0)
+             for k in range(3)]
+    out, exchanged = labels_from_later(frames + later)
+    assert exchanged == 5
+    assert all(fr @ facing_x() > 0 for fr in fronts(out[:6]))
+    assert all(fr @ facing_x() < 0 for fr in fronts(out[6:]))

@@ -12,16 +12,19 @@ the next (``max_step`` s apart or less) turns by well under a right
 angle. From each instant whose sides were sure, back through the
 instants before it whose sides were in doubt, each instant is given the
 labels whose front continues the one after it (every left and right
-joint exchanged where it points the other way). The chain ends at an
-instant whose sides were sure, at two fronts more than 45 degrees from
-one line (an exchange the joint filter spread over several instants, or
-a turn: it tells neither from the other), or at a gap of over
-``max_step`` s between instants that have a front (hips and neck given,
-the hips apart: an instant without one, sure or in doubt, is passed over
-and kept as it is); instants
-in doubt after a person's last sure one keep their labels. Their bounds,
-which take in both sides where the sides are in doubt, are kept (moved
-with their joints), and so is the doubt.
+joint exchanged where it points the other way). As live, where one
+instant of the hands can be a tracker's slip, a sure instant the chain
+reaches alone (the person's next instant in doubt or the other way
+round) is carried by it like one in doubt; the chain ends at a sure
+instant the next confirms, one no chain reaches, at two fronts more than
+45 degrees from one line (an exchange the joint filter spread over
+several instants, or a turn: it tells neither from the other), or at a
+gap of over ``max_step`` s between instants that have a front (hips and
+neck given, the hips apart: an instant without one, sure or in doubt, is
+passed over and kept as it is); instants in doubt after a person's last
+sure one keep their labels. Their bounds, which take in both sides where
+the sides are in doubt, are kept (moved with their joints), and so is
+the doubt.
 """
 
 from __future__ import annotations
@@ -62,24 +65,49 @@ def labels_from_later(frames: List[Frame], max_step: float = MAX_STEP
     out = [list(frame.people) for frame in frames]
     changed = 0
     for seq in people.values():
+        timeline = [(frames[i].stamp, front(out[i][k].body.positions),
+                     not out[i][k].sides_in_doubt) for i, k in seq]
         after: Optional[np.ndarray] = None     # the front of the next
         next_t = 0.0
-        for i, k in reversed(seq):
-            p, t = out[i][k], frames[i].stamp
-            faces = front(p.body.positions)
+        for n in reversed(range(len(seq))):
+            t, faces, sure = timeline[n]
             if faces is None:       # judged by nothing, passed over
                 continue
-            if not p.sides_in_doubt:
+            if after is not None and not _continues(
+                    t, faces, next_t, after, max_step):
+                after = None
+            if sure and (after is None or _confirmed(timeline, n, max_step)):
                 after, next_t = faces, t
                 continue
-            if after is None or next_t - t > max_step \
-                    or abs(faces @ after) < LEAST_COS:
-                after = None
+            if after is None:
                 continue
             if faces @ after < 0:
-                out[i][k] = exchanged_sides(p)
+                i, k = seq[n]
+                out[i][k] = exchanged_sides(out[i][k])
                 faces = -faces
                 changed += 1
             after, next_t = faces, t
     return [replace(frame, people=people_at)
             for frame, people_at in zip(frames, out)], changed
+
+
+def _continues(t: float, faces: np.ndarray, later: float,
+               after: np.ndarray, max_step: float) -> bool:
+    """Whether the front ``faces`` at ``t`` and ``after`` at ``later``
+    are near enough in time and direction to tell an exchange from a
+    turn."""
+    return later - t <= max_step and abs(faces @ after) >= LEAST_COS
+
+
+def _confirmed(timeline: List[Tuple[float, Optional[np.ndarray], bool]],
+               n: int, max_step: float) -> bool:
+    """Whether the sure instant ``n`` of a person's ``timeline`` (stamp,
+    front, sure) is confirmed: the person's next instant is sure too and
+    its front continues this one's the same way round."""
+    if n + 1 >= len(timeline):
+        return False
+    t, faces, _ = timeline[n]
+    later, after, sure = timeline[n + 1]
+    return bool(sure and after is not None and faces is not None
+                and _continues(t, faces, later, after, max_step)
+                and faces @ after > 0)
