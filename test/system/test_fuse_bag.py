@@ -253,9 +253,9 @@ def test_labels_from_later_fuse_the_same_instants(fused):
                    '--profile', str(folder / 'plain.yaml'), '--set',
                    'smooth_accel=30', '--labels-from-later')
     assert run.returncode == 0, run.stderr
-    exchanged = re.search(r'(\d+) person-instants whose left and right '
-                          r'were in doubt given the labels of a later sure '
-                          r'one', run.stdout)
+    exchanged = re.search(r'(\d+) person-instants given their left and '
+                          r'right from later sure instants \(exchanged\)',
+                          run.stdout)
     assert exchanged, run.stdout
     with rosbag.Bag(out) as bag:
         again = [(topic, msg, t.to_sec())

@@ -222,8 +222,8 @@ class Output:
                   'person %d' % i for i in sorted(self.ids)) or 'nobody',
                   self.args.out))
         if self.exchanged is not None:
-            print('%d person-instants whose left and right were in doubt '
-                  'given the labels of a later sure one' % self.exchanged)
+            print('%d person-instants given their left and right from '
+                  'later sure instants (exchanged)' % self.exchanged)
         print('at the end of the recording:')
         for task, level, message, values in self.summary:
             print('  %-5s %s: %s' % (LEVELS[level], task, message))
