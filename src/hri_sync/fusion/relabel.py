@@ -14,17 +14,17 @@ instants before it whose sides were in doubt, each instant is given the
 labels whose front continues the one after it (every left and right
 joint exchanged where it points the other way). As live, where one
 instant of the hands can be a tracker's slip, a sure instant the chain
-reaches alone (the person's next instant in doubt or the other way
-round) is carried by it like one in doubt; the chain ends at a sure
-instant the next confirms, one no chain reaches, at two fronts more than
-45 degrees from one line (an exchange the joint filter spread over
-several instants, or a turn: it tells neither from the other), or at a
-gap of over ``max_step`` s between instants that have a front (hips and
-neck given, the hips apart: an instant without one, sure or in doubt, is
-passed over and kept as it is); instants in doubt after a person's last
-sure one keep their labels. Their bounds, which take in both sides where
-the sides are in doubt, are kept (moved with their joints), and so is
-the doubt.
+reaches alone (the person's next instant in doubt, or sure with its
+front the other way) is carried by it like one in doubt. A sure instant
+the next confirms, or one no chain from later reaches, starts a chain of
+its own; a chain ends at two fronts more than 45 degrees from one line
+(an exchange the joint filter spread over several instants, or a turn:
+it tells neither from the other), or at a gap of over ``max_step`` s
+between instants that have a front (hips and neck given, the hips apart:
+an instant without one, sure or in doubt, is passed over and kept as it
+is); instants in doubt after a person's last sure one keep their labels.
+Their bounds, which take in both sides where the sides are in doubt, are
+kept (moved with their joints), and so is the doubt.
 """
 
 from __future__ import annotations
