@@ -1,8 +1,8 @@
 """hri_sync.fusion.relabel: a recording's people whose sides were in doubt
 take their labels from the next instant whose sides were sure, by the
 front's continuity; the chain ends at a gap, at a turn it cannot tell
-from an exchange, or at the next sure instant; the frames given are not
-changed."""
+from an exchange, or at a sure instant the next confirms (a lone one is
+carried); the frames given are not changed."""
 import math
 
 import numpy as np
@@ -46,7 +46,12 @@ def frames_of(bodies, doubts, start=100.0, step=STEP):
 
 
 def fronts(frames):
+    """The one person's front at each of ``frames``."""
     return [front(f.people[0].body.positions) for f in frames]
+
+
+def facing_x():
+    return np.array([1.0, 0.0, 0.0])
 
 
 def test_a_start_in_doubt_takes_the_labels_of_the_first_sure_instant():
@@ -96,10 +101,6 @@ def test_a_gap_ends_the_chain():
     assert exchanged == 5
     assert all(fr @ facing_x() < 0 for fr in fronts(out[:5]))
     assert all(fr @ facing_x() > 0 for fr in fronts(out[5:]))
-
-
-def facing_x():
-    return np.array([1.0, 0.0, 0.0])
 
 
 def test_doubt_after_the_last_sure_instant_is_kept():
