@@ -245,6 +245,19 @@ def test_a_split_recording_is_fused_as_one(fused):
     assert again == [(topic, t) for topic, _, t in msgs]
 
 
+def exchanged_skeletons(pairs):
+    """How many of the (before, after) Skeleton ``pairs`` differ; each that
+    does is the one before with its left and right exchanged."""
+    changed = 0
+    for a, b in pairs:
+        pa, pb = [np.array([(p.x, p.y, p.z) for p in m.positions])
+                  for m in (a, b)]
+        if not np.array_equal(pa, pb):
+            np.testing.assert_array_equal(pb, turned(pa))
+            changed += 1
+    return changed
+
+
 def test_labels_from_later_fuse_the_same_instants(fused):
     _, msgs, _, folder = fused
     out = str(folder / 'relabelled.bag')
@@ -262,17 +275,9 @@ def test_labels_from_later_fuse_the_same_instants(fused):
                  for topic, msg, t in bag.read_messages()]
     assert [(topic, t) for topic, _, t in again] == \
         [(topic, t) for topic, _, t in msgs]
-    # each skeleton as before, or with its left and right exchanged
-    changed = 0
-    for (topic, a, _), (_, b, _) in zip(msgs, again):
-        if not topic.endswith('/skeleton'):
-            continue
-        pa, pb = [np.array([(p.x, p.y, p.z) for p in m.positions])
-                  for m in (a, b)]
-        if not np.array_equal(pa, pb):
-            np.testing.assert_array_equal(pb, turned(pa))
-            changed += 1
-    assert changed == int(exchanged.group(1))
+    skeletons = [(a, b) for (topic, a, _), (_, b, _) in zip(msgs, again)
+                 if topic.endswith('/skeleton')]
+    assert exchanged_skeletons(skeletons) == int(exchanged.group(1))
 
 
 def test_the_relabelled_instants_are_the_ones_written(fused, monkeypatch):
@@ -303,14 +308,7 @@ def test_the_relabelled_instants_are_the_ones_written(fused, monkeypatch):
         again = [msg for _, msg, _ in bag.read_messages('/fused/skeleton')]
     before = [msg for topic, msg, _ in msgs if topic == '/fused/skeleton']
     assert len(again) == len(before) and exchanged_at
-    changed = 0
-    for a, b in zip(before, again):
-        pa, pb = [np.array([(p.x, p.y, p.z) for p in m.positions])
-                  for m in (a, b)]
-        if not np.array_equal(pa, pb):
-            np.testing.assert_array_equal(pb, turned(pa))
-            changed += 1
-    assert changed == len(exchanged_at)
+    assert exchanged_skeletons(zip(before, again)) == len(exchanged_at)
 
 
 def test_bad_options_and_a_recording_without_the_views(fused):

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from hri_sync.dance_off.frames import rotation
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
 from hri_sync.fusion.arms import turned
 from hri_sync.fusion.facing import front
@@ -21,11 +22,9 @@ STEP = 1.0 / 30
 def facing(degrees, x=0.0):
     """The standing body at (x, 0) turned ``degrees`` about the vertical
     from facing +x."""
-    a = math.radians(degrees)
-    turn = np.array([[math.cos(a), -math.sin(a), 0.0],
-                     [math.sin(a), math.cos(a), 0.0], [0.0, 0.0, 1.0]])
     p = body()
-    return (p - p[INDEX['torso']]) @ turn.T + (x, 0.0, p[INDEX['torso'], 2])
+    return (p - p[INDEX['torso']]) @ rotation(math.radians(degrees)).T \
+        + (x, 0.0, p[INDEX['torso'], 2])
 
 
 def person(positions, doubt, pid=1):
