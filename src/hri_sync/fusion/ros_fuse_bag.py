@@ -18,8 +18,8 @@ A study recorded raw can be fused again with refined poses
 (scripts/fusion_refine_pose.py) or other settings (--set NAME=VALUE, the
 launch file's args), and with --labels-from-later each person's instants
 whose left and right were in doubt take the labels of the next sure one
-(hri_sync.fusion.relabel: the recording is read and fused twice, every
-fused instant held in memory between). Prints the views' and people's
+(hri_sync.fusion.relabel: every fused instant is held in memory until
+the recording has been fused, then written). Prints the views' and people's
 statuses at the end.
 
 Needs no roscore. Exit status: 0 fused; 1 nothing fused; 2 bad options or
@@ -30,6 +30,7 @@ import contextlib
 import heapq
 import os
 import sys
+from typing import List, NamedTuple, Optional, Tuple
 
 import rosbag
 import rospkg
@@ -43,7 +44,7 @@ from hri_sync.fusion.feed import (
     HOST_CLOCK, SKELETON, VIEW_CLOCK, VIEW_STATUS, VIEW_TOPICS, Recorded,
     Replay, to_global)
 from hri_sync.fusion.frames import parse_pose
-from hri_sync.fusion.pipeline import Fusion
+from hri_sync.fusion.pipeline import Frame, Fusion
 from hri_sync.fusion.profile import profiles
 from hri_sync.fusion.relabel import labels_from_later
 from hri_sync.fusion.report import statuses
@@ -58,6 +59,16 @@ LEVELS = {0: 'OK', 1: 'WARN', 2: 'ERROR'}
 # s: /humans/bodies/tracked's period and how long a body stays in it
 # (rep155_bridge's defaults)
 TRACKED_PERIOD, FORGET_AFTER = 0.1, 0.5
+
+
+class Taken(NamedTuple):
+    """A fusion step, all the bag is given of it: its time, its frames
+    with their stamps on the recorder's clock, its /diagnostics (or
+    None)."""
+
+    t: float
+    frames: List[Tuple[Frame, float]]
+    status: Optional[DiagnosticArray]
 
 
 def arguments(argv):
@@ -87,8 +98,8 @@ def arguments(argv):
     parser.add_argument('--labels-from-later', action='store_true',
                         help="give each person's instants whose left and "
                         'right were in doubt the labels of the next sure '
-                        'one (the recording is fused twice; '
-                        'hri_sync.fusion.relabel)')
+                        'one (every fused instant held in memory until '
+                        'the end; hri_sync.fusion.relabel)')
     parser.add_argument('--set', action='append', default=[],
                         metavar='NAME=VALUE', help='a fusion setting: '
                         + ', '.join(NAMES))
@@ -166,7 +177,6 @@ class Output:
         self.fused = self.people = 0
         self.ids, self.last, self.summary = set(), None, []
         self.bodies, self.tracked_at = TrackedBodies(FORGET_AFTER), None
-        self.relabelled = {}    # stamp: the frame written in its stead
         self.exchanged = None   # person-instants relabelled, if asked
 
     def rep155(self, t, skeletons):
@@ -193,13 +203,30 @@ class Output:
                 rospy.Time.from_sec(self.tracked_at))
             self.tracked_at += TRACKED_PERIOD
 
-    def write(self, step):
-        t, cid = rospy.Time.from_sec(step.t), self.args.client_id
-        for frame in step.frames:
-            frame = self.relabelled.get(frame.stamp, frame)
+    def take(self, step):
+        """What ``step`` writes, with all of it that the fusion's state
+        then decides: its frames, each with its stamp on the recorder's
+        clock, and its diagnostics if due."""
+        frames = [(frame, to_global(frame.stamp, self.replay.host, True))
+                  for frame in step.frames]
+        self.last = step.frames[-1] if step.frames else self.last
+        status = None
+        if step.status_due:
+            status = diagnostics(self.replay.fusion, self.last, step.t,
+                                 self.args.client_id + '/fusion',
+                                 self.args.client_id)
+        if step.ended:      # the statuses as the recording ended
+            self.summary = statuses(self.replay.fusion, self.last)
+        return Taken(step.t, frames, status)
+
+    def write(self, taken, relabelled=None):
+        """Writes a step taken, each frame the look-ahead relabelled
+        (``relabelled``, {stamp: frame}) in its stead."""
+        t, cid = rospy.Time.from_sec(taken.t), self.args.client_id
+        for frame, local in taken.frames:
+            frame = (relabelled or {}).get(frame.stamp, frame)
             skeletons, cloud = fused_messages(
-                frame, to_global(frame.stamp, self.replay.host, True),
-                self.output_pose, cid, self.args.world_frame)
+                frame, local, self.output_pose, cid, self.args.world_frame)
             for msg in skeletons:
                 self.bag.write('/%s/skeleton' % cid, msg, t)
             self.bag.write('/%s/joints' % cid, cloud, t)
@@ -207,14 +234,9 @@ class Output:
             self.fused += 1
             self.people += bool(frame.people)
             self.ids.update(p.person for p in frame.people)
-            self.last = frame
-        self.tracked(step.t)
-        if step.status_due:
-            self.bag.write('/diagnostics', diagnostics(
-                self.replay.fusion, self.last, step.t, cid + '/fusion', cid),
-                t)
-        if step.ended:      # the statuses as the recording ended
-            self.summary = statuses(self.replay.fusion, self.last)
+        self.tracked(taken.t)
+        if taken.status is not None:
+            self.bag.write('/diagnostics', taken.status, t)
 
     def report(self):
         print('fuse_bag: %d instants fused, %d with people (%s); written '
@@ -281,30 +303,27 @@ def main(argv=None):
     parser, args = arguments(argv)
     poses, output_pose, profile, params, topics = setup(parser, args)
 
-    def replayed(bags):
-        """A fresh Replay of the recording, and its steps."""
-        replay = Replay(lambda clock: Fusion(poses, params, clock, profile),
-                        extra=args.stamp_uncertainty)
-        return replay, replay.run(heapq.merge(
-            *(records(b, topics) for b in bags), key=lambda r: r.t))
-
     try:
         with contextlib.ExitStack() as stack:
             bags = [stack.enter_context(open_bag(b)) for b in args.bags]
             say_missing(bags, topics)
-            relabelled = None
-            if args.labels_from_later:      # the same fusion, looked ahead
-                _, steps = replayed(bags)
-                relabelled, exchanged = labels_from_later(
-                    [f for step in steps for f in step.frames])
-            replay, steps = replayed(bags)
+            replay = Replay(lambda clock: Fusion(poses, params, clock,
+                                                 profile),
+                            extra=args.stamp_uncertainty)
+            steps = replay.run(heapq.merge(
+                *(records(b, topics) for b in bags), key=lambda r: r.t))
             output = Output(stack.enter_context(rosbag.Bag(args.out, 'w')),
                             replay, output_pose, args)
-            if relabelled is not None:
-                output.relabelled = {f.stamp: f for f in relabelled}
-                output.exchanged = exchanged
-            for step in steps:
-                output.write(step)
+            if not args.labels_from_later:
+                for step in steps:
+                    output.write(output.take(step))
+            else:       # every step taken, then written relabelled
+                taken = [output.take(step) for step in steps]
+                frames, output.exchanged = labels_from_later(
+                    [frame for step in taken for frame, _ in step.frames])
+                relabelled = {frame.stamp: frame for frame in frames}
+                for step in taken:
+                    output.write(step, relabelled)
     except (rosbag.ROSBagException, OSError, ValueError) as e:
         print('fuse_bag: %s' % e, file=sys.stderr)
         return 2
