@@ -108,7 +108,7 @@ from hri_sync.fusion.frames import SensorPose, facing  # noqa: E402
 from hri_sync.fusion.lag import FilterLag  # noqa: E402
 from hri_sync.fusion.pipeline import Fusion, FusionParams  # noqa: E402
 from hri_sync.fusion.profile import (  # noqa: E402
-    Profile, fit_profile, timing_spread)
+    Profile, fit_profile, sides_as_truth, timing_spread)
 from hri_sync.fusion.relabel import labels_from_later  # noqa: E402
 from hri_sync.fusion.truth import world_motion  # noqa: E402
 from hri_sync_support.fusion_people import (  # noqa: E402
@@ -362,12 +362,15 @@ def single_view_errors(views, poses, profile, truth):
     return fixed, raw
 
 
-def fitted_profile(views, poses, truth, tracker_filter):
+def fitted_profile(views, poses, truth, tracker_filter, exchanged=None):
     """The tracker profile measured on these views: the delay that fits
     best (10 ms steps; with the tracker's filter, ``tracker_filter``, the
     delay and the cap on its lag that fit best together), then offsets,
     sigmas, the confidence power and the arms' growth from behind, and
-    the timing spread of the views so corrected (delay_spread)."""
+    the timing spread of the views so corrected (delay_spread); given a
+    list ``exchanged``, each view's left and right put the truth's way
+    first (hri_sync.fusion.profile.sides_as_truth) and the count of
+    view-frames so put appended to it."""
     t = np.arange(math.ceil(FPS), int(len(views[0][0]) - FPS)) / FPS
     conf, ok = [], np.ones(len(t), bool)
     for i, (tracked, _, _, c) in enumerate(views):
@@ -387,8 +390,12 @@ def fitted_profile(views, poses, truth, tracker_filter):
     _, params, est = scan[(delay, cap)]
     sensors = [p.translation() for p in poses]
     when = t[ok] - delay
+    conf = np.array(conf)[:, ok]
+    if exchanged is not None:
+        est, conf, n = sides_as_truth(est, truth(when), conf)
+        exchanged.append(n)
     profile = fit_profile(est, truth(when), float(delay), float(delay),
-                          np.array(conf)[:, ok], np.array(sensors))
+                          conf, np.array(sensors))
     profile.filter = params
     fixed = np.array([[profile.correct(e, s) for e in view]
                       for view, s in zip(est, sensors)])

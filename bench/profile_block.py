@@ -1,5 +1,6 @@
 """A block of a tracker profile's YAML written again, the profile's other
-lines kept (the fit scripts: fit_error_model.py, fit_posture.py)."""
+lines kept (the fit scripts: fit_error_model.py, fit_offsets.py,
+fit_posture.py)."""
 import yaml
 
 

@@ -12,8 +12,9 @@ from hri_sync.fusion.facing import back_view
 from hri_sync.fusion.frames import SensorPose, facing, parse_pose
 from hri_sync.fusion.fuse import FuseParams, Observation, fuse
 from hri_sync.fusion.pipeline import Fusion, FusionParams
-from hri_sync.fusion.profile import (ARMS, Profile, back_growth,
-                                     confidence_power, fit_profile, rays)
+from hri_sync.fusion.profile import (ARMS, BODY_TURN, Profile, back_growth,
+                                     confidence_power, fit_profile, rays,
+                                     sides_as_truth)
 from hri_sync.fusion.report import people_status, view_named, view_status
 from hri_sync.people.rep155 import body_axes
 from test_fusion_wrong_pose import POSES, run
@@ -386,6 +387,36 @@ def test_the_depth_offsets_along_each_sensors_line_are_measured():
                        profile.depth, atol=1e-4)
     with pytest.raises(ValueError):
         Profile.from_dict({'depth': [0.0] * 14})
+
+
+def test_offsets_of_views_that_took_the_back_for_the_front():
+    # Every view places the head 0.08 m low; two of four take the back
+    # for the front at every other frame (every left joint at the right
+    # one's place). Fitted as they come, the shoulders are offset 0.1 m
+    # outwards (a quarter of the samples a shoulders' width off); with
+    # each view's sides put the truth's way first, the head's offset is
+    # found and the rest 0.
+    rng = np.random.default_rng(12)
+    truth, sensors = turning(200)
+    low = np.zeros(NUM_JOINTS)
+    low[INDEX['head']] = -0.08
+    estimates = np.array([truth + low[:, None] * np.array([0, 0, 1])
+                          for _ in sensors]) \
+        + rng.normal(0, 0.01, (4,) + truth.shape)
+    estimates[2:, ::2] = estimates[2:, ::2][:, :, BODY_TURN]
+    conf = np.ones(estimates.shape[:3])
+    conf[2:, ::2, INDEX['left_hand']] = 0.5
+    as_they_come = fit_profile(estimates, truth, 0.0, 0.0)
+    shoulder = as_they_come.offsets[INDEX['left_shoulder']]
+    assert abs(shoulder[1] - 0.1) < 0.02    # y: left
+    aligned, conf, exchanged = sides_as_truth(estimates, truth, conf)
+    assert exchanged == 200
+    assert np.all(conf[2:, ::2, INDEX['right_hand']] == 0.5)
+    assert np.all(conf[2:, ::2, INDEX['left_hand']] == 1.0)
+    profile = fit_profile(aligned, truth, 0.0, 0.0)
+    expected = np.zeros((NUM_JOINTS, 3))
+    expected[INDEX['head'], 2] = -0.08
+    assert np.allclose(profile.offsets, expected, atol=0.005)
 
 
 def test_the_fusion_takes_each_views_depth_offsets_from_its_own_sensor():

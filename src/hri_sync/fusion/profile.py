@@ -24,7 +24,9 @@ A profile with a ``filter`` (hri_sync.fusion.lag: the tracker's one-euro
 filter) re-dates each joint by its own lag first, so that every joint
 shows the body ``delay`` s before the capture.
 ``fit_profile`` measures them from views of a motion with its truth
-(bench/fusion_accuracy.py --fit-profile). A profile may also carry an
+(bench/fusion_accuracy.py --fit-profile; bench/fit_offsets.py the offsets
+to another skeleton's joints, each view's sides put the truth's way
+first by ``sides_as_truth``). A profile may also carry an
 ``errors`` model (hri_sync.fusion.errors: each joint's error from where it
 lies, learned; bench/fit_error_model.py): the fusion then weighs the
 views' joints against each other by it, at the error model's level above,
@@ -38,11 +40,12 @@ one).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
+from hri_sync.fusion.arms import turned
 from hri_sync.fusion.errors import ErrorModel
 from hri_sync.fusion.facing import back_view
 from hri_sync.fusion.frames import SensorPose
@@ -53,6 +56,7 @@ from hri_sync.people.rep155 import body_axes
 
 ARMS = [INDEX[n] for n in ('left_elbow', 'right_elbow', 'left_hand',
                            'right_hand')]
+BODY_TURN = turned(np.arange(NUM_JOINTS))   # every left, right exchanged
 KEYS = ('delay', 'delay_spread', 'sigma', 'sigma_common',
         'confidence_power', 'back_arms')
 
@@ -178,6 +182,27 @@ def body_frame_errors(estimates: np.ndarray, truth: np.ndarray
             if axes is not None:
                 out[v, k] = (estimates[v, k] - truth[k]) @ axes
     return out
+
+
+def sides_as_truth(estimates: np.ndarray, truth: np.ndarray,
+                   confidence: Optional[np.ndarray] = None
+                   ) -> Tuple[np.ndarray, Optional[np.ndarray], int]:
+    """``estimates`` (views, frames, 15, 3; world) with each view's left
+    and right joints exchanged at the frames where that brings them
+    nearer ``truth`` (frames, 15, 3) on the mean, ``confidence`` (views,
+    frames, 15) exchanged with them, and how many view-frames were: a
+    view that took the back for the front then has its offsets measured
+    on the joints it meant, not half way to the other side."""
+    out = np.array(estimates, float)
+    conf = None if confidence is None else np.array(confidence, float)
+    kept = np.linalg.norm(out - truth, axis=-1).mean(axis=-1)
+    swapped = np.linalg.norm(out[:, :, BODY_TURN] - truth,
+                             axis=-1).mean(axis=-1)
+    exchange = swapped < kept
+    out[exchange] = out[exchange][:, BODY_TURN]
+    if conf is not None:
+        conf[exchange] = conf[exchange][:, BODY_TURN]
+    return out, conf, int(exchange.sum())
 
 
 def fit_profile(estimates: np.ndarray, truth: np.ndarray, delay: float,
