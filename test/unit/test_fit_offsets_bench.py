@@ -30,7 +30,7 @@ def load(path):
 
 
 def rest(values):
-    """A profile's lines other than its offsets."""
+    """A profile's lines other than its offsets and depth offsets."""
     return {k: v for k, v in values.items() if k not in OTHER}
 
 
