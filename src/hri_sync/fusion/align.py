@@ -56,12 +56,13 @@ class Track:
         """Stamp of the newest sample (-inf when empty)."""
         return self.samples[-1].stamp if self.samples else -np.inf
 
-    def unbroken_since(self) -> float:
-        """Stamp of the first sample of the newest run with no gap over
-        ``max_gap`` (inf when empty)."""
+    def unbroken_since(self, gap: Optional[float] = None) -> float:
+        """Stamp of the first sample kept of the newest run with no gap
+        over ``gap`` s (None: ``max_gap``; inf when empty)."""
+        gap = self.max_gap if gap is None else gap
         s = self.samples
         i = len(s) - 1
-        while i > 0 and s[i].stamp - s[i - 1].stamp <= self.max_gap:
+        while i > 0 and s[i].stamp - s[i - 1].stamp <= gap:
             i -= 1
         return s[i].stamp if s else np.inf
 

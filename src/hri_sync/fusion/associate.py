@@ -25,9 +25,10 @@ else (``release``, or a second view joins them) they are someone else.
 Two persons whose bodies overlap (``merge_gate``) for ``merge_after`` s
 while no view sees both are one: the younger id joins the older. A person
 seen by no view for ``forget_after`` s is dropped; ids are never reused:
-not a person whose view gives it now and gave it without a break since it
-was last fused (a fusion that fell behind skips instants, while its views
-went on seeing the person).
+not a person whose view gives it now and gave it with no break of
+``forget_after`` s since it was last fused (a fusion that fell behind skips
+instants, while its views went on seeing the person, perhaps with short
+breaks of their own: a starved machine starves their node too).
 """
 
 from __future__ import annotations
@@ -106,8 +107,8 @@ class Associator:
                since: Optional[Callable[[Key], float]] = None
                ) -> Dict[Key, int]:
         """Person id of each key's body (15, 3) at instant ``t``;
-        ``since(key)``: when that key's samples began without a break (the
-        fusion's tracks; None: not known)."""
+        ``since(key)``: when that key's samples began without a break of
+        ``forget_after`` s (the fusion's tracks; None: not known)."""
         for pid in [p for p, person in self.persons.items()
                     if t - person.seen > self.forget_after
                     and not self._followed(p, bodies, since)]:

@@ -386,7 +386,8 @@ class Fusion:
         obs = self._observe(t)
         ids = self.associator.assign(
             t, {k: o.positions for k, (o, _) in obs.items()},
-            lambda key: self.users[key].track.unbroken_since())
+            lambda key: self.users[key].track.unbroken_since(
+                self.associator.forget_after))
         groups: Dict[int, List[Key]] = {}
         for key, pid in ids.items():
             groups.setdefault(pid, []).append(key)
