@@ -1,23 +1,28 @@
 #!/usr/bin/python3
 """Fit the fusion's posture (where people's elbows lie given their
-shoulders and hands) on a motion capture, into tracker profiles.
+shoulders and hands) on motion captures, into tracker profiles.
 
-Reads MOTION as the fusion bench places it in world
-(hri_sync.fusion.truth.world_motion), keeps both arms of every frame
-(hri_sync.fusion.posture.fit_posture) and writes each --profile with them
-as its ``posture`` block (the profile's other lines unchanged). Prints
-JSON: the arms kept and, over the motion's two halves each fitted on the
-other, the prior's error on the elbows from the true shoulders and hands
-(median and 95th percentile, m) and its mean stated error (one axis).
+Reads each MOTION as the fusion bench places it in world
+(hri_sync.fusion.truth.world_motion), keeps both arms of every frame of
+them all (hri_sync.fusion.posture.fit_posture) and writes each --profile
+with them as its ``posture`` block (the profile's other lines unchanged).
+Prints JSON: the arms kept and the prior's error on the elbows from the
+true shoulders and hands (median and 95th percentile, m) and its mean
+stated error (one axis), each motion's elbows from a posture fitted on
+the others (one motion: each half from the other half), with several
+also by motion.
 
     bench/fit_posture.py --motion data/motion/cmu_60_01_salsa.npz \\
         --profile config/fusion_depth_tracker.yaml \\
         config/fusion_depth_tracker_15fps.yaml
+    bench/fit_posture.py --motion data/motion/real/precog_Seq*.npz \\
+        --profile config/fusion_depth_tracker_kinect_sdk.yaml
 """
 import argparse
 import json
 import os
 import sys
+from typing import Dict, List
 
 import numpy as np
 
@@ -32,34 +37,45 @@ from hri_sync.fusion.truth import world_motion  # noqa: E402
 from profile_block import with_block  # noqa: E402
 
 
-def held_out(positions: np.ndarray, sigma: float):
-    """Each half's elbows from a posture fitted on the other half: the
-    prior's errors (m) and its stated errors (m, one axis)."""
-    half = len(positions) // 2
-    errors, stated = [], []
-    for fit, test in ((slice(half, None), slice(None, half)),
-                      (slice(None, half), slice(half, None))):
-        posture = fit_posture(positions[fit], sigma)
-        arms = arms_in_axes(positions[test]).reshape(-1, 2, 3)
+def held_out(parts: List[np.ndarray], sigma: float):
+    """Each part's elbows from a posture fitted on the other parts: the
+    prior's errors (m) and its stated errors (m, one axis), by part."""
+    out = []
+    for k, test in enumerate(parts):
+        posture = fit_posture(np.concatenate(
+            [p for i, p in enumerate(parts) if i != k]), sigma)
+        arms = arms_in_axes(test).reshape(-1, 2, 3)
+        errors, stated = [], []
         for hand, elbow in arms[np.isfinite(arms).all(axis=(1, 2))]:
             mean, var = posture.prior(hand)
             errors.append(np.linalg.norm(mean - elbow))
             stated.append(np.sqrt(var))
-    return np.array(errors), np.array(stated)
+        out.append((np.array(errors), np.array(stated)))
+    return out
+
+
+def spread(errors: np.ndarray) -> Dict[str, float]:
+    """Median and 95th percentile (m)."""
+    return {'median': round(float(np.median(errors)), 4),
+            'p95': round(float(np.percentile(errors, 95)), 4)}
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    ap.add_argument('--motion', required=True, help='.bvh, .npz or .track')
+    ap.add_argument('--motion', required=True, nargs='+',
+                    help='.bvh, .npz or .track files')
     ap.add_argument('--sigma', type=float, default=Posture.sigma,
                     help="m, one axis: the prior's error at the capture's "
                     'own poses (default %(default)s)')
     ap.add_argument('--profile', nargs='*', default=[],
                     help='tracker profiles (YAML) to write the posture into')
     args = ap.parse_args()
-    positions = world_motion(load_motion(args.motion)).positions
+    motions = [world_motion(load_motion(m)).positions for m in args.motion]
+    positions = np.concatenate(motions)
     posture = fit_posture(positions, args.sigma)
-    errors, stated = held_out(positions, args.sigma)
+    half = len(positions) // 2
+    checked = held_out(motions if len(motions) > 1
+                       else [positions[:half], positions[half:]], args.sigma)
     command = ' '.join(['bench/fit_posture.py'] + sys.argv[1:])
     for path in args.profile:
         with open(path) as f:
@@ -70,13 +86,17 @@ def main():
                 '(hri_sync.fusion.posture; rows: hand, elbow, mm, from the',
                 "shoulder in the shoulders' axes), fitted with",
                 '  ' + command]))
-    print(json.dumps({
-        'motion': os.path.basename(args.motion), 'arms': len(posture.hands),
-        'held_out_error_m': {'median': round(float(np.median(errors)), 4),
-                             'p95': round(float(np.percentile(errors, 95)),
-                                          4)},
-        'held_out_stated_sigma_m': round(float(stated.mean()), 4),
-        'written': args.profile}, indent=1))
+    names = [os.path.basename(m) for m in args.motion]
+    report = {
+        'motion': names, 'arms': len(posture.hands),
+        'held_out_error_m': spread(np.concatenate([e for e, _ in checked])),
+        'held_out_stated_sigma_m': round(float(np.concatenate(
+            [s for _, s in checked]).mean()), 4),
+        'written': args.profile}
+    if len(motions) > 1:
+        report['held_out_error_by_motion_m'] = {
+            name: spread(e) for name, (e, _) in zip(names, checked)}
+    print(json.dumps(report, indent=1))
 
 
 if __name__ == '__main__':
