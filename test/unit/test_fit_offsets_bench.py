@@ -1,6 +1,6 @@
 """bench/fit_offsets.py: the profile it writes (the package's, with the
 motions' mean offsets and depth offsets), and the Kinect SDK profile in
-config/ as it would write it."""
+config/ as it would write it, its posture fitted on the same recordings."""
 import dataclasses
 import functools
 import importlib.util
@@ -29,9 +29,10 @@ def load(path):
         return yaml.load(f, Loader=yaml.CSafeLoader)
 
 
-def rest(values):
-    """A profile's lines other than its offsets and depth offsets."""
-    return {k: v for k, v in values.items() if k not in OTHER}
+def rest(values, other=OTHER):
+    """A profile's lines other than ``other`` (its offsets and depth
+    offsets)."""
+    return {k: v for k, v in values.items() if k not in other}
 
 
 def test_the_profile_written_has_the_motions_mean_offsets(
@@ -58,9 +59,14 @@ def test_the_profile_written_has_the_motions_mean_offsets(
 
 
 def test_the_kinect_sdk_profile_is_the_packages_with_other_offsets():
-    # Refitting the package's profile (its error model, its posture)
-    # means writing this one again: bench/fit_offsets.py (docs/fusion.md).
+    # Refitting the package's profile (its error model) means writing
+    # this one again: bench/fit_offsets.py, then bench/fit_posture.py on
+    # the same recordings (docs/fusion.md).
     package, sdk = load(PROFILE), load(SDK)
-    assert rest(sdk) == rest(package)
+    assert rest(sdk, OTHER + ('posture',)) == \
+        rest(package, OTHER + ('posture',))
     assert not np.allclose(sdk['offsets'], package['offsets'], atol=0.01)
+    assert sdk['posture']['arms'] != package['posture']['arms']
+    assert 'fit_posture.py --motion data/motion/real/precog_Seq' in \
+        open(SDK).read()
     Profile.from_dict(sdk)
