@@ -362,15 +362,17 @@ def single_view_errors(views, poses, profile, truth):
     return fixed, raw
 
 
-def fitted_profile(views, poses, truth, tracker_filter, exchanged=None):
+def fitted_profile(views, poses, truth, tracker_filter, exchanged=None,
+                   centre=np.nanmean):
     """The tracker profile measured on these views: the delay that fits
     best (10 ms steps; with the tracker's filter, ``tracker_filter``, the
-    delay and the cap on its lag that fit best together), then offsets,
-    sigmas, the confidence power and the arms' growth from behind, and
-    the timing spread of the views so corrected (delay_spread); given a
-    list ``exchanged``, each view's left and right put the truth's way
-    first (hri_sync.fusion.profile.sides_as_truth) and the count of
-    view-frames so put appended to it."""
+    delay and the cap on its lag that fit best together), then offsets
+    (each joint's ``centre`` of its errors), sigmas, the confidence power
+    and the arms' growth from behind, and the timing spread of the views
+    so corrected (delay_spread); given a list ``exchanged``, each view's
+    left and right put the truth's way first
+    (hri_sync.fusion.profile.sides_as_truth) and the count of view-frames
+    so put appended to it."""
     t = np.arange(math.ceil(FPS), int(len(views[0][0]) - FPS)) / FPS
     conf, ok = [], np.ones(len(t), bool)
     for i, (tracked, _, _, c) in enumerate(views):
@@ -395,7 +397,7 @@ def fitted_profile(views, poses, truth, tracker_filter, exchanged=None):
         est, conf, n = sides_as_truth(est, truth(when), conf)
         exchanged.append(n)
     profile = fit_profile(est, truth(when), float(delay), float(delay),
-                          conf, np.array(sensors))
+                          conf, np.array(sensors), centre)
     profile.filter = params
     fixed = np.array([[profile.correct(e, s) for e in view]
                       for view, s in zip(est, sensors)])

@@ -421,6 +421,33 @@ def test_offsets_of_views_that_took_the_back_for_the_front():
     assert np.allclose(profile.offsets, expected, atol=0.005)
 
 
+def test_the_median_offsets_leave_a_views_gross_misses_out():
+    # Every view places the hands 0.03 m nearer its sensor; the view
+    # behind the body (a quarter of the view-frames) lays them on the
+    # trunk, 0.25 m nearer. The mean takes 0.09 m for the hands' depth
+    # offset (every view's hands then wrong but the one behind, which
+    # is still 0.16 m off); the median the 0.03 m of the views that see
+    # them.
+    rng = np.random.default_rng(13)
+    truth, sensors = turning(200)
+    hands = [INDEX['left_hand'], INDEX['right_hand']]
+    near = np.zeros(NUM_JOINTS)
+    near[hands] = -0.03
+    estimates = np.array([truth + near[:, None] * rays(truth, s)
+                          for s in sensors]) \
+        + rng.normal(0, 0.01, (4,) + truth.shape)
+    estimates[3][:, hands] += -0.22 * rays(truth, sensors[3])[:, hands]
+    conf = np.ones(estimates.shape[:3])
+    mean = fit_profile(estimates, truth, 0.0, 0.0, conf, sensors)
+    median = fit_profile(estimates, truth, 0.0, 0.0, conf, sensors,
+                         np.nanmedian)
+    assert np.allclose(mean.depth[hands], -0.085, atol=0.01)
+    assert np.allclose(median.depth[hands], -0.03, atol=0.01)
+    others = np.setdiff1d(np.arange(NUM_JOINTS), hands)
+    assert np.allclose(median.depth[others], 0.0, atol=0.005)
+    assert np.abs(median.offsets).max() < 0.01
+
+
 def test_the_fusion_takes_each_views_depth_offsets_from_its_own_sensor():
     # Two views at right angles, each placing the body 0.04 m nearer its
     # sensor: fused without depth offsets the body is half that off along

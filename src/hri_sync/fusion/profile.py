@@ -40,7 +40,7 @@ one).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -207,22 +207,25 @@ def sides_as_truth(estimates: np.ndarray, truth: np.ndarray,
 
 def fit_profile(estimates: np.ndarray, truth: np.ndarray, delay: float,
                 delay_spread: float, confidence: Optional[np.ndarray] = None,
-                sensors: Optional[np.ndarray] = None) -> Profile:
+                sensors: Optional[np.ndarray] = None,
+                centre: Callable[..., np.ndarray] = np.nanmean) -> Profile:
     """The offsets and error model of views of one tracker (frames where
     every view tracks), given its delay (estimates already at it);
     ``confidence`` (views, frames, 15): the confidence power too, and with
     ``sensors`` (views, 3; world) the depth offsets (first) and the arms'
-    growth from behind."""
+    growth from behind. Each joint's offsets are the ``centre`` of its
+    errors over the view-frames (np.nanmedian: a view's gross misses, a
+    hand it cannot see, weigh no more than any other)."""
     depth = np.zeros(NUM_JOINTS)
     if sensors is not None:
         ray = np.array([rays(e, s) for e, s in zip(estimates, sensors)])
         along = ((estimates - truth) * ray).sum(axis=-1)
-        depth = np.nanmean(along.reshape(-1, NUM_JOINTS), axis=0)
+        depth = centre(along.reshape(-1, NUM_JOINTS), axis=0)
         estimates = estimates - depth[:, None] * ray
     err = body_frame_errors(estimates, truth)
     ok = np.isfinite(err).all(axis=(0, 2, 3))
     err = err[:, ok]
-    offsets = err.mean(axis=(0, 1))
+    offsets = centre(err, axis=(0, 1))
     rest = err - offsets
     common = rest.mean(axis=0)
     n = rest.shape[0]
