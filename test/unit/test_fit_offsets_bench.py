@@ -67,6 +67,7 @@ def test_the_kinect_sdk_profile_is_the_packages_with_other_offsets():
         rest(package, OTHER + ('posture',))
     assert not np.allclose(sdk['offsets'], package['offsets'], atol=0.01)
     assert sdk['posture']['arms'] != package['posture']['arms']
-    assert 'fit_posture.py --motion data/motion/real/precog_Seq' in \
-        open(SDK).read()
+    with open(SDK) as f:
+        assert 'fit_posture.py --motion data/motion/real/precog_Seq' in \
+            f.read()
     Profile.from_dict(sdk)

@@ -424,7 +424,7 @@ def test_offsets_of_views_that_took_the_back_for_the_front():
 def test_the_median_offsets_leave_a_views_gross_misses_out():
     # Every view places the hands 0.03 m nearer its sensor; the view
     # behind the body (a quarter of the view-frames) lays them on the
-    # trunk, 0.25 m nearer. The mean takes 0.09 m for the hands' depth
+    # trunk, 0.25 m nearer. The mean takes 0.085 m for the hands' depth
     # offset (every view's hands then wrong but the one behind, which
     # is still 0.16 m off); the median the 0.03 m of the views that see
     # them.
