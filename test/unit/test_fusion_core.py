@@ -174,19 +174,35 @@ def test_association_merges_duplicates_and_forgets():
     assert not assoc.persons
 
 
+def test_a_tracker_user_given_again_soon_keeps_its_person():
+    # A view gives no body for 2 s (its tracker lost the user, or its
+    # node starved) and then the same user near where it was: the same
+    # person. Another user of it there, or the same one 3.5 s later, is
+    # someone new.
+    for key, back, same in ((('a', 1), 2.0, True), (('a', 2), 2.0, False),
+                            (('a', 1), 3.5, False)):
+        assoc = Associator()
+        pid = assoc.assign(0.0, {('a', 1): body(0, 0)})[('a', 1)]
+        assoc.update(pid, body(0, 0), 0.0)
+        again = assoc.assign(back, {key: body(0.3, 0)})[key]
+        assert (again == pid) == same, (key, back)
+
+
 def test_a_fusion_that_falls_behind_keeps_its_people():
     # Two views give one person all along, but the fusion is not polled
     # for 2.5 s (its node starved on a busy machine): it skips ahead, and
     # the person its views never stopped seeing keeps the id, as does one
-    # they stopped giving for 0.3 s in that time (their node starved too);
-    # a person the views did stop seeing for over a second is a new one.
+    # they stopped giving for 0.3 s in that time (their node starved too),
+    # or for the whole 2.5 s (their trackers kept the user's id); a person
+    # the views stopped giving for 3.5 s is a new one.
     poses = {'a': facing(3.0, 0.0, 1.0), 'b': facing(0.0, 3.0, 1.0)}
     for unseen, same in ((range(0), True), (range(60, 69), True),
-                         (range(95, 104), True), (range(30, 105), False)):
+                         (range(95, 104), True), (range(30, 105), True),
+                         (range(30, 135), False)):
         clock = {'now': 0.0}
         fusion = Fusion(poses, FusionParams(), lambda: clock['now'])
         ids = []
-        for k in range(150):
+        for k in range(180):
             t = k / 30
             clock['now'] = t + 0.05
             if k not in unseen:                 # the views see the person

@@ -28,7 +28,10 @@ seen by no view for ``forget_after`` s is dropped; ids are never reused:
 not a person whose view gives it now and gave it with no break of
 ``forget_after`` s since it was last fused (a fusion that fell behind skips
 instants, while its views went on seeing the person, perhaps with short
-breaks of their own: a starved machine starves their node too).
+breaks of their own: a starved machine starves their node too), nor one
+a tracker's user of it gives again within ``resume_after`` s, within
+``keep_gate`` of where it was (grown by the time: the tracker kept its
+user's id through the break).
 """
 
 from __future__ import annotations
@@ -85,7 +88,7 @@ class Associator:
                  merge_gate: float = 0.25, merge_after: float = 0.5,
                  forget_after: float = 1.0, release_after: float = 2.0,
                  max_speed: float = 2.0, hold: float = 3.0,
-                 hold_near: float = 2.0) -> None:
+                 hold_near: float = 2.0, resume_after: float = 3.0) -> None:
         self.hold = hold
         self.hold_near = hold_near
         self.confirmed: Set[str] = set()   # views that shared a person
@@ -96,6 +99,7 @@ class Associator:
         self.merge_after = merge_after
         self.forget_after = forget_after
         self.release_after = release_after
+        self.resume_after = resume_after
         self.far_since: Dict[Key, float] = {}
         self.jumps = 0             # instants a key was left out as a jump
         self.persons: Dict[int, Person] = {}
@@ -111,7 +115,8 @@ class Associator:
         ``forget_after`` s (the fusion's tracks; None: not known)."""
         for pid in [p for p, person in self.persons.items()
                     if t - person.seen > self.forget_after
-                    and not self._followed(p, bodies, since)]:
+                    and not self._followed(p, bodies, since)
+                    and not self._resumed(t, p, bodies)]:
             del self.persons[pid]
         out: Dict[Key, int] = {}
         moved, doubtful = set(), {}
@@ -150,6 +155,16 @@ class Associator:
         return since is not None and any(
             self.owner.get(k) == pid and since(k) <= seen + self.forget_after
             for k in bodies)
+
+    def _resumed(self, t: float, pid: int, bodies: Dict[Key, np.ndarray]
+                 ) -> bool:
+        """Whether a key of person ``pid`` gives a body again, within
+        ``resume_after`` s of when the person was last fused and within
+        ``keep_gate`` of its last body (grown by the time)."""
+        return t - self.persons[pid].seen <= self.resume_after and any(
+            self.owner.get(k) == pid
+            and self._near(t, b, pid, self.keep_gate) is not None
+            for k, b in bodies.items())
 
     def held(self, pid: int, t: float) -> bool:
         """Whether person ``pid`` is held back at ``t``."""
