@@ -184,6 +184,9 @@ def test_a_tracker_user_given_again_soon_keeps_its_person():
         assoc = Associator()
         pid = assoc.assign(0.0, {('a', 1): body(0, 0)})[('a', 1)]
         assoc.update(pid, body(0, 0), 0.0)
+        for k in range(1, int(back * 30)):     # the instants between
+            assert assoc.assign(k / 30, {}) == {}
+        assert not assoc.persons                # forgotten after 1 s
         again = assoc.assign(back, {key: body(0.3, 0)})[key]
         assert (again == pid) == same, (key, back)
 

@@ -28,10 +28,11 @@ seen by no view for ``forget_after`` s is dropped; ids are never reused:
 not a person whose view gives it now and gave it with no break of
 ``forget_after`` s since it was last fused (a fusion that fell behind skips
 instants, while its views went on seeing the person, perhaps with short
-breaks of their own: a starved machine starves their node too), nor one
-a tracker's user of it gives again within ``resume_after`` s, within
-``keep_gate`` of where it was (grown by the time: the tracker kept its
-user's id through the break).
+breaks of their own: a starved machine starves their node too). A
+dropped person comes back when a tracker's user of it gives a body again
+within ``resume_after`` s of when it was last fused, within ``keep_gate``
+of where it was (grown by the time): the tracker kept its user's id
+through the break.
 """
 
 from __future__ import annotations
@@ -103,6 +104,7 @@ class Associator:
         self.far_since: Dict[Key, float] = {}
         self.jumps = 0             # instants a key was left out as a jump
         self.persons: Dict[int, Person] = {}
+        self.forgotten: Dict[int, Person] = {}  # for resume_after s
         self.owner: Dict[Key, int] = {}
         self.next_id = 1
         self.switches = 0          # keys moved from one person to another
@@ -115,9 +117,9 @@ class Associator:
         ``forget_after`` s (the fusion's tracks; None: not known)."""
         for pid in [p for p, person in self.persons.items()
                     if t - person.seen > self.forget_after
-                    and not self._followed(p, bodies, since)
-                    and not self._resumed(t, p, bodies)]:
-            del self.persons[pid]
+                    and not self._followed(p, bodies, since)]:
+            self.forgotten[pid] = self.persons.pop(pid)
+        self._resume(t, bodies)
         out: Dict[Key, int] = {}
         moved, doubtful = set(), {}
         for key in sorted(bodies, key=str):
@@ -156,15 +158,20 @@ class Associator:
             self.owner.get(k) == pid and since(k) <= seen + self.forget_after
             for k in bodies)
 
-    def _resumed(self, t: float, pid: int, bodies: Dict[Key, np.ndarray]
-                 ) -> bool:
-        """Whether a key of person ``pid`` gives a body again, within
-        ``resume_after`` s of when the person was last fused and within
-        ``keep_gate`` of its last body (grown by the time)."""
-        return t - self.persons[pid].seen <= self.resume_after and any(
-            self.owner.get(k) == pid
-            and self._near(t, b, pid, self.keep_gate) is not None
-            for k, b in bodies.items())
+    def _resume(self, t: float, bodies: Dict[Key, np.ndarray]) -> None:
+        """Bring back each person forgotten within ``resume_after`` s of
+        when it was last fused whose key gives a body within ``keep_gate``
+        of its last one (grown by the time); let go of the older ones."""
+        for pid in [p for p, person in self.forgotten.items()
+                    if t - person.seen > self.resume_after]:
+            del self.forgotten[pid]
+        for key in sorted(bodies, key=str):
+            pid = self.owner.get(key)
+            person = self.forgotten.get(pid) if pid is not None else None
+            if person is not None and body_distance(
+                    bodies[key], person.positions) <= self.keep_gate \
+                    + self.max_speed * (t - person.seen):
+                self.persons[pid] = self.forgotten.pop(pid)
 
     def held(self, pid: int, t: float) -> bool:
         """Whether person ``pid`` is held back at ``t``."""
