@@ -162,16 +162,16 @@ class Associator:
         """Bring back each person forgotten within ``resume_after`` s of
         when it was last fused whose key gives a body within ``keep_gate``
         of its last one (grown by the time); let go of the older ones."""
-        for pid in [p for p, person in self.forgotten.items()
+        for old in [p for p, person in self.forgotten.items()
                     if t - person.seen > self.resume_after]:
-            del self.forgotten[pid]
+            del self.forgotten[old]
         for key in sorted(bodies, key=str):
-            pid = self.owner.get(key)
-            person = self.forgotten.get(pid) if pid is not None else None
-            if person is not None and body_distance(
+            owner = self.owner.get(key)
+            person = None if owner is None else self.forgotten.get(owner)
+            if person is not None and owner is not None and body_distance(
                     bodies[key], person.positions) <= self.keep_gate \
                     + self.max_speed * (t - person.seen):
-                self.persons[pid] = self.forgotten.pop(pid)
+                self.persons[owner] = self.forgotten.pop(owner)
 
     def held(self, pid: int, t: float) -> bool:
         """Whether person ``pid`` is held back at ``t``."""
