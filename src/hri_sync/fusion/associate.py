@@ -168,9 +168,8 @@ class Associator:
         for key in sorted(bodies, key=str):
             owner = self.owner.get(key)
             person = None if owner is None else self.forgotten.get(owner)
-            if person is not None and owner is not None and body_distance(
-                    bodies[key], person.positions) <= self.keep_gate \
-                    + self.max_speed * (t - person.seen):
+            if person is not None and owner is not None and self._within(
+                    t, bodies[key], person, self.keep_gate) is not None:
                 self.persons[owner] = self.forgotten.pop(owner)
 
     def held(self, pid: int, t: float) -> bool:
@@ -208,7 +207,11 @@ class Associator:
         """The distance of ``body`` from person ``pid`` when within
         ``gate`` (grown by the time the person was not seen), else
         None."""
-        person = self.persons[pid]
+        return self._within(t, body, self.persons[pid], gate)
+
+    def _within(self, t: float, body: np.ndarray, person: Person,
+                gate: float) -> Optional[float]:
+        """``_near`` for a ``person`` given."""
         d = body_distance(body, person.positions)
         grown = gate + self.max_speed * max(t - person.seen, 0.0)
         return d if d <= grown else None
