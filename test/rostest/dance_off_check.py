@@ -24,6 +24,9 @@ streams and, after the round, checks:
   (e.g. 'left/dpm: results') whose message or a value contains the text;
 - with ~verify: records the round with rosbag, then runs verify_decisions
   on the bag, which must exit 0 and recompute the recorded decision;
+- with ~bag_start (client=bag;...): each of those clients' results
+  scores its bag's first DUR s, within 3 % (the replay started over at
+  the window, ~replay_from window, whatever the start-up took);
 - with ~calibration > 0: the calibration window before the round was
   answered with no winner on /calibration/decision, and every usable
   result whose client calibrated (an ok calibration result) says its
@@ -43,8 +46,12 @@ import rostest
 
 from diagnostic_msgs.msg import DiagnosticArray
 
+import numpy as np
+
+from hri_sync.dance_off.expressiveness import expressiveness
 from hri_sync.data_process.capture import window_stats
 from hri_sync.msg import ClientResult, Decision, Skeleton
+from hri_sync.ros.bags import read_skeletons
 from hri_sync.ros.node import init_checker
 from hri_sync.tools.procs import stop_group
 from hri_sync.wire.vocabulary import MIN_COVERAGE
@@ -216,6 +223,26 @@ class DanceOffRound(unittest.TestCase):
             self.assertIn('partial', d.reason)
         if self.expect_reason:
             self.assertIn(self.expect_reason, d.reason)
+
+    def test_bag_start(self):
+        starts = [e.split('=', 1) for e in
+                  rospy.get_param('~bag_start', '').split(';') if e]
+        if not starts:
+            self.skipTest('no ~bag_start')
+        for client, path in starts:
+            frames, rel, _ = read_skeletons(path, '')
+            first = [k for k, t in enumerate(rel) if t < self.dur]
+            want = expressiveness(
+                np.asarray(rel)[first],
+                [[(p.x, p.y, p.z) for p in frames[k].positions]
+                 for k in first],
+                np.array([frames[k].confidence for k in first]),
+                duration=self.dur).value
+            got = self.results[client].value
+            self.assertAlmostEqual(got, want, delta=0.03 * want,
+                                   msg='%s scored %.4g, its bag\'s first '
+                                   '%.1f s %.4g' % (client, got, self.dur,
+                                                    want))
 
     def test_noise_floor(self):
         """With ~expect_noise_floor: every result reports a noise floor

@@ -62,7 +62,7 @@ LIVE = os.path.join(os.path.dirname(os.path.abspath(__file__)),
                     'fuse_bag_live.launch')
 REPLAY = os.path.join(os.path.dirname(os.path.abspath(__file__)),
                       'fuse_bag_replay.launch')
-LIVE_FOR = 12.0        # s of the live fusion recorded
+LIVE_INSTANTS = 300    # fused instants of the live fusion recorded (10 s)
 
 
 def truth(motion, stamp):
@@ -389,6 +389,30 @@ def first_message(env, log, topic, timeout):
         pytest.fail('no %s in %.0f s' % (topic, timeout))
 
 
+def fused_instants(env, log, folder, count, timeout):
+    """Wait until the live fusion has published ``count`` fused instants
+    (a starved node publishes fewer a second: the recording runs until it
+    has them, not for a fixed time)."""
+    path = folder / 'fused_stamps.csv'
+    with open(path, 'w') as out:
+        watch = subprocess.Popen(
+            ['rostopic', 'echo', '-p', '/fused/skeleton/header/stamp'],
+            env=env, stdout=out, stderr=log, start_new_session=True)
+
+    def instants():
+        return len({line.rsplit(',', 1)[-1] for line in
+                    path.read_text().splitlines()[1:]}) >= count
+    try:
+        wait_until('%d fused instants' % count, instants, timeout)
+    except RuntimeError as e:
+        pytest.fail('%s (the live fusion published %d)' % (
+            e, len(path.read_text().splitlines()[1:])))
+    finally:
+        os.killpg(watch.pid, signal.SIGINT)
+        watch.wait(60)
+    time.sleep(1.0)         # the recorder's last ones
+
+
 def subscribed(env, topics):
     """Whether every (topic, node) of ``topics`` is subscribed."""
     try:
@@ -411,10 +435,11 @@ def live(tmp_path_factory):
                         'the recording', lambda: os.path.exists(
                             recording + '.active'), 120.0),
                         first_message(env, log, '/fused/skeleton', 120.0),
-                        time.sleep(LIVE_FOR)))
+                        fused_instants(env, log, folder, LIVE_INSTANTS,
+                                       120.0)))
     assert os.path.exists(recording), log
     by_instant = fused_by_instant(recording)
-    assert len(by_instant) >= 0.5 * LIVE_FOR * 30
+    assert len(by_instant) >= LIVE_INSTANTS
     return folder, recording, by_instant
 
 

@@ -115,6 +115,13 @@ class SkeletonSensor:
             self.still = read_skeletons(calibration_bag,
                                         param('bag_topic', '', str))[:2]
         self.pauses = []      # host [t0, t1) of the calibration windows
+        # ~replay_from window: the bag starts over at the first capture
+        # window (global, set on its order), so round 1 captures the bag's
+        # beginning however long the start-up took.
+        self.replay_from = param('replay_from', 'start', str,
+                                 lambda f: f in ('start', 'window'),
+                                 "'start' or 'window'")
+        self.restart_at = None
         if bag:
             self.recorded, self.rel, bag_topic = read_skeletons(
                 bag, param('bag_topic', '', str))
@@ -155,7 +162,8 @@ class SkeletonSensor:
                              self.on_clock, 'cpm', client=self.client_id,
                              context=lambda: Context(local_now=time.time()))
         if (self.stop_after >= 0 or self.step_after >= 0) and \
-                self.stop_from == 'window':
+                self.stop_from == 'window' or \
+                self.replay_from == 'window' and bag:
             self.inbox.subscribe(protocol_topic('capture_data'), CaptureData,
                                  self.on_capture, 'cm',
                                  context=self.global_context)
@@ -208,10 +216,14 @@ class SkeletonSensor:
         return np.array(v, dtype=float)
 
     def on_capture(self, msg):
-        if self.window_start is None:
-            self.window_start = Capture.from_msg(msg).start
-            rospy.loginfo('%s: first window at %.3f (~stop_from window)',
-                          rospy.get_name(), self.window_start)
+        if self.window_start is not None:
+            return
+        order = Capture.from_msg(msg)
+        self.window_start = order.start
+        rospy.loginfo('%s: first window at %.3f (~stop_from window)',
+                      rospy.get_name(), self.window_start)
+        if self.replay_from == 'window' and self.source is None:
+            self.restart_at = order.start
 
     def after(self, t, delay):
         """True from ``delay`` s (< 0: never) after ~stop_from, at host
@@ -285,6 +297,13 @@ class SkeletonSensor:
 
     def run_bag(self):
         origin = self.start + self.phase
+        while origin is not None:
+            origin = self.replay_bag(origin)
+
+    def replay_bag(self, origin):
+        """Replay the bag from host time ``origin``; the next origin when it
+        starts over at the first window (~replay_from window), None once
+        the node stops."""
         now = time.time()
         for rel, index in replay_schedule(self.rel):
             t = origin + rel
@@ -293,13 +312,30 @@ class SkeletonSensor:
                 # goes on from where it stopped
                 self.pauses.remove((t0, t1))
                 if not self.replay(self.still, t0, t1, max(t0, now)):
-                    return
+                    return None
                 origin += t1 - t0
                 t += t1 - t0
-            if t < now:
-                continue
-            if not self.replay_frame(self.recorded[index], t):
-                return
+            restart = self.restart(t)
+            if restart is None and t >= now and self.sleep_until(t):
+                restart = self.restart(t)   # the order came while asleep
+            if restart is not None:
+                return restart
+            if t >= now and not self.replay_frame(self.recorded[index], t):
+                return None
+
+    def restart(self, t):
+        """The bag's new origin (host time) when a frame sent at host time
+        ``t`` would be stamped in or after the first window (~replay_from
+        window: none of the old replay's frames falls in it); else None."""
+        clock, window = self.clock, self.restart_at
+        if window is None or clock is None or clock.to_global(t) < window:
+            return None
+        self.restart_at = None
+        origin = clock.to_local(window)
+        rospy.loginfo('%s: the bag starts over at the first window '
+                      '(~replay_from window), in %.3f s',
+                      rospy.get_name(), origin - time.time())
+        return origin + self.phase
 
     def replay(self, recording, t0, t1, first):
         """Replay ``recording`` ((frames, times)) from host time ``t0``

@@ -190,8 +190,8 @@ class DataProcessModule:
         """DpmState every ~heartbeat_period s: alive, and how the sensor
         delivers (samples, the last one's age, the recent rate)."""
         while not rospy.is_shutdown():
-            now = time.time()
-            with self.lock:
+            with self.lock:     # now after any sample being added
+                now = time.time()
                 samples, age, rate = self.meter.state(now)
                 refused, why = self.refused, self.refused_reason
             self.state_pub.publish(DpmState(
