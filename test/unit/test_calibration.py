@@ -267,6 +267,17 @@ def test_a_simulated_person_stands_still_in_the_calibration_and_goes_on():
     assert held.clip_times(ticks, 0.0) == pytest.approx(np.full(6, 2.0))
 
 
+def test_a_clip_started_over_at_the_window_shows_its_beginning_there():
+    s = SkeletonSource(Ramp(), noise=0.0, offset=2.0, seed=1)
+    s.pause(10.0, 15.0)                 # the calibration, before the window
+    s.pause(30.0, 31.0)                 # one after it still counts
+    s.restart(20.0)
+    ticks = np.array([20.0, 20.5, 30.5, 32.0])
+    assert s.clip_times(ticks, 20.0) == pytest.approx([2.0, 2.5, 12.0, 13.0])
+    s.restart(30.5)                     # a pause it cuts counts from there
+    assert s.clip_times([30.5, 31.5], 30.5) == pytest.approx([2.0, 2.5])
+
+
 def test_a_recording_files_the_calibration_apart_from_the_rounds():
     from hri_sync.tools import analysis
     from hri_sync.tools.bag import BagContents, Recorded

@@ -115,9 +115,9 @@ class SkeletonSensor:
             self.still = read_skeletons(calibration_bag,
                                         param('bag_topic', '', str))[:2]
         self.pauses = []      # host [t0, t1) of the calibration windows
-        # ~replay_from window: the bag starts over at the first capture
-        # window (global, set on its order), so round 1 captures the bag's
-        # beginning however long the start-up took.
+        # ~replay_from window: the bag or clip starts over at the first
+        # capture window (global, set on its order), so round 1 captures
+        # its beginning however long the start-up took.
         self.replay_from = param('replay_from', 'start', str,
                                  lambda f: f in ('start', 'window'),
                                  "'start' or 'window'")
@@ -162,8 +162,7 @@ class SkeletonSensor:
                              self.on_clock, 'cpm', client=self.client_id,
                              context=lambda: Context(local_now=time.time()))
         if (self.stop_after >= 0 or self.step_after >= 0) and \
-                self.stop_from == 'window' or \
-                self.replay_from == 'window' and bag:
+                self.stop_from == 'window' or self.replay_from == 'window':
             self.inbox.subscribe(protocol_topic('capture_data'), CaptureData,
                                  self.on_capture, 'cm',
                                  context=self.global_context)
@@ -222,7 +221,7 @@ class SkeletonSensor:
         self.window_start = order.start
         rospy.loginfo('%s: first window at %.3f (~stop_from window)',
                       rospy.get_name(), self.window_start)
-        if self.replay_from == 'window' and self.source is None:
+        if self.replay_from == 'window':
             self.restart_at = order.start
 
     def after(self, t, delay):
@@ -282,13 +281,18 @@ class SkeletonSensor:
         period = 1.0 / self.rate
         tick = tick_times(self.start, self.phase, self.rate, time.time(),
                           time.time() + 2 * period)[0]
+        start = self.start          # the clip's
         while self.sleep_until(tick):
             if self.silent(tick):
                 rospy.logwarn('%s: stopped sending (~stop_after)',
                               rospy.get_name())
                 rospy.spin()
                 return
-            frames = self.source.frames([tick], self.start)
+            restart = self.restart(tick)
+            if restart is not None:     # the ticks keep their phase
+                start = restart
+                self.source.restart(start)
+            frames = self.source.frames([tick], start)
             if frames.stamps.size:
                 self.publish(tick, self.skeleton(frames))
             tick += period
@@ -319,23 +323,25 @@ class SkeletonSensor:
             if restart is None and t >= now and self.sleep_until(t):
                 restart = self.restart(t)   # the order came while asleep
             if restart is not None:
-                return restart
+                return restart + self.phase
             if t >= now and not self.replay_frame(self.recorded[index], t):
                 return None
 
     def restart(self, t):
-        """The bag's new origin (host time) when a frame sent at host time
-        ``t`` would be stamped in or after the first window (~replay_from
-        window: none of the old replay's frames falls in it); else None."""
+        """The first window's start (host time) when a frame sent at host
+        time ``t`` would be stamped in or after it (~replay_from window:
+        the replay starts over there, and none of its frames from before
+        falls in the window); else None."""
         clock, window = self.clock, self.restart_at
         if window is None or clock is None or clock.to_global(t) < window:
             return None
         self.restart_at = None
         origin = clock.to_local(window)
-        rospy.loginfo('%s: the bag starts over at the first window '
-                      '(~replay_from window), in %.3f s',
-                      rospy.get_name(), origin - time.time())
-        return origin + self.phase
+        rospy.loginfo('%s: the %s starts over at the first window '
+                      '(~replay_from window), %+.3f s from now',
+                      rospy.get_name(), 'clip' if self.source else 'bag',
+                      origin - time.time())
+        return origin
 
     def replay(self, recording, t0, t1, first):
         """Replay ``recording`` ((frames, times)) from host time ``t0``
@@ -345,8 +351,8 @@ class SkeletonSensor:
         for dt, index in replay_schedule(rel):
             if t0 + dt >= t1:
                 return True
-            if t0 + dt >= first and not self.replay_frame(frames[index],
-                                                           t0 + dt):
+            t = t0 + dt
+            if t >= first and not self.replay_frame(frames[index], t):
                 return False
         return True
 

@@ -102,6 +102,11 @@ class SkeletonSource:
         if t1 > t0:
             self.pauses.append((float(t0), float(t1)))
 
+    def restart(self, t: float) -> None:
+        """Before the clip starts over at host time ``t`` (the caller's
+        new start): the pauses before ``t`` no longer count."""
+        self.pauses = [(max(a, t), b) for a, b in self.pauses if b > t]
+
     def clip_times(self, stamps: np.ndarray, start: float) -> np.ndarray:
         """Motion time shown at host times ``stamps``."""
         stamps = np.asarray(stamps, dtype=float)
