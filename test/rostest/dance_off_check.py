@@ -40,13 +40,12 @@ import threading
 import time
 import unittest
 
+import numpy as np
 import rospkg
 import rospy
 import rostest
 
 from diagnostic_msgs.msg import DiagnosticArray
-
-import numpy as np
 
 from hri_sync.dance_off.expressiveness import expressiveness
 from hri_sync.data_process.capture import window_stats
@@ -225,11 +224,13 @@ class DanceOffRound(unittest.TestCase):
             self.assertIn(self.expect_reason, d.reason)
 
     def test_bag_start(self):
+        """With ~bag_start: each client scored its bag's first DUR s."""
         starts = [e.split('=', 1) for e in
                   rospy.get_param('~bag_start', '').split(';') if e]
         if not starts:
             self.skipTest('no ~bag_start')
         for client, path in starts:
+            self.assertIn(client, self.results)
             frames, rel, _ = read_skeletons(path, '')
             first = [k for k, t in enumerate(rel) if t < self.dur]
             want = expressiveness(

@@ -219,7 +219,7 @@ class SkeletonSensor:
             return
         order = Capture.from_msg(msg)
         self.window_start = order.start
-        rospy.loginfo('%s: first window at %.3f (~stop_from window)',
+        rospy.loginfo('%s: first window at %.3f (~stop_from, ~replay_from)',
                       rospy.get_name(), self.window_start)
         if self.replay_from == 'window':
             self.restart_at = order.start
