@@ -120,9 +120,13 @@ class FusionFault(unittest.TestCase):
             self.assertTrue(missing <= (hidden if alone else set()),
                             'joints %s missing, views %s'
                             % (sorted(missing), m.sources))
-        self.assertGreaterEqual(2 * len(healthy), len(got),
-                                'the healthy views gave %d of %d bodies'
-                                % (len(healthy), len(got)))
+        # A fusion starved of CPU (9 instants a second once, on CI beside
+        # the other tests) fuses what came in time: as for its people
+        # above, it must then have said it was behind.
+        self.assertTrue(2 * len(healthy) >= len(got) or any(
+            'behind' in m for m in said),
+            'the healthy views gave %d of %d bodies, and the fusion never '
+            'said it was behind: %s' % (len(healthy), len(got), said))
         wait_for(lambda: min(map(len, self.others(named, faulty).values()),
                              default=0) >= self.STATUSES, 60.0, 0.1)
         others = self.others(named, faulty)

@@ -62,14 +62,16 @@ LIVE = os.path.join(os.path.dirname(os.path.abspath(__file__)),
                     'fuse_bag_live.launch')
 REPLAY = os.path.join(os.path.dirname(os.path.abspath(__file__)),
                       'fuse_bag_replay.launch')
-# Fused instants of the live fusion the recording must hold (10 s); the
-# fusion runs for 2 s more (the recorder may lag the watcher).
-LIVE_INSTANTS = 300
-# The share of its span's instants the live fusion must have fused (on a
-# fresh clone's CI beside the other tests: 91-98 % in three recordings,
-# the recording fused afterwards then the same at the median instant; a
-# live fusion that gave 392 instants where the recording's gave 921: 5 mm).
-LIVE_SHARE = 0.9
+# Fused instants of the live fusion recorded (12 s); those compared are
+# SETTLE s or more after its first and after each one it skipped (a node
+# starved of CPU skips instants and goes on from a state the fusion of the
+# recording afterwards, which fuses every one, does not share for a while:
+# on a fresh clone's CI beside the other tests, 20-34 % of the instants in
+# the 0.5 s after a skip within 1 mm of the fusion afterwards, 73-92 % of
+# those 1-2 s after, 68-94 % later; unstarved, 92-98 % of all).
+LIVE_INSTANTS = 360
+SETTLE = 1.0
+LIVE_SETTLED = 150     # settled instants the recording must hold
 LIVE_TRIES = 3         # live recordings made before a starved fusion fails
 
 
@@ -432,14 +434,24 @@ def subscribed(env, topics):
     return all(node in nodes.get(topic, ()) for topic, node in topics)
 
 
+def settled(instants):
+    """Of the live fusion's instants (30 Hz grid numbers, sorted), those
+    SETTLE s or more after its first and after each one it skipped."""
+    since, kept = instants[0], []
+    for a, b in zip([instants[0] - 1] + instants, instants):
+        if b - a > 1:
+            since = b
+        if b - since >= SETTLE * 30:
+            kept.append(b)
+    return kept
+
+
 @pytest.fixture(scope='module')
 def live(tmp_path_factory):
     """A recording of the live fusion (fuse_bag_live.launch) and its
-    /fused/skeleton by instant. A fusion starved of CPU (a busy machine)
-    skips instants and goes on from a state the fusion of the recording
-    afterwards, which fuses every one, does not share for a while: one that
-    fused under LIVE_SHARE of the instants of its span is recorded again,
-    up to LIVE_TRIES times."""
+    /fused/skeleton by instant, the settled instants only (above); one
+    with fewer than LIVE_SETTLED is recorded again, up to LIVE_TRIES
+    times."""
     tries = []
     for _ in range(LIVE_TRIES):
         folder = tmp_path_factory.mktemp('live')
@@ -449,17 +461,19 @@ def live(tmp_path_factory):
             wait_until('the recording', lambda: os.path.exists(
                 recording + '.active'), 120.0)
             first_message(env, log, '/fused/skeleton', 120.0)
-            fused_instants(env, log, folder, LIVE_INSTANTS + 60, 120.0)
+            fused_instants(env, log, folder, LIVE_INSTANTS, 120.0)
         log = roslaunch(folder, 'live', LIVE, ['bag:=' + recording], record)
         assert os.path.exists(recording), log
         by_instant = fused_by_instant(recording)
         instants = sorted({t for t, _ in by_instant})
-        share = len(instants) / (instants[-1] - instants[0] + 1)
-        tries.append('%d instants, %.1f %% of its span'
-                     % (len(instants), 100 * share))
+        kept = set(settled(instants))
+        tries.append('%d instants, %.1f %% of its span, %d settled'
+                     % (len(instants), 100 * len(instants)
+                        / (instants[-1] - instants[0] + 1), len(kept)))
         print('live fusion: %s' % tries[-1])
-        if share >= LIVE_SHARE and len(instants) >= LIVE_INSTANTS:
-            return folder, recording, by_instant
+        if len(kept) >= LIVE_SETTLED:
+            return folder, recording, {k: v for k, v in by_instant.items()
+                                       if k[0] in kept}
     pytest.fail('the live fusion skipped instants (starved of CPU) in each '
                 'of %d recordings: %s' % (LIVE_TRIES, '; '.join(tries)))
 
