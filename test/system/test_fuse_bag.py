@@ -44,6 +44,7 @@ from std_msgs.msg import Header
 from hri_sync.dance_off.motion import load_motion
 from hri_sync.fusion import ros_fuse_bag
 from hri_sync.fusion.arms import turned
+from hri_sync.fusion.associate import Associator
 from hri_sync.fusion.frames import SensorPose, parse_pose
 from hri_sync.fusion.relabel import exchanged_sides
 from hri_sync.msg import ClockState, Skeleton
@@ -73,11 +74,11 @@ LIVE_INSTANTS = 360
 SETTLE = 1.0
 LIVE_SETTLED = 150     # settled instants the recording must hold
 # s: a fusion that fused nothing for longer no longer brings its person
-# back (the association's resume_after) and gives a new id where the
+# back (the association's resume_after, 3 s) and gives a new id where the
 # fusion of the recording afterwards keeps one (3.8 s once, on CI; after a
 # 2.7 s stop one id, 86 % of the settled instants within 1 mm): recorded
 # again.
-LIVE_STOP = 3.0
+LIVE_STOP = Associator().resume_after
 LIVE_TRIES = 3         # live recordings made before a starved fusion fails
 
 
