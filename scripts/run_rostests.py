@@ -17,7 +17,10 @@ N jobs run at once (N + 1 once every stage is done), and up to M
 the limit goes up by one when at least a fifth of the CPU time was idle
 over the last 5 s, and down by one (not below those) when under 5 % was.
 Many rostests mostly wait (for a round, a timeout), so N of them leave
-cores idle that more can use; a busy machine runs N, then N + 1.  Run as
+cores idle that more can use; a busy machine runs N, then N + 1.  A test
+file with the line 'run_rostests: alone' in it (a live node compared with
+a recording of it, which a node starved of CPU fails) runs first, with
+nothing beside it.  Run as
 root, each test gets a network namespace of its own (loopback only), so
 the tests' masters, NTP servers and node ports never meet, whatever
 ports they hard-code; the namespace and every process left in it are
@@ -58,6 +61,7 @@ from hri_sync_support.harness import wait_until  # noqa: E402
 TIMEOUT = 600  # s per test file
 STAGE_TIMEOUT = 3600  # s per stage (pytest beside the rostests on a busy machine)
 TAIL = 60     # lines of a failed job's log printed
+ALONE = 'run_rostests: alone'   # a test file's line: nothing runs beside it
 NETNS_PREFIX = 'hrit'
 CPUACCT = '/sys/fs/cgroup/cpuacct'
 RAMP = 5.0          # s between changes of the limit of jobs at once
@@ -231,9 +235,23 @@ def job_name(job):
     return os.path.splitext(os.path.basename(job))[0]
 
 
+def runs_alone(job):
+    """Whether a test file has the line ALONE (a stage never has)."""
+    if isinstance(job, Stage):
+        return False
+    try:
+        with open(job) as f:
+            return any(line.strip(' #') == ALONE
+                       for line in f.read().splitlines())
+    except OSError:
+        return False
+
+
 def schedule(files, run, report, jobs, max_jobs, idle, ramp=RAMP,
-             stop=lambda: None, least=None):
-    """Runs ``run(file)`` for each of ``files`` in order, ``jobs`` at once
+             stop=lambda: None, least=None, alone=lambda job: False):
+    """Runs ``run(file)`` for each of ``files``: first those ``alone(file)``
+    says need the machine to themselves, one at a time with nothing beside
+    them; then the others in order, ``jobs`` at once
     and up to ``max_jobs`` while the CPU has time to spare: every
     ``ramp`` s the limit goes up by one when ``idle()`` (the CPU's idle
     share) is at least IDLE_MORE, and down by one when it is under
@@ -243,11 +261,26 @@ def schedule(files, run, report, jobs, max_jobs, idle, ramp=RAMP,
     ones and raises.  Returns the most that ran at once."""
     with concurrent.futures.ThreadPoolExecutor(max_jobs) as pool:
         try:
-            return _run_all(pool, list(files), run, report, max_jobs, idle,
-                            ramp, least or (lambda: jobs))
+            files = list(files)
+            solo = [f for f in files if alone(f)]
+            for job in solo:
+                report(_run_alone(pool, run, job))
+            most = _run_all(pool, [f for f in files if f not in solo], run,
+                            report, max_jobs, idle, ramp,
+                            least or (lambda: jobs))
+            return max(most, min(1, len(solo)))
         except BaseException:
             stop()
             raise
+
+
+def _run_alone(pool, run, job):
+    """``run(job)`` on ``pool``, waited for in steps (so that an interrupt
+    is handled)."""
+    future = pool.submit(run, job)
+    while not concurrent.futures.wait([future], timeout=1.0).done:
+        pass
+    return future.result()
 
 
 def _run_all(pool, pending, run, report, max_jobs, idle, ramp, least):
@@ -599,6 +632,10 @@ def main():
         ' (not root: no network namespaces, one at a time)',
         ', Python forked from a preloaded server' if runner.mother else ''),
         flush=True)
+    solo = [job_name(job) for job in pool if runs_alone(job)]
+    if solo:
+        print('rostest: first, with nothing beside it: %s' % ', '.join(solo),
+              flush=True)
     passed, failed = [], []
     cpu_total = 0.0
     t0 = time.monotonic()
@@ -620,7 +657,7 @@ def main():
     mother = runner.start_mother()
     try:
         most = schedule(pool, runner.run, report, jobs, max_jobs, idle,
-                        stop=runner.kill_all, least=least)
+                        stop=runner.kill_all, least=least, alone=runs_alone)
     except KeyboardInterrupt:
         print('rostest: interrupted: the running jobs were killed',
               flush=True)

@@ -261,3 +261,37 @@ def test_a_failures_message_is_its_lines_before_the_traceback():
 def test_a_missing_result_file_has_no_counts(tmp_path):
     assert run_rostests.junit_counts(str(tmp_path / 'none.xml')) is None
     assert run_rostests.junit_failures(str(tmp_path / 'none.xml')) == []
+
+
+def test_a_test_that_runs_alone_runs_first_with_nothing_beside_it():
+    lock = threading.Lock()
+    running, order, beside = set(), [], []
+
+    def run(name):
+        with lock:
+            running.add(name)
+            order.append(name)
+            if 'solo' in running and len(running) > 1:
+                beside.append(sorted(running))
+        time.sleep(0.3)
+        with lock:
+            running.discard(name)
+        return name
+
+    reported = []
+    files = ['a', 'b', 'solo', 'c', 'd']
+    most = run_rostests.schedule(files, run, reported.append, 3, 3,
+                                 lambda: 0.0, ramp=0.0,
+                                 alone=lambda f: f == 'solo')
+    assert order[0] == 'solo' and not beside
+    assert sorted(reported) == sorted(files) and most == 3
+
+
+def test_a_file_runs_alone_where_it_has_the_line(tmp_path):
+    solo, other = tmp_path / 'test_solo.py', tmp_path / 'test_other.py'
+    solo.write_text('"""A live node.\n\nrun_rostests: alone\n"""\n')
+    other.write_text('"""Says run_rostests: alone within a line."""\n')
+    assert run_rostests.runs_alone(str(solo))
+    assert not run_rostests.runs_alone(str(other))
+    assert not run_rostests.runs_alone(str(tmp_path / 'missing.py'))
+    assert not run_rostests.runs_alone(run_rostests.Stage('check=true'))
