@@ -107,9 +107,8 @@ class FusionFault(unittest.TestCase):
         got = self.instants_since(named, least, 'after the fault')
         healthy = [m for m in got if set(m.sources) - {faulty}]
         ids = sorted({m.user_id for m in healthy})
-        with self.lock:
-            said = [m for t, m in self.people if t >= named]
-        self.assertTrue(len(ids) == 1 or any('behind' in m for m in said),
+        said, behind = self.people_since(named)
+        self.assertTrue(len(ids) == 1 or behind,
                         "the healthy views' people %s, and the fusion never "
                         'said it was behind: %s' % (ids, said))
         hidden = {'nan_joints': {7, 8},
@@ -123,8 +122,8 @@ class FusionFault(unittest.TestCase):
         # A fusion starved of CPU (9 instants a second once, on CI beside
         # the other tests) fuses what came in time: as for its people
         # above, it must then have said it was behind.
-        self.assertTrue(2 * len(healthy) >= len(got) or any(
-            'behind' in m for m in said),
+        self.assertTrue(
+            2 * len(healthy) >= len(got) or behind,
             'the healthy views gave %d of %d bodies, and the fusion never '
             'said it was behind: %s' % (len(healthy), len(got), said))
         wait_for(lambda: min(map(len, self.others(named, faulty).values()),
@@ -132,14 +131,20 @@ class FusionFault(unittest.TestCase):
         others = self.others(named, faulty)
         self.assertTrue(others, 'no status of the other views after the '
                         'fault')
-        with self.lock:
-            said = [m for t, m in self.people if t >= named]
+        said, behind = self.people_since(named)
         for view, seen in others.items():
             # starved, the views' skeletons came late (stalled, bad
             # stamps): the fusion must have said it was behind
-            self.assertTrue(2 * seen.count('none') > len(seen) or any(
-                'behind' in m for m in said), 'view %s: %s; the fusion '
-                'said %s' % (view, seen, said))
+            self.assertTrue(2 * seen.count('none') > len(seen) or behind,
+                            'view %s: %s; the fusion said %s'
+                            % (view, seen, said))
+
+    def people_since(self, t0):
+        """The fusion's people statuses since ``t0``, and whether one
+        said it was behind."""
+        with self.lock:
+            said = [m for t, m in self.people if t >= t0]
+        return said, any('behind' in m for m in said)
 
     def others(self, t0, faulty):
         """Each view but ``faulty``: its faults in its statuses since
