@@ -329,11 +329,15 @@ class SkeletonSensor:
 
     def restart(self, t):
         """The first window's start (host time) when a frame sent at host
-        time ``t`` would be stamped in or after it (~replay_from window:
-        the replay starts over there, and none of its frames from before
-        falls in the window); else None."""
+        time ``t`` would be stamped in it, after it or less than half a
+        period (at ~rate) before it (~replay_from window: the replay
+        starts over there, and none of its frames from before falls in the
+        window, even where the DPM, mapping the frames' device stamps,
+        places a frame a millisecond before the window a millisecond into
+        it); else None."""
         clock, window = self.clock, self.restart_at
-        if window is None or clock is None or clock.to_global(t) < window:
+        if window is None or clock is None or \
+                clock.to_global(t) < window - 0.5 / self.rate:
             return None
         self.restart_at = None
         origin = clock.to_local(window)
