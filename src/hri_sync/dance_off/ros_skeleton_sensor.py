@@ -293,7 +293,8 @@ class SkeletonSensor:
                 start = restart
                 self.source.restart(start)
             frames = self.source.frames([tick], start)
-            if frames.stamps.size:
+            # (a tick just before the window it started over at: not sent)
+            if frames.stamps.size and tick >= start:
                 self.publish(tick, self.skeleton(frames))
             tick += period
             if tick < time.time():   # overloaded: skip ahead, keep the phase
