@@ -263,24 +263,14 @@ def schedule(files, run, report, jobs, max_jobs, idle, ramp=RAMP,
         try:
             files = list(files)
             solo = [f for f in files if alone(f)]
-            for job in solo:
-                report(_run_alone(pool, run, job))
-            most = _run_all(pool, [f for f in files if f not in solo], run,
-                            report, max_jobs, idle, ramp,
-                            least or (lambda: jobs))
-            return max(most, min(1, len(solo)))
+            most = _run_all(pool, list(solo), run, report, 1, idle, ramp,
+                            lambda: 1)
+            return max(most, _run_all(
+                pool, [f for f in files if f not in solo], run, report,
+                max_jobs, idle, ramp, least or (lambda: jobs)))
         except BaseException:
             stop()
             raise
-
-
-def _run_alone(pool, run, job):
-    """``run(job)`` on ``pool``, waited for in steps (so that an interrupt
-    is handled)."""
-    future = pool.submit(run, job)
-    while not concurrent.futures.wait([future], timeout=1.0).done:
-        pass
-    return future.result()
 
 
 def _run_all(pool, pending, run, report, max_jobs, idle, ramp, least):
@@ -632,10 +622,10 @@ def main():
         ' (not root: no network namespaces, one at a time)',
         ', Python forked from a preloaded server' if runner.mother else ''),
         flush=True)
-    solo = [job_name(job) for job in pool if runs_alone(job)]
+    solo = [job for job in pool if runs_alone(job)]
     if solo:
-        print('rostest: first, with nothing beside it: %s' % ', '.join(solo),
-              flush=True)
+        print('rostest: first, with nothing beside it: %s'
+              % ', '.join(map(job_name, solo)), flush=True)
     passed, failed = [], []
     cpu_total = 0.0
     t0 = time.monotonic()
@@ -657,7 +647,8 @@ def main():
     mother = runner.start_mother()
     try:
         most = schedule(pool, runner.run, report, jobs, max_jobs, idle,
-                        stop=runner.kill_all, least=least, alone=runs_alone)
+                        stop=runner.kill_all, least=least,
+                        alone=solo.__contains__)
     except KeyboardInterrupt:
         print('rostest: interrupted: the running jobs were killed',
               flush=True)
