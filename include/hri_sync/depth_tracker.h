@@ -306,6 +306,7 @@ struct SkeletonEstimate {
   std::array<float, NUM_JOINTS> confidence{};
   int user_cells = 0;
   int extremities = 0;
+  int labelled = 0;           ///< extremities taken for a head, hand or foot
   std::vector<Vec3> extremity_points;   ///< geodesic extrema found this frame
   double body_height = 0;     ///< the body model's calibrated height (m); 0 until calibrated
   double girth = 0;           ///< the body model's girth (BodyModel::girth); 0 until calibrated

@@ -37,6 +37,7 @@ struct MultiEstimate {
   int people_in_view = 0;      ///< person-sized bodies in view (tracked or not)
   int lost_users = 0;          ///< users lost and waiting (lost_timeout) for their return
   std::string state;           ///< "tracking" when a user is tracked, else the first user's or the search's
+  double floor_height = -1;    ///< the sensor's height above the floor it found (m); -1: no floor
 };
 
 class MultiTracker {

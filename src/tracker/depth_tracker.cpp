@@ -1280,6 +1280,7 @@ SkeletonEstimate DepthTracker::follow(const PointGrid& g, const Segmentation& se
   prev_centroid_ = seg.centroid;
   out.confidence = pose.confidence;
   zeroOutOfView(cam_, out.joints, &out.confidence);
+  out.labelled = found;
   out.tracked = model_.calibrated && found >= 2;
   out.state = model_.calibrated ? (out.tracked ? "tracking" : "tracking (few extremities)") : "calibrating";
   if (model_.calibrated) {

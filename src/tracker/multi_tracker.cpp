@@ -151,6 +151,7 @@ MultiEstimate MultiTracker::update(const uint16_t* depth_mm, double t) {
     out.users.push_back(std::move(ue));
   }
   out.people_in_view = static_cast<int>(out.users.size());
+  if (room_.floor().found) out.floor_height = room_.floor().height(Vec3());
   for (int k : people) {  // people left out: no room for them
     bool counted = std::find(taken_by.begin(), taken_by.end(), k) != taken_by.end();
     for (int p : taken_by) counted |= p >= 0 && acrossFloor(parts[p].centroid, parts[k].centroid) < multi_.same_person;

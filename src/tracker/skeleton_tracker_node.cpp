@@ -374,6 +374,7 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     while (fps_window_.size() > 1 && fps_window_.back() - fps_window_.front() > 2.0) fps_window_.pop_front();
     state_ = est.state;
     users_ = est;
+    logState(device_s);
     tracked_ += est.tracked_users > 0;
     if (est.tracked_users == 0) return;
     if (!clock_.ready || !mapper_.ready()) { ++withheld_; return; }
@@ -386,6 +387,30 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
     for (const UserEstimate& u : est.users) {
       if (u.estimate.tracked) publishSkeleton(u.user_id, u.estimate, global, device_s, index);
     }
+  }
+
+  /// Logs a tracking state once it has held for kStateHold s of device time
+  /// (a state that flickers for a frame or two is not logged), with what
+  /// the first user's frame showed: why a tracker that stops publishing
+  /// stopped is in the log, not only on the 1 Hz diagnostics (mu_ held).
+  void logState(double device_s) {
+    if (state_ != pending_state_) {
+      pending_state_ = state_;
+      pending_since_ = device_s;
+    }
+    if (pending_state_ == logged_state_ || device_s - pending_since_ < kStateHold) return;
+    std::string detail;
+    if (!users_.users.empty()) {
+      const SkeletonEstimate& e = users_.users.front().estimate;
+      detail = "; user " + std::to_string(users_.users.front().user_id) + ": " + std::to_string(e.user_cells) +
+               " cells, " + std::to_string(e.extremities) + " extremities, " + std::to_string(e.labelled) +
+               " taken for a head, hand or foot";
+    }
+    detail += users_.floor_height < 0 ? "; no floor" : "; sensor " + fmt(users_.floor_height, 2) + " m above the floor";
+    ROS_INFO_STREAM("skeleton_tracker: " << client_id_ << ": " << pending_state_ << " for "
+                    << fmt(device_s - pending_since_, 2) << " s at frame " << last_index_ << " (was " << logged_state_
+                    << "; " << dropped_ << " frames dropped so far)" << detail);
+    logged_state_ = pending_state_;
   }
 
   /// One user's skeleton of frame ``index``, with the frames skipped so far (mu_ held).
@@ -513,6 +538,9 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
   DeviceClockMapper mapper_;
   ClockStatus clock_;
   std::string state_ = "starting", error_, error_kind_, resolution_ = "?";
+  static constexpr double kStateHold = 0.5;  // s a state holds before it is logged
+  std::string pending_state_, logged_state_ = "starting";
+  double pending_since_ = 0;
   std::deque<double> fps_window_;
   MultiEstimate users_;  // the last frame's users
   int total_frames_ = 0, last_index_ = 0;

@@ -141,6 +141,7 @@ class TrackerDanceOffTest(unittest.TestCase):
             at_in_window(rospy.get_param('~kill_at'), cls.windows,
                          lambda: kill(node, cls.killed))
         cls.tracker_diags = {}      # client: [(tracking_state, dropped)]
+        cls.tracker_states = {}     # client: [(stamp, tracking_state)]
         cls.diag_stamps = {}        # client: its newest diagnostics' stamp
         cls.result_at = {}          # client: when its result came here
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics)
@@ -171,6 +172,8 @@ class TrackerDanceOffTest(unittest.TestCase):
                 cls.tracker_diags.setdefault(client, []).append(
                     (v.get('tracking_state', ''),
                      int(v.get('dropped_frames', 0))))
+                cls.tracker_states.setdefault(client, []).append(
+                    (msg.header.stamp.to_sec(), v.get('tracking_state', '')))
                 cls.diag_stamps[client] = msg.header.stamp.to_sec()
 
     @classmethod
@@ -209,11 +212,30 @@ class TrackerDanceOffTest(unittest.TestCase):
         start = w.header.stamp.to_sec() + w.str_aft
         return sum(start <= t <= start + w.dur + 1.0 for t in self.arrivals)
 
+    def story(self, client):
+        """What ``client``'s tracker said on /diagnostics (1 Hz), each
+        state with the span it held, in s from the first capture window's
+        start: "tracking -12.0..-3.0; tracking (few extremities) -2.0..5.0".
+        A failed check prints it: a tracker that stopped says why."""
+        start = 0.0
+        if self.windows:
+            start = self.windows[0].header.stamp.to_sec() \
+                + self.windows[0].str_aft
+        runs = []
+        for stamp, state in self.tracker_states.get(client, []):
+            if runs and runs[-1][0] == state:
+                runs[-1][2] = stamp - start
+            else:
+                runs.append([state, stamp - start, stamp - start])
+        return '; '.join('%s %.1f..%.1f' % tuple(r) for r in runs) \
+            or 'no tracker diagnostics'
+
     def test_winner(self):
         self.assertTrue(self.decisions, 'no /decision')
         d = self.decisions[0]
         expect = rospy.get_param('~expect')
         tracker = rospy.get_param('~tracker_client')
+        rospy.loginfo('the tracker said: %s', self.story(tracker))
         r = self.results.get(tracker)
         if r is not None and self.starved_to_nothing(r):
             rospy.logwarn('%s was starved to no_data: %s not judged; the '
@@ -241,8 +263,9 @@ class TrackerDanceOffTest(unittest.TestCase):
                                  max(scores, key=scores.get), d.reason)
             return
         self.assertEqual('%s%d' % ('participant', d.winner), expect,
-                         'outcome %s winner %d: %s'
-                         % (d.outcome, d.winner, d.reason))
+                         'outcome %s winner %d: %s; the tracker said: %s'
+                         % (d.outcome, d.winner, d.reason,
+                            self.story(tracker)))
 
     def test_tracker_result(self):
         tracker = rospy.get_param('~tracker_client')
@@ -267,7 +290,8 @@ class TrackerDanceOffTest(unittest.TestCase):
                               'arrived in the window', client,
                               self.window_arrivals())
                 allowed.add(ClientResult.NO_DATA)
-            self.assertIn(r.status, allowed, '%s: %s' % (client, r.status))
+            self.assertIn(r.status, allowed, '%s: %s; the tracker said: %s'
+                          % (client, r.status, self.story(tracker)))
             self.assertTrue(math.isfinite(r.value), client)
         r = self.results[tracker]
         rospy.loginfo('tracker client %s: %s, %d frames, %d rejected, '
