@@ -394,7 +394,8 @@ class TrackerNode : public openni::OpenNI::DeviceDisconnectedListener {
   /// the first user's frame showed: why a tracker that stops publishing
   /// stopped is in the log, not only on the 1 Hz diagnostics (mu_ held).
   void logState(double device_s) {
-    if (state_ != pending_state_) {
+    // A device clock that went back (a recording looped) starts the span over.
+    if (state_ != pending_state_ || device_s < pending_since_) {
       pending_state_ = state_;
       pending_since_ = device_s;
     }
