@@ -140,8 +140,7 @@ class TrackerDanceOffTest(unittest.TestCase):
             node = '/%s/tracker' % rospy.get_param('~tracker_client')
             at_in_window(rospy.get_param('~kill_at'), cls.windows,
                          lambda: kill(node, cls.killed))
-        cls.tracker_diags = {}      # client: [(tracking_state, dropped)]
-        cls.tracker_states = {}     # client: [(stamp, tracking_state)]
+        cls.tracker_diags = {}  # client: [(stamp, tracking_state, dropped)]
         cls.diag_stamps = {}        # client: its newest diagnostics' stamp
         cls.result_at = {}          # client: when its result came here
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics)
@@ -170,10 +169,8 @@ class TrackerDanceOffTest(unittest.TestCase):
             if st.name == client + '/tracker: sensor':
                 v = {kv.key: kv.value for kv in st.values}
                 cls.tracker_diags.setdefault(client, []).append(
-                    (v.get('tracking_state', ''),
+                    (msg.header.stamp.to_sec(), v.get('tracking_state', ''),
                      int(v.get('dropped_frames', 0))))
-                cls.tracker_states.setdefault(client, []).append(
-                    (msg.header.stamp.to_sec(), v.get('tracking_state', '')))
                 cls.diag_stamps[client] = msg.header.stamp.to_sec()
 
     @classmethod
@@ -222,7 +219,7 @@ class TrackerDanceOffTest(unittest.TestCase):
             start = self.windows[0].header.stamp.to_sec() \
                 + self.windows[0].str_aft
         runs = []
-        for stamp, state in self.tracker_states.get(client, []):
+        for stamp, state, _ in self.tracker_diags.get(client, []):
             if runs and runs[-1][0] == state:
                 runs[-1][2] = stamp - start
             else:
@@ -368,7 +365,7 @@ class TrackerDanceOffTest(unittest.TestCase):
         while (self.diag_stamps.get(tracker, 0.0)
                <= self.result_at[tracker] and time.time() < deadline):
             time.sleep(0.1)
-        dropped = [d for _, d in self.tracker_diags.get(tracker, [])]
+        dropped = [d for _, _, d in self.tracker_diags.get(tracker, [])]
         self.assertTrue(dropped, 'no /diagnostics from %s/tracker'
                         % tracker)
         self.assertGreaterEqual(max(dropped), n['frames_skipped'])
@@ -409,7 +406,7 @@ class TrackerDanceOffTest(unittest.TestCase):
                       'floor %.4f (window %.4f, quiet %.4f)', still,
                       r.status, r.frames, r.value, r.noise_floor,
                       diag(r, 'noise_window'), diag(r, 'noise_quiet'))
-        states = {s for s, _ in self.tracker_diags.get(still, [])}
+        states = {s for _, s, _ in self.tracker_diags.get(still, [])}
         self.assertIn('tracking', states, 'the still person was never '
                       'tracked: %s' % sorted(states))
         self.assertGreater(r.frames, 0)
