@@ -43,11 +43,11 @@ REPLAY = os.path.join(os.path.dirname(os.path.abspath(__file__)),
 LIVE_INSTANTS = 360
 SETTLE = 1.0
 LIVE_SETTLED = 150     # settled instants the recording must hold
-# s: a fusion that fused nothing for longer no longer brings its person
-# back (the association's resume_after, 3 s) and gives a new id where the
-# fusion of the recording afterwards keeps one (3.8 s once, on CI; after a
-# 2.7 s stop one id, 86 % of the settled instants within 1 mm): recorded
-# again.
+# s: a fusion that fused nothing for longer, while it heard from its
+# views, no longer brings its person back (the association's
+# resume_after, 3 s) and gives a new id where the fusion of the recording
+# afterwards keeps one (3.8 s once, on CI; after a 2.7 s stop one id, 86 %
+# of the settled instants within 1 mm): recorded again.
 LIVE_STOP = Associator().resume_after
 LIVE_TRIES = 3         # live recordings made before a starved fusion fails
 

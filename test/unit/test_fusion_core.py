@@ -6,7 +6,7 @@ import pytest
 
 from hri_sync.dance_off.joints import INDEX, NUM_JOINTS
 from hri_sync.fusion.align import Sample, Track
-from hri_sync.fusion.associate import Associator
+from hri_sync.fusion.associate import Associator, body_distance
 from hri_sync.fusion.calibration import Residuals, refine_pose, shared_points
 from hri_sync.fusion.facing import back_view
 from hri_sync.fusion.frames import SensorPose, facing, parse_pose
@@ -16,6 +16,7 @@ from hri_sync.fusion.profile import (ARMS, BODY_TURN, Profile, back_growth,
                                      confidence_power, fit_profile, rays,
                                      sides_as_truth)
 from hri_sync.fusion.report import people_status, view_named, view_status
+from hri_sync.fusion.views import Deafness
 from hri_sync.people.rep155 import body_axes
 from test_fusion_wrong_pose import POSES, run
 
@@ -191,30 +192,60 @@ def test_a_tracker_user_given_again_soon_keeps_its_person():
         assert (again == pid) == same, (key, back)
 
 
+def test_deafness_is_hearing_from_no_view_for_over_its_threshold():
+    # Heard at 0-1 s every 0.1 s, then nothing until 4 s: deaf 1-4 s
+    # (a silence of 1 s or less is not counted); deaf again from 4 s
+    # once the silence it is in passes 1 s.
+    deaf = Deafness(1.0)
+    assert deaf.within(0.0, 10.0) == 0.0       # nothing heard yet
+    for k in range(11):
+        deaf.heard(k / 10)
+    deaf.heard(1.9)
+    assert deaf.within(0.0, 2.0) == 0.0
+    deaf.heard(4.9)
+    assert deaf.within(0.0, 4.9) == pytest.approx(3.0)
+    assert deaf.within(2.5, 3.0) == pytest.approx(0.5)
+    assert deaf.within(4.9, 5.5) == 0.0
+    assert deaf.within(4.9, 6.5) == pytest.approx(1.6)
+
+
 def test_a_fusion_that_falls_behind_keeps_its_people():
     # Two views give one person all along, but the fusion is not polled
     # for 2.5 s (its node starved on a busy machine): it skips ahead, and
     # the person its views never stopped seeing keeps the id, as does one
     # they stopped giving for 0.3 s in that time (their node starved too),
-    # or for the whole 2.5 s (their trackers kept the user's id); a person
-    # the views stopped giving for 3.5 s is a new one.
+    # or for the whole 2.5 s (their trackers kept the user's id), or for
+    # 3.5 s while the fusion heard from no view (no view said the person
+    # had gone). The person is a new one when the views are silent for
+    # 3.5 s but their trackers say each second that they track no one, or
+    # when the views go on giving another person (2 m away) meanwhile.
     poses = {'a': facing(3.0, 0.0, 1.0), 'b': facing(0.0, 3.0, 1.0)}
-    for unseen, same in ((range(0), True), (range(60, 69), True),
-                         (range(95, 104), True), (range(30, 105), True),
-                         (range(30, 135), False)):
+    for unseen, heard, same in (
+            (range(0), None, True), (range(60, 69), None, True),
+            (range(95, 104), None, True), (range(30, 105), None, True),
+            (range(30, 135), None, True),
+            (range(30, 135), 'status', False),
+            (range(30, 135), 'another', False)):
         clock = {'now': 0.0}
         fusion = Fusion(poses, FusionParams(), lambda: clock['now'])
         ids = []
         for k in range(180):
             t = k / 30
             clock['now'] = t + 0.05
-            if k not in unseen:                 # the views see the person
-                for view, pose in poses.items():
+            for view, pose in poses.items():
+                if k not in unseen:             # the views see the person
                     fusion.add(view, 1, t, pose.from_world(fresh(body(), k)),
                                np.full(NUM_JOINTS, 0.9), 0.001)
+                elif heard == 'status' and k % 30 == 0:
+                    fusion.sensor_said(view, 1, 'not tracking: nobody')
+                if heard == 'another':
+                    fusion.add(view, 2, t,
+                               pose.from_world(fresh(body(2.0, 0.0), k)),
+                               np.full(NUM_JOINTS, 0.9), 0.001)
             if not 30 <= k < 105:               # the fusion is polled
-                ids += [p.person for f in fusion.poll() for p in f.people]
-        assert (set(ids) == {ids[0]}) == same, (unseen, ids)
+                ids += [p.person for f in fusion.poll() for p in f.people
+                        if body_distance(p.body.positions, body()) < 1.0]
+        assert (set(ids) == {ids[0]}) == same, (unseen, heard, ids)
 
 
 def test_the_fused_latency_is_output_time_less_the_newest_capture():

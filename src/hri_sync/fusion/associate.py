@@ -32,7 +32,9 @@ breaks of their own: a starved machine starves their node too). A
 dropped person comes back when a tracker's user of it gives a body again
 within ``resume_after`` s of when it was last fused, within ``keep_gate``
 of where it was (grown by the time): the tracker kept its user's id
-through the break.
+through the break. Time the fusion was deaf (it heard from no view:
+``deaf(start, end)``, hri_sync.fusion.views) is not counted in those
+``resume_after`` s: no view could say the person had gone.
 """
 
 from __future__ import annotations
@@ -110,16 +112,19 @@ class Associator:
         self.switches = 0          # keys moved from one person to another
 
     def assign(self, t: float, bodies: Dict[Key, np.ndarray],
-               since: Optional[Callable[[Key], float]] = None
+               since: Optional[Callable[[Key], float]] = None,
+               deaf: Optional[Callable[[float, float], float]] = None
                ) -> Dict[Key, int]:
         """Person id of each key's body (15, 3) at instant ``t``;
         ``since(key)``: when that key's samples began without a break of
-        ``forget_after`` s (the fusion's tracks; None: not known)."""
+        ``forget_after`` s (the fusion's tracks; None: not known);
+        ``deaf(start, end)``: the seconds between that the fusion heard
+        from no view (None: 0)."""
         for pid in [p for p, person in self.persons.items()
                     if t - person.seen > self.forget_after
                     and not self._followed(p, bodies, since)]:
             self.forgotten[pid] = self.persons.pop(pid)
-        self._resume(t, bodies)
+        self._resume(t, bodies, deaf or (lambda start, end: 0.0))
         out: Dict[Key, int] = {}
         moved, doubtful = set(), {}
         for key in sorted(bodies, key=str):
@@ -158,12 +163,15 @@ class Associator:
             self.owner.get(k) == pid and since(k) <= seen + self.forget_after
             for k in bodies)
 
-    def _resume(self, t: float, bodies: Dict[Key, np.ndarray]) -> None:
+    def _resume(self, t: float, bodies: Dict[Key, np.ndarray],
+                deaf: Callable[[float, float], float]) -> None:
         """Bring back each person forgotten within ``resume_after`` s of
-        when it was last fused whose key gives a body within ``keep_gate``
-        of its last one (grown by the time); let go of the older ones."""
+        when it was last fused (less the time the fusion was deaf) whose
+        key gives a body within ``keep_gate`` of its last one (grown by
+        the time); let go of the older ones."""
         for old in [p for p, person in self.forgotten.items()
-                    if t - person.seen > self.resume_after]:
+                    if t - person.seen - deaf(person.seen, t)
+                    > self.resume_after]:
             del self.forgotten[old]
         for key in sorted(bodies, key=str):
             owner = self.owner.get(key)

@@ -88,7 +88,7 @@ from hri_sync.fusion.reach import ReachParams, out_of_reach
 from hri_sync.fusion.smooth import SmoothParams, Smoother
 from hri_sync.fusion.sightlines import (SightParams, Sightlines, distance,
                                         outside_image)
-from hri_sync.fusion.views import NOTED, HealthParams, ViewHealth
+from hri_sync.fusion.views import NOTED, Deafness, HealthParams, ViewHealth
 from hri_sync.wire.vocabulary import NUM_JOINTS
 
 
@@ -183,6 +183,7 @@ class Fusion:
         self.posture = next((p.posture for p in self.profiles.values()
                              if p.posture is not None), None)
         self.health = {v: ViewHealth(self.params.health) for v in poses}
+        self.deafness = Deafness(self.params.health.deaf_after)
         self.users: Dict[Key, ViewUser] = {}
         self.persons: Dict[int, PersonState] = {}
         self.associator = Associator(gate=self.params.gate)
@@ -215,6 +216,7 @@ class Fusion:
             self.health[view].reject('bad_sensor_status')
             return 'bad_sensor_status'
         self.health[view].sensor = (self.clock(), message)
+        self.deafness.heard(self.clock())
         return None
 
     def add(self, view: str, user: Hashable, stamp: float,
@@ -253,6 +255,7 @@ class Fusion:
         if repeated:
             health.reject('repeated_skeleton')
             return 'repeated_skeleton'
+        self.deafness.heard(now)
         world = profile.place(positions, self.poses[view], stamp, known.lag)
         if not known.track.add(Sample(
                 stamp - profile.delay, world, np.clip(confidence, 0, 1),
@@ -387,7 +390,7 @@ class Fusion:
         ids = self.associator.assign(
             t, {k: o.positions for k, (o, _) in obs.items()},
             lambda key: self.users[key].track.unbroken_since(
-                self.associator.forget_after))
+                self.associator.forget_after), self.deafness.within)
         groups: Dict[int, List[Key]] = {}
         for key, pid in ids.items():
             groups.setdefault(pid, []).append(key)

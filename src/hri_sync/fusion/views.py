@@ -25,6 +25,12 @@ reach, ``turned_to_head`` where the head leads (hri_sync.fusion.facing),
 body stands outside its image, ``out_of_reach`` its hands left out that
 no fused arm reaches (hri_sync.fusion.reach). The view's pipeline latency
 (arrival minus capture) is kept to know how long to wait for it.
+
+The fusion is ``deaf`` while it hears from no view for over ``deaf_after``
+s: no new skeleton and no sensor status (its node starved of CPU, or
+the link to every view down; a tracker that tracks no one and says so is
+heard). A person it could not have seen then is not counted as gone for
+that time (hri_sync.fusion.associate).
 """
 
 from __future__ import annotations
@@ -34,7 +40,6 @@ import math
 import statistics
 from dataclasses import dataclass, field
 from typing import Deque, Dict, List, Tuple
-
 
 
 # The side rules' counts as a view's status names them (status key:
@@ -66,6 +71,7 @@ class HealthParams:
     sensor_fresh: float = 3.0       # s its sensor's status is believed
     max_uncertainty: float = 0.02   # s
     window: float = 5.0             # s
+    deaf_after: float = 1.5         # s hearing from no view
 
 
 @dataclass
@@ -190,3 +196,28 @@ class ViewHealth:
             out.append(('wrong_pose', 'its pose disagrees with the other '
                         'views: down-weighted'))
         return out
+
+
+class Deafness:
+    """When the fusion heard from no view (clock time spans)."""
+
+    def __init__(self, after: float, keep: int = 100) -> None:
+        self.after = after
+        self.last = -math.inf
+        self.spans: Deque[Tuple[float, float]] = collections.deque(
+            maxlen=keep)
+
+    def heard(self, now: float) -> None:
+        """A view was heard from at ``now``."""
+        if math.isfinite(self.last) and now - self.last > self.after:
+            self.spans.append((self.last, now))
+        self.last = max(self.last, now)
+
+    def within(self, start: float, end: float) -> float:
+        """Seconds of [``start``, ``end``] the fusion was deaf (the
+        silence it is in at ``end`` included once over ``after``; 0 before
+        it heard anything)."""
+        spans = list(self.spans)
+        if math.isfinite(self.last) and end - self.last > self.after:
+            spans.append((self.last, end))
+        return sum(max(0.0, min(b, end) - max(a, start)) for a, b in spans)
