@@ -135,8 +135,9 @@ def hand_error(frames, truth, t0, t1, joints=ARMS):
      BODY_LEFT + BODY_RIGHT)])
 def test_a_view_put_right_is_counted_and_fused_nearer(swap, off, counter,
                                                        label, joints):
-    # The hands would turn the back view first (hri_sync.fusion.facing).
-    no_hands = FacingParams(margin=math.inf)
+    # The hands, or the head, would turn the back view first
+    # (hri_sync.fusion.facing).
+    no_hands = FacingParams(margin=math.inf, split_head_margin=math.inf)
     fusion, frames, truth = run(ArmParams(), swap=swap, facing=no_hands)
     kept, kept_frames, _ = run(off, swap=swap, facing=no_hands)
     during = sum(1 for f in frames if 2.0 <= f.stamp < 4.0)

@@ -279,14 +279,25 @@ def test_where_the_hands_say_nothing_the_head_leads_labels_in_doubt():
     assert decision.turn == [False, True, True, True]
     assert decision.by_head and decision.unsure and decision.front is None
     assert decide(leading(-0.08)) == ['a']
-    # A head 3 cm ahead, or on the line of a trunk leaning 0.15 m: the
-    # views stand.
-    for obs in (leading(0.03), leading(0.0, lean=0.15)):
+    # 4 cm ahead decides where the views disagree (split_head_margin,
+    # 3 cm); a head 2 cm ahead, or on the line of a trunk leaning 0.15 m:
+    # the views stand.
+    assert decide(leading(0.04)) == ['b', 'c', 'd']
+    for obs in (leading(0.02), leading(0.0, lean=0.15)):
         decision = views_to_turn(obs, FacingParams())
         assert not any(decision.turn) and not decision.by_head
         assert decision.unsure
     assert decide(leading(0.08, lean=0.15)) == ['b', 'c', 'd']
-    assert decide(leading(0.08), FacingParams(head_margin=math.inf)) == []
+    assert decide(leading(0.08),
+                  FacingParams(split_head_margin=math.inf)) == []
+    assert decide(leading(0.08), FacingParams(head_margin=math.inf)) \
+        == ['b', 'c', 'd']
+    # Views that all agree on a front the head leads away from by 4 cm
+    # stand sure (head_margin, 5 cm); by 8 cm they are in doubt.
+    agree = views_to_turn(leading(-0.04, turned_views=''), FacingParams())
+    assert not any(agree.turn) and not agree.unsure
+    assert views_to_turn(leading(-0.08, turned_views=''),
+                         FacingParams()).unsure
     # The hands, where they say something, and a held front come first.
     reach = leading(-0.08)
     for o in reach:
@@ -377,12 +388,13 @@ def test_two_views_turned_of_four_are_counted_and_fused_nearer():
             str(fusion.health['back'].turned_to_hands)) in values
 
 
-def hanging(hold, head_ahead=0.0, head_margin=FacingParams.head_margin):
+def hanging(hold, head_ahead=0.0, margin=FacingParams.split_head_margin):
     """The fusion (and its frames) of the test above, the views behind
     facing the wrong way from 2 to 5.5 s and every view's hands at the
     trunk from 3 to 5 s (they say nothing of the front there), the head
     ``head_ahead`` m further to the front there, the front the hands last
-    decided held ``hold`` s."""
+    decided held ``hold`` s, the head deciding where it leads by
+    ``margin``."""
     hands = [INDEX[h] for h in HANDS]
 
     def at_trunk(t, p):
@@ -392,8 +404,8 @@ def hanging(hold, head_ahead=0.0, head_margin=FacingParams.head_margin):
         return p
     fusion, frames, _ = run(ArmParams(turn_margin=math.inf), swap_to=5.5,
                             swap=turned, swapped=('back', 'left'),
-                            facing=FacingParams(hold=hold,
-                                                head_margin=head_margin),
+                            facing=FacingParams(
+                                hold=hold, split_head_margin=margin),
                             alter=at_trunk)
     return fusion, frames
 
@@ -401,7 +413,7 @@ def hanging(hold, head_ahead=0.0, head_margin=FacingParams.head_margin):
 def test_where_the_hands_hang_unheld_the_head_turns_the_views_behind():
     during = 60     # instants in 3-5 s
     fusion, _ = hanging(0.0, head_ahead=0.08)
-    off, _ = hanging(0.0, head_ahead=0.08, head_margin=math.inf)
+    off, _ = hanging(0.0, head_ahead=0.08, margin=math.inf)
     for view in ('back', 'left'):
         assert fusion.health[view].turned_to_head >= 0.9 * during
         assert off.health[view].turned_to_head == 0
@@ -409,8 +421,12 @@ def test_where_the_hands_hang_unheld_the_head_turns_the_views_behind():
     _, _, _, values = view_status(fusion, 'back')
     assert ('turned to the head',
             str(fusion.health['back'].turned_to_head)) in values
-    # The salsa dancer's own head (about 0.03 m ahead) turns none.
-    assert hanging(0.0)[0].health['back'].turned_to_head == 0
+    # The salsa dancer's own head (about 0.03 m ahead) turns the views
+    # behind at some of those instants, never the one in front; at a 5 cm
+    # margin none.
+    own = hanging(0.0)[0].health
+    assert own['back'].turned_to_head > 0 and own['front'].turned_to_head == 0
+    assert hanging(0.0, margin=0.05)[0].health['back'].turned_to_head == 0
 
 
 def test_the_front_the_hands_last_decided_is_held_where_they_say_nothing():

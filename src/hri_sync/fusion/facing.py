@@ -34,15 +34,19 @@ neck, extended by the neck-head length) to the front, on Kinect SDK
 skeletons of real people by 0.05-0.10 m (medians of five subjects; the
 views' trackers measure the least's mostly under 0.05 m); where the
 views that see the head, neck and hips lead it
-``head_margin`` or more to one side on average, weighted by confidence,
-the views facing the other way are turned. These are centre joints, the
-same whichever arm a view calls left. A motion-capture head on the
-skull's axis leads by about 0.03 m, or lags (a walker's first second:
-0.03 m behind), hence the margin. Where the head does not decide
-either, the views stand. Only the hands at the instant make the labels
-sure: where a held front or the head decides, or nothing does, they are
-in doubt (a held front was wrong in 0-55 % of the instants it decided on
-real recordings of kicking and punching), and so are the labels of views
+``split_head_margin`` or more to one side on average, weighted by
+confidence, the views facing the other way are turned. These are
+centre joints, the same whichever arm a view calls left. A
+motion-capture head on the skull's axis leads by about 0.03 m, or lags
+(a walker's first second: 0.03 m behind), hence a margin. Where the
+head does not decide either, the views stand here, and the turn rule of
+hri_sync.fusion.arms then follows their majority, which is as often the
+views behind: so the margin is smaller where the views disagree than
+where they agree (``head_margin``, below). Only the hands at the
+instant make the labels sure: where a held front or the head decides,
+or nothing does, they are in doubt (a held front was wrong in 0-55 %
+of the instants it decided on real recordings of kicking and punching),
+and so are the labels of views
 that all agree on a front their head leads away from by ``head_margin``
 (every view, the one in front too, can take the back for the front for
 seconds). Where those views' legs are straight (no knee ``knee_bend``
@@ -89,6 +93,7 @@ class FacingParams:
     confirm: int = 2            # instants that confirm a front ...
     confirm_within: float = 1.0  # ... within this long (s)
     head_margin: float = 0.05   # m the head leads the trunk's line
+    split_head_margin: float = 0.03  # ... where the views disagree
     knee_bend: float = 0.15     # m a knee bends off its hip-foot line
 
 
@@ -169,7 +174,7 @@ def views_to_turn(views: List[Observation], params: FacingParams,
     along = np.array([f @ axis if f is not None else 0.0 for f in fronts])
     if not (along.max() > params.split and along.min() < -params.split):
         agreed = float(np.sign(along.sum()))
-        head = _head_side(views, axis, params)
+        head = _head_side(views, axis, params, params.head_margin)
         if agreed * head >= 0:
             return Decision([False] * len(views))
         turn = _knees_straight(views, params)
@@ -187,7 +192,7 @@ def views_to_turn(views: List[Observation], params: FacingParams,
     if held is not None and abs(held @ axis) > params.split:
         side = float(np.sign(held @ axis))
     else:
-        side = _head_side(views, axis, params)
+        side = _head_side(views, axis, params, params.split_head_margin)
         by_head = bool(side)
     return Decision([bool(a * side < -params.split) for a in along],
                     unsure=True, by_head=by_head, against=against)
@@ -237,10 +242,10 @@ def _side(hands: List[List[Tuple[float, float]]],
 
 
 def _head_side(views: List[Observation], axis: np.ndarray,
-               params: FacingParams) -> float:
+               params: FacingParams, margin: float) -> float:
     """1 or -1: the side of the axis the head leads the trunk's line to
     (from the hips' centre through the neck, extended by the neck-head
-    length) by ``params.head_margin`` or more, weighted by confidence,
+    length) by ``margin`` or more, weighted by confidence,
     where ``params.views`` views or more see the head, neck and hips
     (centre joints and the hips' mean: the same whichever arm a view
     calls left); 0 where it does not."""
@@ -260,7 +265,7 @@ def _head_side(views: List[Observation], axis: np.ndarray,
     if len(leads) < params.views:
         return 0.0
     lead = float(np.average(leads, weights=weights))
-    return float(np.sign(lead)) if abs(lead) >= params.head_margin else 0.0
+    return float(np.sign(lead)) if abs(lead) >= margin else 0.0
 
 
 def _knees_straight(views: List[Observation],

@@ -36,6 +36,8 @@ SETTINGS: Tuple[Setting, ...] = (
     ('facing_margin', 'facing.margin', lambda x: x > 0,
      '> 0 m (inf: never)'),
     ('facing_hold', 'facing.hold', _at_least_0, '>= 0 s'),
+    ('facing_split_head_margin', 'facing.split_head_margin',
+     lambda x: x > 0, '> 0 m (inf: never)'),
     ('facing_head_margin', 'facing.head_margin', lambda x: x > 0,
      '> 0 m (inf: never)'),
     ('facing_knee_bend', 'facing.knee_bend', _at_least_0, '>= 0 m'),
