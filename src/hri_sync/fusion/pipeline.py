@@ -215,8 +215,9 @@ class Fusion:
                 or not isinstance(message, str):
             self.health[view].reject('bad_sensor_status')
             return 'bad_sensor_status'
-        self.health[view].sensor = (self.clock(), message)
-        self.deafness.heard(self.clock())
+        now = self.clock()
+        self.health[view].sensor = (now, message)
+        self.deafness.heard(now)
         return None
 
     def add(self, view: str, user: Hashable, stamp: float,
